@@ -1,0 +1,143 @@
+"""FAP values per frame -> feature point positions per frame.
+
+The data path: `hold_missing` turns a stream's masked values into a dense (F, 68) array, then
+`fap_to_fp` moves the neutral FPs:
+
+1. translations: every translational FAP moves its FP along its axis by value x FAPU (face frame);
+   the jaw FAPs (3, 14, 15) also carry the points that ride on the mandible (`JAW_RIDERS`);
+2. tongue_roll (47) turns the tongue borders 6.3/6.4 upward about the tongue's forward axis through 6.2;
+3. eyeball yaw/pitch (23-26) turn the pupils 3.5/3.6 about the eyeball centres;
+4. head pitch/yaw/roll (48-50) turn every point about 7.1, the top of the spine.
+
+Readings chosen where the standard leaves the decoder free (research/mpeg4-fba.md sections 8, 13):
+- Masked-out FAPs hold their last transmitted value (0 = neutral before the first one), as Greta and
+  VREng play them. Optionally a FAP missing in a frame first takes its left/right partner's value, then
+  its inner/outer lip counterpart's, in that frame.
+- open_jaw "does not affect mouth opening": the lower lip, chin and lower teeth move with the jaw and
+  the lip FAPs add on top. The lip corners take half of the jaw motion (they sit at the hinge between
+  the lips). Unidirectional FAPs are passed through when negative (real streams send such values).
+- Rotations compose as R = R_yaw @ R_pitch @ R_roll for the head (roll innermost, yaw outermost like a
+  neck) and R_yaw @ R_pitch for the eyeballs; both eyes use the same sign convention.
+- dilate_pupil (29, 30) scales the pupil and moves no feature point, so it is ignored here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .faps import FAPS, INNER_OUTER_LIP_PAIRS, LEFT_RIGHT_PAIRS, N_FAPS
+from .fapu import Fapu
+from .feature_points import N_FEATURE_POINTS, fp_index
+from .frame import BLENDER_FACE_AXES
+
+JAW_FAPS = (3, 14, 15)
+JAW_RIDERS: dict[str, float] = {
+    **{fp_id: 1.0 for fp_id in ("2.3", "2.8", "2.9", "2.10", "2.11", "2.12", "8.2", "8.7", "8.8",
+                                "9.9", "9.11", "6.1", "6.2", "6.3", "6.4")},
+    **{fp_id: 0.5 for fp_id in ("2.4", "2.5", "8.3", "8.4")},
+}  # fmt: skip
+EYEBALL_RADIUS_PER_ES0 = 0.19  # default eye pivot: 12 mm behind a 63 mm-ES0 pupil, when no eyeball is given
+
+
+def hold_missing(mask: np.ndarray, values: np.ndarray, fill_partners: bool = False) -> np.ndarray:
+    """(F, 68) mask + values -> (F, 68) dense values: each masked-out FAP holds its last value."""
+    mask = np.asarray(mask, dtype=bool)
+    values = np.where(mask, np.asarray(values, dtype=np.float64), 0.0)
+    if fill_partners:
+        mask = mask.copy()
+        for pairs in (LEFT_RIGHT_PAIRS, INNER_OUTER_LIP_PAIRS):
+            for a, b in pairs:
+                for dst, src in ((a - 1, b - 1), (b - 1, a - 1)):
+                    take = ~mask[:, dst] & mask[:, src]
+                    values[take, dst] = values[take, src]
+                    mask[take, dst] = True
+    frames = np.arange(len(mask))[:, None]
+    last = np.maximum.accumulate(np.where(mask, frames, -1), axis=0)
+    held = np.take_along_axis(values, np.maximum(last, 0), axis=0)
+    return np.where(last >= 0, held, 0.0)
+
+
+def fap_scale(fapu: Fapu) -> np.ndarray:
+    """(68,) size of one unit of each FAP: model units for distances, radians for angles, 0 for FAP 1/2."""
+    return np.array([fapu.unit(f.fapu) if f.fapu else 0.0 for f in FAPS])
+
+
+def translation_basis(fapu: Fapu) -> np.ndarray:
+    """(68, 84, 3) face-frame displacement of each FP per unit of each FAP."""
+    basis = np.zeros((N_FAPS, N_FEATURE_POINTS, 3))
+    scale = fap_scale(fapu)
+    for f in FAPS:
+        if f.axis is None:
+            continue
+        axis = scale[f.number - 1] * np.asarray(f.axis)
+        basis[f.number - 1, fp_index(f.fp)] = axis
+        if f.number in JAW_FAPS:
+            for fp_id, weight in JAW_RIDERS.items():
+                basis[f.number - 1, fp_index(fp_id)] = weight * axis
+    return basis
+
+
+def _rotation(axis: int, angle: np.ndarray) -> np.ndarray:
+    """(F, 3, 3) right-handed rotations by `angle` (F,) about face axis 0 (x), 1 (y) or 2 (z)."""
+    c, s = np.cos(angle), np.sin(angle)
+    r = np.zeros((len(angle), 3, 3))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    r[:, axis, axis] = 1.0
+    r[:, i, i] = c
+    r[:, j, j] = c
+    r[:, i, j] = -s
+    r[:, j, i] = s
+    return r
+
+
+def _rotate(points: np.ndarray, pivot: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    """Rotate (F, K, 3) points about (F or 1, 1, 3) pivots by (F, 3, 3) rotations (column convention)."""
+    return pivot + np.einsum("fkj,fij->fki", points - pivot, rot)
+
+
+def fap_to_fp(
+    neutral: np.ndarray,
+    values: np.ndarray,
+    fapu: Fapu,
+    *,
+    axes: np.ndarray = BLENDER_FACE_AXES,
+    eye_pivots: np.ndarray | None = None,
+) -> np.ndarray:
+    """Dense FAP values (F, 68) -> FP positions (F, 84, 3) in mesh coordinates.
+
+    `neutral` is (84, 3) in mesh coordinates (rows in FP_IDS order; NaN rows stay NaN), `axes` the face
+    frame (see frame.py), `eye_pivots` the (2, 3) left/right eyeball centres in mesh coordinates.
+    """
+    neutral = np.asarray(neutral, dtype=np.float64)
+    values = np.atleast_2d(np.asarray(values, dtype=np.float64))
+    if neutral.shape != (N_FEATURE_POINTS, 3):
+        raise ValueError(f"neutral FP positions must be ({N_FEATURE_POINTS}, 3), got {neutral.shape}")
+    if values.shape[1] != N_FAPS:
+        raise ValueError(f"FAP values must have {N_FAPS} columns, got {values.shape[1]}")
+    axes = np.asarray(axes, dtype=np.float64)
+    n_frames = len(values)
+    angle = values * fap_scale(fapu)
+
+    face_neutral = neutral @ axes.T
+    disp = (values @ translation_basis(fapu).reshape(N_FAPS, -1)).reshape(n_frames, N_FEATURE_POINTS, 3)
+    pts = face_neutral[None] + disp
+
+    tongue_body = pts[:, [fp_index("6.2")]]
+    for fp_id, sign in (("6.3", 1.0), ("6.4", -1.0)):
+        k = fp_index(fp_id)
+        pts[:, [k]] = _rotate(pts[:, [k]], tongue_body, _rotation(2, sign * angle[:, 46]))
+
+    if eye_pivots is None:
+        back = EYEBALL_RADIUS_PER_ES0 * fapu.ES0 * np.array([0.0, 0.0, 1.0])
+        face_pivots = face_neutral[[fp_index("3.5"), fp_index("3.6")]] - back
+    else:
+        face_pivots = np.asarray(eye_pivots, dtype=np.float64) @ axes.T
+    for eye, (fp_id, yaw, pitch) in enumerate((("3.5", 22, 24), ("3.6", 23, 25))):
+        k = fp_index(fp_id)
+        pivot = face_pivots[eye] + disp[:, k]  # thrust_eyeball (27, 28) carries the whole eyeball
+        rot = _rotation(1, angle[:, yaw]) @ _rotation(0, angle[:, pitch])
+        pts[:, [k]] = _rotate(pts[:, [k]], pivot[:, None], rot)
+
+    head = _rotation(1, angle[:, 48]) @ _rotation(0, angle[:, 47]) @ _rotation(2, angle[:, 49])
+    pts = _rotate(pts, face_neutral[None, [fp_index("7.1")]], head)
+    return pts @ axes

@@ -1,0 +1,138 @@
+"""FAP values -> FP positions: translations, rotations and the masked-out policy, by hand."""
+
+import numpy as np
+import pytest
+
+from addon.mpeg4.decode import JAW_RIDERS, fap_to_fp, hold_missing
+from addon.mpeg4.fapu import AU, Fapu
+from addon.mpeg4.feature_points import FP_IDS, fp_index
+from addon.mpeg4.frame import BLENDER_FACE_AXES
+
+FAPU = Fapu(IRISD0=0.012, ES0=0.064, ENS0=0.045, MNS0=0.030, MW0=0.052)
+RNG = np.random.default_rng(7)
+NEUTRAL = RNG.uniform(-0.1, 0.1, size=(84, 3))  # Blender coordinates; only relative motion matters here
+NEUTRAL[[fp_index("6.3"), fp_index("6.4")]] = NEUTRAL[fp_index("6.2")] + [[0.02, 0, 0], [-0.02, 0, 0]]
+
+
+def frames(*assignments):
+    """One (68,) value row per dict {fap number: value}."""
+    values = np.zeros((len(assignments), 68))
+    for row, assignment in enumerate(assignments):
+        for number, value in assignment.items():
+            values[row, number - 1] = value
+    return values
+
+
+def moved(result, frame=0):
+    return {FP_IDS[i] for i in np.flatnonzero(np.linalg.norm(result[frame] - NEUTRAL, axis=1) > 1e-15)}
+
+
+def test_zero_faps_give_the_neutral_face():
+    np.testing.assert_allclose(fap_to_fp(NEUTRAL, frames({}), FAPU)[0], NEUTRAL, rtol=0, atol=1e-15)
+
+
+def test_open_jaw_512_moves_chin_down_by_half_mns0():
+    out = fap_to_fp(NEUTRAL, frames({3: 512}), FAPU)
+    k = fp_index("2.1")
+    # Blender: down is -Z
+    np.testing.assert_allclose(out[0, k] - NEUTRAL[k], [0.0, 0.0, -FAPU.MNS0 / 2], atol=1e-15)
+    assert moved(out) == {"2.1", *JAW_RIDERS}
+    k = fp_index("8.3")
+    np.testing.assert_allclose(out[0, k] - NEUTRAL[k], [0.0, 0.0, -FAPU.MNS0 / 4], atol=1e-15)
+
+
+def test_translational_faps_follow_axis_and_fapu():
+    out = fap_to_fp(NEUTRAL, frames({6: 100, 7: 100, 31: -200, 19: 1024}), FAPU)
+    d = out[0] - NEUTRAL
+    np.testing.assert_allclose(d[fp_index("2.4")], [100 * FAPU.MW0 / 1024, 0, 0], atol=1e-15)  # left = +X
+    np.testing.assert_allclose(d[fp_index("2.5")], [-100 * FAPU.MW0 / 1024, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(d[fp_index("4.1")], [0, 0, -200 * FAPU.ENS0 / 1024], atol=1e-15)
+    np.testing.assert_allclose(d[fp_index("3.1")], [0, 0, -FAPU.IRISD0], atol=1e-15)  # lid closes one iris
+    thrust = fap_to_fp(NEUTRAL, frames({14: 300}), FAPU)[0] - NEUTRAL
+    np.testing.assert_allclose(thrust[fp_index("2.1")], [0, -300 * FAPU.MNS0 / 1024, 0], atol=1e-15)  # -Y
+
+
+def test_head_yaw_quarter_turn_about_spine_top():
+    value = (np.pi / 2) / AU  # ~157,080
+    out = fap_to_fp(NEUTRAL, frames({49: value}), FAPU)[0]
+    pivot = NEUTRAL[fp_index("7.1")]
+    rel, new_rel = NEUTRAL - pivot, out - pivot
+    # yaw is about the face's up axis (Blender +Z); positive turns the nose (-Y) toward the face's left (+X)
+    expected = np.stack([-rel[:, 1], rel[:, 0], rel[:, 2]], axis=1)
+    np.testing.assert_allclose(new_rel, expected, atol=1e-12)
+    nose = np.array([0.0, -1.0, 0.0])
+    np.testing.assert_allclose(np.array([-nose[1], nose[0], nose[2]]), [1.0, 0.0, 0.0])
+
+
+def test_head_pitch_and_roll_signs():
+    pivot = NEUTRAL[fp_index("7.1")]
+    quarter = (np.pi / 2) / AU
+    pitch = fap_to_fp(NEUTRAL, frames({48: quarter}), FAPU)[0] - pivot
+    roll = fap_to_fp(NEUTRAL, frames({50: quarter}), FAPU)[0] - pivot
+    rel = NEUTRAL - pivot
+    # pitch down: forward (-Y) goes to down (-Z), up (+Z) goes to forward (-Y)
+    np.testing.assert_allclose(pitch, np.stack([rel[:, 0], -rel[:, 2], rel[:, 1]], axis=1), atol=1e-12)
+    # roll toward the face's right: up (+Z) goes to the face's right (-X)
+    np.testing.assert_allclose(roll, np.stack([-rel[:, 2], rel[:, 1], rel[:, 0]], axis=1), atol=1e-12)
+
+
+def test_eyeball_yaw_turns_only_the_pupil_about_the_eye_centre():
+    pivots = np.array([NEUTRAL[fp_index("3.5")] + [0, 0.012, 0], NEUTRAL[fp_index("3.6")] + [0, 0.012, 0]])
+    out = fap_to_fp(NEUTRAL, frames({23: (np.pi / 2) / AU, 26: (np.pi / 2) / AU}), FAPU, eye_pivots=pivots)
+    assert moved(out) == {"3.5", "3.6"}
+    # left pupil 12 mm in front of its centre (-Y) turns to the face's left (+X)
+    np.testing.assert_allclose(out[0, fp_index("3.5")] - pivots[0], [0.012, 0, 0], atol=1e-12)
+    # right pupil pitched down: forward goes to down (-Z)
+    np.testing.assert_allclose(out[0, fp_index("3.6")] - pivots[1], [0, 0, -0.012], atol=1e-12)
+
+
+def test_tongue_roll_lifts_both_borders():
+    out = fap_to_fp(NEUTRAL, frames({47: 0.3 / AU}), FAPU)[0]
+    body = NEUTRAL[fp_index("6.2")]
+    for fp_id in ("6.3", "6.4"):
+        k = fp_index(fp_id)
+        before, after = NEUTRAL[k] - body, out[k] - body
+        assert np.linalg.norm(after) == pytest.approx(np.linalg.norm(before))
+        assert after[1] == pytest.approx(before[1])  # about the forward axis: depth unchanged
+        # the border lifts by 0.02 sin(0.3) and comes in by 0.02 (1 - cos(0.3))
+        assert after[2] - before[2] == pytest.approx(0.02 * np.sin(0.3))
+        assert abs(after[0]) == pytest.approx(0.02 * np.cos(0.3))
+
+
+def test_vectorised_over_frames_matches_one_by_one():
+    values = RNG.integers(-400, 400, size=(5, 68)).astype(float)
+    values[:, :2] = 0
+    together = fap_to_fp(NEUTRAL, values, FAPU)
+    for f in range(5):
+        np.testing.assert_allclose(together[f], fap_to_fp(NEUTRAL, values[f], FAPU)[0], atol=1e-15)
+
+
+def test_custom_face_axes():
+    mpeg_axes = np.eye(3)  # mesh already in the MPEG-4 frame (y up, z forward)
+    out = fap_to_fp(NEUTRAL, frames({3: 1024}), FAPU, axes=mpeg_axes)
+    np.testing.assert_allclose(out[0, 0] - NEUTRAL[0], [0, -FAPU.MNS0, 0], atol=1e-15)
+    assert not np.allclose(BLENDER_FACE_AXES, mpeg_axes)
+
+
+def test_hold_missing_holds_last_value_and_starts_neutral():
+    mask = np.zeros((4, 68), bool)
+    values = np.zeros((4, 68))
+    mask[1, 2], values[1, 2] = True, 300  # open_jaw sent in frame 1 only
+    mask[3, 2], values[3, 2] = True, 0  # an explicit zero is a value, not absence
+    mask[0, 5], values[0, 5] = True, 50  # stretch_l_cornerlip in frame 0
+    values[2, 2] = 999  # garbage under a zero mask is ignored
+    dense = hold_missing(mask, values)
+    np.testing.assert_array_equal(dense[:, 2], [0, 300, 300, 0])
+    np.testing.assert_array_equal(dense[:, 5], [50, 50, 50, 50])
+    np.testing.assert_array_equal(dense[:, 6], [0, 0, 0, 0])
+
+
+def test_hold_missing_fills_partners_when_asked():
+    mask = np.zeros((2, 68), bool)
+    values = np.zeros((2, 68))
+    mask[0, 5], values[0, 5] = True, 50  # 6 stretch_l_cornerlip -> 7 (right) and 53 (outer)
+    mask[1, 6], values[1, 6] = True, 20  # 7 present in frame 1: its own value wins
+    dense = hold_missing(mask, values, fill_partners=True)
+    assert dense[0, 6] == 50 and dense[0, 52] == 50 and dense[0, 53] == 50
+    assert dense[1, 6] == 20 and dense[1, 5] == 20  # partner fill comes before holding
+    assert hold_missing(mask, values)[0, 6] == 0
