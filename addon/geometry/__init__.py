@@ -1,0 +1,1 @@
+"""Small geometric building blocks shared by set-up and fitting (no bpy)."""

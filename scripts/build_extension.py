@@ -1,0 +1,87 @@
+"""Build the installable extension zip: blender_manifest.toml and the `addon` package at the zip root.
+
+    python scripts/build_extension.py [--out dist]
+
+Checks the manifest's required fields first and prints the zip's path. Nothing from tests/ or scripts/
+goes in; caches and byte code are left out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+import tomllib
+import zipfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+MANIFEST = ROOT / "blender_manifest.toml"
+PACKAGE = ROOT / "addon"
+
+REQUIRED = ("schema_version", "id", "version", "name", "tagline", "maintainer", "type", "license",
+            "blender_version_min")  # fmt: skip
+SEMVER = re.compile(r"^\d+\.\d+\.\d+$")
+
+
+class ManifestError(ValueError):
+    pass
+
+
+def check_manifest(path: Path = MANIFEST) -> dict:
+    """The manifest as a dict, or ManifestError listing every problem (the rules Blender's validator applies)."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise ManifestError(f"{path}: cannot read: {exc}") from None
+    problems = [f"missing required field {key!r}" for key in REQUIRED if key not in data]
+    if "id" in data and not (data["id"].isidentifier() and "__" not in data["id"]
+                             and not data["id"].startswith("_") and not data["id"].endswith("_")):  # fmt: skip
+        problems.append(f"id {data['id']!r} must be a Python identifier without '__' or edge underscores")
+    for key in ("version", "schema_version", "blender_version_min"):
+        if key in data and not SEMVER.match(str(data[key])):
+            problems.append(f"{key} {data[key]!r} must look like 1.2.3")
+    tagline = data.get("tagline", "")
+    if len(tagline) > 64 or (tagline and not (tagline[-1].isalnum() or tagline[-1] in ")]}")):
+        problems.append("tagline must be at most 64 characters and must not end with punctuation")
+    if data.get("type") not in (None, "add-on"):
+        problems.append("type must be 'add-on'")
+    if "license" in data and not (isinstance(data["license"], list) and data["license"]):
+        problems.append("license must be a non-empty list")
+    if problems:
+        raise ManifestError(f"{path}: " + "; ".join(problems))
+    return data
+
+
+def package_files() -> list[Path]:
+    return sorted(p for p in PACKAGE.rglob("*")
+                  if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".pyc", ".pyo"))  # fmt: skip
+
+
+def build(out_dir: Path) -> Path:
+    manifest = check_manifest()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    target = out_dir / f"{manifest['id']}-{manifest['version']}.zip"
+    partial = target.with_suffix(".zip.part")
+    with zipfile.ZipFile(partial, "w", zipfile.ZIP_DEFLATED) as zf:
+        zf.write(MANIFEST, "blender_manifest.toml")
+        for path in package_files():
+            zf.write(path, path.relative_to(PACKAGE).as_posix())
+    partial.replace(target)
+    return target
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "dist")
+    args = parser.parse_args(argv)
+    try:
+        print(build(args.out))
+    except ManifestError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
