@@ -13,7 +13,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from addon.mpeg4.fap_file import N_FAPS, FapStream, read_fap, write_fap  # noqa: E402
+from addon.mpeg4.fap_file import N_FAPS, FapStream, read_fap, write_fap
 
 
 def make_stream(n_frames: int, n_faps: int, floats: bool, rng: np.random.Generator) -> FapStream:

@@ -77,7 +77,7 @@ def translation_basis(fapu: Fapu) -> np.ndarray:
     return basis
 
 
-def _rotation(axis: int, angle: np.ndarray) -> np.ndarray:
+def rotation(axis: int, angle: np.ndarray) -> np.ndarray:
     """(F, 3, 3) right-handed rotations by `angle` (F,) about face axis 0 (x), 1 (y) or 2 (z)."""
     c, s = np.cos(angle), np.sin(angle)
     r = np.zeros((len(angle), 3, 3))
@@ -122,10 +122,10 @@ def fap_to_fp(
     disp = (values @ translation_basis(fapu).reshape(N_FAPS, -1)).reshape(n_frames, N_FEATURE_POINTS, 3)
     pts = face_neutral[None] + disp
 
-    tongue_body = pts[:, [fp_index("6.2")]]
+    tongue_body = pts[:, [fp_index("6.2")]]  # after its own translation (raise_tongue)
     for fp_id, sign in (("6.3", 1.0), ("6.4", -1.0)):
         k = fp_index(fp_id)
-        pts[:, [k]] = _rotate(pts[:, [k]], tongue_body, _rotation(2, sign * angle[:, 46]))
+        pts[:, [k]] = _rotate(pts[:, [k]], tongue_body, rotation(2, sign * angle[:, 46]))
 
     if eye_pivots is None:
         back = EYEBALL_RADIUS_PER_ES0 * fapu.ES0 * np.array([0.0, 0.0, 1.0])
@@ -135,9 +135,32 @@ def fap_to_fp(
     for eye, (fp_id, yaw, pitch) in enumerate((("3.5", 22, 24), ("3.6", 23, 25))):
         k = fp_index(fp_id)
         pivot = face_pivots[eye] + disp[:, k]  # thrust_eyeball (27, 28) carries the whole eyeball
-        rot = _rotation(1, angle[:, yaw]) @ _rotation(0, angle[:, pitch])
+        rot = rotation(1, angle[:, yaw]) @ rotation(0, angle[:, pitch])
         pts[:, [k]] = _rotate(pts[:, [k]], pivot[:, None], rot)
 
-    head = _rotation(1, angle[:, 48]) @ _rotation(0, angle[:, 47]) @ _rotation(2, angle[:, 49])
-    pts = _rotate(pts, face_neutral[None, [fp_index("7.1")]], head)
+    pts = _rotate(pts, head_pivot(face_neutral)[None, None], head_rotation(angle[:, 47:50]))
     return pts @ axes
+
+
+def head_rotation(angles: np.ndarray) -> np.ndarray:
+    """(F, 3) head pitch, yaw, roll in radians -> (F, 3, 3) face-frame rotations R_yaw @ R_pitch @ R_roll."""
+    angles = np.asarray(angles, dtype=np.float64).reshape(-1, 3)
+    return rotation(1, angles[:, 1]) @ rotation(0, angles[:, 0]) @ rotation(2, angles[:, 2])
+
+
+def head_angles(rotations: np.ndarray) -> np.ndarray:
+    """Inverse of `head_rotation`: (F, 3, 3) -> (F, 3) pitch, yaw, roll in radians (|pitch| < pi/2)."""
+    r = np.asarray(rotations, dtype=np.float64).reshape(-1, 3, 3)
+    pitch = np.arctan2(-r[:, 1, 2], np.hypot(r[:, 1, 0], r[:, 1, 1]))
+    roll = np.arctan2(r[:, 1, 0], r[:, 1, 1])
+    yaw = np.arctan2(r[:, 0, 2], r[:, 2, 2])
+    return np.stack([pitch, yaw, roll], axis=1)
+
+
+def head_pivot(face_points: np.ndarray) -> np.ndarray:
+    """The head's rotation centre: 7.1, or the centroid of the known points on a face without it."""
+    spine = face_points[fp_index("7.1")]
+    if np.all(np.isfinite(spine)):
+        return spine
+    known = face_points[np.all(np.isfinite(face_points), axis=1)]
+    return known.mean(axis=0) if len(known) else np.zeros(3)

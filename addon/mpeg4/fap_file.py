@@ -8,30 +8,30 @@ intensity1, select2, intensity2, init_face, def).
 Reading policy, chosen to read every producer we know of (XFace, Crystal.TTVS, Greta, VREng; §7.2):
 
 - Line oriented, as all producers write it: blank lines and lines starting with `#` are skipped anywhere;
-  LF, CRLF and CR line endings; spaces and tabs separate tokens; trailing blanks are ignored.
+  LF, CRLF and CR line endings; spaces and tabs separate tokens; leading and trailing blanks are ignored.
 - Header: the first token is the version (2.0, 2.1 or 2.2), the last two are fps (positive, finite) and
   the frame count; everything between is the name, so it may contain spaces (Greta).
 - The header's frame count is informational: the frames actually present are read, whether fewer or
   more, and nothing is ever sized from the count.
-- Masks have 68 or 69 entries (Greta writes a 69th slot, for a FAP that does not exist). The first mask
+- Masks have 68 or 69 flags (Greta writes a 69th slot, for a FAP that does not exist). The first mask
   fixes the length for the file. A 69th flag is dropped; if it is 1, its value is read and dropped.
 - Presence comes from the mask only: an explicit 0 value is present, a masked-out FAP is absent.
 - FAP 1 and FAP 2 are read in the reference form (4 and 6 values) or in Greta's one-integer form, which
-  then fills select1 only. The form is chosen per frame by the value count; the possible counts of one
-  mask are all distinct, so this is never ambiguous.
+  fills select1 only. The form is chosen per frame by the value count; the counts a mask allows are all
+  distinct, so this is never ambiguous.
 - Values are decimal numbers (integers or floats, optional exponent); NaN, infinities and overflowing
   numbers are rejected. Frame numbers are non-negative integers and must strictly increase (gaps and
-  a start at 1 are fine): two frames at the same time would have no defined order.
+  a start at 1 are fine): two frames at one time would have no defined order.
 - Anything else (wrong flag count, a flag that is not 0/1, a non-numeric value, a value count that does
   not fit the mask, a mask line without its value line, an unknown version, an empty file, NUL bytes or
   bytes that are not UTF-8, an unreadable file) raises `FapFileError` naming the file and the line.
 
-Speed: the work per line is a few string operations and one regular-expression match; the numbers of all
-value lines are converted at once by `_parse_decimals` on the raw bytes, so no Python object is made
+Speed: per line there are only a few string operations (and a dictionary look-up of the mask); all value
+lines are checked and converted together on their bytes by `_scan_numbers`, so no Python object is made
 per value.
 
 Writing uses the reference layout: the stream's version (2.1 for new streams), the name with blanks
-replaced by `_`, 68-entry masks, 4/6 values for FAP 1/2, integral values without a decimal point and
+replaced by `_`, 68-flag masks, 4/6 values for FAP 1/2, integral values without a decimal point and
 other values in their shortest round-trip form, LF endings; the file is replaced atomically.
 """
 
@@ -90,34 +90,34 @@ class FapStream:
 
 # --- reading -------------------------------------------------------------------------------------------
 
-# Possessive quantifiers: a line that fails to match fails in linear time.
-_NUMBER = r"[-+]?+(?:[0-9]++(?:\.[0-9]*+)?+|\.[0-9]++)(?:[eE][-+]?+[0-9]++)?+"
-_NUMBER_RE = re.compile(_NUMBER, re.ASCII)
-_FRAME_RE = re.compile(r"[0-9]++", re.ASCII)
-_MASK_RE = re.compile(r"[01](?:[ \t]++[01])*+", re.ASCII)
+_NUMBER_RE = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?", re.ASCII)
+_FRAME_RE = re.compile(r"[0-9]+", re.ASCII)
+_MASK_RE = re.compile(r"[01](?:[ \t]+[01])*", re.ASCII)
 _TOKEN_RE = re.compile(r"[^ \t]+")
-_HEADER_RE = re.compile(r"([^ \t]+)[ \t]+([^ \t].*?)[ \t]+([^ \t]+)[ \t]+([^ \t]+)")
 _BLANKS = str.maketrans("", "", " \t")
 _MASK_LENGTHS = (N_FAPS, N_FAPS + 1)
 
-# Layout of the "expanded" row that value lines are scattered into: the frame number, the viseme
-# fields, the expression fields, FAPs 3..68 and the dropped 69th slot.
-_X_VISEME = 1
-_X_EXPRESSION = _X_VISEME + VISEME_FIELDS
-_X_LOW = _X_EXPRESSION + EXPRESSION_FIELDS
-_X_DROPPED = _X_LOW + N_FAPS - 2
-_X_WIDTH = _X_DROPPED + 1
+# (viseme, expression) value counts a frame may use, by (FAP 1 present, FAP 2 present); reference first.
+_HIGH_LEVEL_FORMS = {
+    (False, False): [(0, 0)],
+    (True, False): [(VISEME_FIELDS, 0), (1, 0)],
+    (False, True): [(0, EXPRESSION_FIELDS), (0, 1)],
+    (True, True): [(VISEME_FIELDS, EXPRESSION_FIELDS), (VISEME_FIELDS, 1), (1, EXPRESSION_FIELDS), (1, 1)],
+}
+_MAX_HIGH_LEVEL = VISEME_FIELDS + EXPRESSION_FIELDS
+# _FORM_BY_COUNT[2 * fap1 + fap2, n] = the form with n high-level values, or (-1, -1)
+_FORM_BY_COUNT = np.full((4, _MAX_HIGH_LEVEL + 1, 2), -1, np.intp)
+for (_fap1, _fap2), _forms in _HIGH_LEVEL_FORMS.items():
+    for _form in _forms:
+        _FORM_BY_COUNT[2 * _fap1 + _fap2, sum(_form)] = _form
 
-_POW10 = np.array([float(10**k) for k in range(23)])  # exact: 10**22 is the largest exact power
-_EXACT_DIGITS = 15  # a mantissa of up to 15 digits is < 2**53, so summing its digits is exact
-_FRAME_LIMIT = 2**53  # frame numbers beyond this are not exact in float64
-
-
-def _value_line_re(n_values: int) -> re.Pattern:
-    return re.compile(rf"[0-9]++(?:[ \t]++{_NUMBER}){{{n_values}}}", re.ASCII)
-
-
-_VALUE_LINE_RES: dict[int, re.Pattern] = {}
+# Bytes that may appear in value lines: digits, sign, point, exponent and the separators.
+_NUMBER_BYTES = np.zeros(256, bool)
+_NUMBER_BYTES[np.frombuffer(b"0123456789+-.eE \t\n", np.uint8)] = True
+_POW10 = np.array([float(10**k) for k in range(23)])  # exact: 10**22 is the largest exact power of ten
+_EXACT_INTEGER = float(2**53)  # integers up to here are exact doubles
+_BLOCK_LINES = 8192
+_MAX_TOKEN = 24  # longer tokens (no producer writes them) are checked and converted one by one
 
 
 def _error(source: str, line: int, what: str) -> FapFileError:
@@ -167,30 +167,36 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
         raise FapFileError(f"{source}: expected the text of a .fap file, got a {type(text).__name__}")
     elif "\0" in text:
         raise _error(source, text.count("\n", 0, text.index("\0")) + 1, "binary data (NUL character)")
-    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
-    content = [(n, s) for n, line in enumerate(lines, 1) if (s := line.strip(" \t")) and s[0] != "#"]
-    if not content:
-        raise _error(source, len(lines), "empty file: no header line")
-    version, name, fps = _parse_header(content[0], source)
-    mask_lines, value_lines = content[1::2], content[2::2]
-    if len(mask_lines) > len(value_lines):
-        raise _error(source, mask_lines[-1][0], "truncated frame: mask line without a value line")
-    return _parse_frames(version, name, fps, mask_lines, value_lines, source)
+    lines = [line.strip(" \t") for line in text.replace("\r\n", "\n").replace("\r", "\n").split("\n")]
+    if "#" in text or "" in lines[:-1]:
+        numbers = [n for n, line in enumerate(lines, 1) if line and line[0] != "#"]
+        lines = [lines[n - 1] for n in numbers]
+    else:  # the usual file: no comment and no blank line except after the last line break
+        numbers = range(1, len(lines) + 1)
+        if not lines[-1]:
+            lines.pop()
+    if not lines:
+        raise _error(source, max(len(text.splitlines()), 1), "empty file: no header line")
+    version, name, fps = _parse_header(lines[0], numbers[0], source)
+    if len(lines) % 2 == 0:
+        raise _error(source, numbers[-1], "truncated frame: mask line without a value line")
+    frames = _parse_frames(lines[1::2], numbers[1::2], lines[2::2], numbers[2::2], source)
+    return FapStream(version, name, fps, *frames)
 
 
-def _parse_header(header: tuple[int, str], source: str) -> tuple[str, str, float]:
-    line, text = header
-    match = _HEADER_RE.fullmatch(text)
-    if not match:
+def _parse_header(text: str, line: int, source: str) -> tuple[str, str, float]:
+    spans = [match.span() for match in _TOKEN_RE.finditer(text)]
+    if len(spans) < 4:
         raise _error(source, line, f"header must be 'version name fps frames', found {text[:80]!r}")
-    version, name, fps_token, count_token = match.groups()
+    version, fps_token, count_token = (text[slice(*spans[i])] for i in (0, -2, -1))
+    name = text[spans[0][1] : spans[-2][0]].strip(" \t")
     if version not in KNOWN_VERSIONS:
         raise _error(source, line, f"unknown version {version!r} (known: {', '.join(KNOWN_VERSIONS)})")
     fps = float(fps_token) if _NUMBER_RE.fullmatch(fps_token) else math.nan
     if not (math.isfinite(fps) and fps > 0):
-        raise _error(source, line, f"fps must be a positive finite number, found {fps_token!r}")
+        raise _error(source, line, f"fps must be a positive finite number, found {fps_token[:20]!r}")
     if not _FRAME_RE.fullmatch(count_token):
-        raise _error(source, line, f"frame count must be a non-negative integer, found {count_token!r}")
+        raise _error(source, line, f"frame count must be a non-negative integer, found {count_token[:20]!r}")
     return version, name, fps
 
 
@@ -206,188 +212,206 @@ def _parse_mask(text: str, line: int, source: str) -> np.ndarray:
     raise _error(source, line, f"mask flag {bad + 1} is {tokens[bad][:20]!r}, expected 0 or 1")
 
 
-def _forms(mask: np.ndarray) -> list[tuple[int, np.ndarray]]:
-    """The value counts a frame with this mask may have and where each value goes in the expanded row.
+def _parse_masks(texts: list[str], numbers, source: str) -> np.ndarray:
+    """The (F, 68 or 69) mask of every frame; each distinct mask line is parsed once."""
+    distinct = list(dict.fromkeys(texts))  # in order of first use
+    masks = []
+    for text in distinct:
+        line = numbers[texts.index(text)] if masks else numbers[0]
+        masks.append(_parse_mask(text, line, source))
+        if len(masks[-1]) != len(masks[0]):
+            raise _error(
+                source, line, f"mask has {len(masks[-1])} flags but the first mask (line {numbers[0]}) "
+                f"has {len(masks[0])}"
+            )
+    index = {text: i for i, text in enumerate(distinct)}
+    return np.array(masks, bool)[np.fromiter(map(index.__getitem__, texts), np.intp, len(texts))]
 
-    Reference form first; with FAP 1 and/or FAP 2 present, Greta's one-value forms follow.
-    """
-    low = _X_LOW + np.flatnonzero(mask[2:N_FAPS])
-    dropped = [_X_DROPPED] if len(mask) > N_FAPS and mask[N_FAPS] else []
-    viseme_forms = [range(_X_VISEME, _X_EXPRESSION), [_X_VISEME]] if mask[0] else [[]]
-    expression_forms = [range(_X_EXPRESSION, _X_LOW), [_X_EXPRESSION]] if mask[1] else [[]]
-    forms = []
-    for viseme in viseme_forms:
-        for expression in expression_forms:
-            columns = np.concatenate([[0], viseme, expression, low, dropped]).astype(np.intp)
-            forms.append((len(columns) - 1, columns))
-    return forms
 
-
-def _value_line_error(text: str, line: int, mask_line: int, counts: list[int], source: str) -> FapFileError:
+def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, source: str) -> FapFileError:
     tokens = _TOKEN_RE.findall(text)
     if not _FRAME_RE.fullmatch(tokens[0]):
         return _error(source, line, f"frame number {tokens[0][:20]!r} is not a non-negative integer")
     for i, token in enumerate(tokens[1:], 1):
-        if not _NUMBER_RE.fullmatch(token):
+        number = float(token) if _NUMBER_RE.fullmatch(token) else None
+        if number is None or not math.isfinite(number):
             try:
                 what = "not a finite number" if not math.isfinite(float(token)) else "not a number"
             except ValueError:
                 what = "not a number"
             return _error(source, line, f"value {i} ({token[:20]!r}) is {what}")
-    expected = " or ".join(str(n) for n in counts)
+    n_low = int(mask[2:].sum())
+    counts = [n_low + sum(form) for form in _HIGH_LEVEL_FORMS[bool(mask[0]), bool(mask[1])]]
     return _error(
-        source, line, f"the mask on line {mask_line} needs {expected} values after the frame number, "
-        f"found {len(tokens) - 1}"
+        source, line, f"the mask on line {mask_line} needs {' or '.join(map(str, counts))} values after "
+        f"the frame number, found {len(tokens) - 1}"
     )
 
 
-def _parse_frames(version, name, fps, mask_lines, value_lines, source) -> FapStream:
-    n_frames = len(value_lines)
-    mask_ids: dict[str, int] = {}
-    unique_masks: list[np.ndarray] = []
-    form_ids: list[list[tuple[re.Pattern, int]]] = []  # per unique mask: (value-line regex, form id)
-    form_columns: list[np.ndarray] = []
-    mask_length = None
-    frame_mask = np.empty(n_frames, np.intp)
-    frame_form = np.empty(n_frames, np.intp)
-    for i, ((mask_line, mask_text), (line, text)) in enumerate(zip(mask_lines, value_lines, strict=True)):
-        mask_id = mask_ids.get(mask_text)
-        if mask_id is None:
-            mask = _parse_mask(mask_text, mask_line, source)
-            if mask_length is None:
-                mask_length = (len(mask), mask_line)
-            elif len(mask) != mask_length[0]:
-                raise _error(
-                    source, mask_line, f"mask has {len(mask)} flags but the first mask (line "
-                    f"{mask_length[1]}) has {mask_length[0]}"
-                )
-            mask_id = mask_ids[mask_text] = len(unique_masks)
-            unique_masks.append(mask)
-            candidates = []
-            for count, columns in _forms(mask):
-                if count not in _VALUE_LINE_RES:
-                    _VALUE_LINE_RES[count] = _value_line_re(count)
-                candidates.append((_VALUE_LINE_RES[count], len(form_columns)))
-                form_columns.append(columns)
-            form_ids.append(candidates)
-        frame_mask[i] = mask_id
-        for regex, form in form_ids[mask_id]:
-            if regex.fullmatch(text):
-                frame_form[i] = form
-                break
-        else:
-            counts = [len(form_columns[form]) - 1 for _, form in form_ids[mask_id]]
-            raise _value_line_error(text, line, mask_line, counts, source)
+def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) -> tuple:
+    """frame_numbers, mask, values, viseme and expression arrays of the frames' mask and value lines."""
+    n_frames = len(value_texts)
+    if n_frames == 0:
+        return (np.zeros(0, np.int64), np.zeros((0, N_FAPS), bool), np.zeros((0, N_FAPS)),
+                np.zeros((0, VISEME_FIELDS)), np.zeros((0, EXPRESSION_FIELDS)))
+    masks = _parse_masks(mask_texts, mask_numbers, source)
+    # In blocks of lines, so that the per-token arrays stay in the processor's cache (twice as fast).
+    blocks = [
+        _scan_numbers("\n".join(value_texts[i : i + _BLOCK_LINES]), i)
+        for i in range(0, n_frames, _BLOCK_LINES)
+    ]
+    numbers, well_formed, digits_only, line_of_token = (np.concatenate(parts) for parts in zip(*blocks, strict=True))
 
-    form_lengths = np.array([len(c) for c in form_columns], np.intp)
-    form_table = np.zeros((len(form_columns), max(form_lengths, default=1)), np.intp)
-    for form, columns in enumerate(form_columns):
-        form_table[form, : len(columns)] = columns
-    counts = form_lengths[frame_form]
-    starts = np.cumsum(counts) - counts
-    flat = _parse_decimals("\n".join(text for _, text in value_lines))
-    bad = np.flatnonzero(~np.isfinite(flat))
-    if bad.size:
-        frame = np.searchsorted(starts, bad[0], side="right") - 1
-        raise _error(source, value_lines[frame][0], f"value {bad[0] - starts[frame]} is not a finite number")
+    n_tokens = np.bincount(line_of_token, minlength=n_frames)
+    first_token = np.cumsum(n_tokens) - n_tokens
+    n_low = masks[:, 2:].sum(axis=1)  # includes a 69th flag, whose value is read and dropped
+    n_high = n_tokens - 1 - n_low
+    form = _FORM_BY_COUNT[2 * masks[:, 0] + masks[:, 1], np.clip(n_high, 0, _MAX_HIGH_LEVEL)]
+    bad_line = (form[:, 0] < 0) | (n_high < 0) | (n_high > _MAX_HIGH_LEVEL)
+    bad_line |= ~digits_only[first_token]
+    bad_line[line_of_token[~well_formed]] = True
+    if bad_line.any():
+        i = int(np.argmax(bad_line))
+        raise _value_line_error(value_texts[i], value_numbers[i], masks[i], mask_numbers[i], source)
 
-    frame_of_token = np.repeat(np.arange(n_frames), counts)
-    slot = np.arange(len(flat)) - np.repeat(starts, counts)
-    expanded = np.zeros((n_frames, _X_WIDTH))
-    expanded[frame_of_token, form_table[frame_form[frame_of_token], slot]] = flat
+    # Tokens of a line: the frame number, then n_high viseme/expression values, then low-level values.
+    is_low = np.ones(len(numbers), bool)
+    is_low[first_token] = False
+    viseme = np.zeros((n_frames, VISEME_FIELDS))
+    expression = np.zeros((n_frames, EXPRESSION_FIELDS))
+    high_frames = np.flatnonzero(n_high)
+    if high_frames.size:
+        counts = n_high[high_frames]
+        frame = np.repeat(high_frames, counts)
+        k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        token = first_token[frame] + 1 + k
+        is_low[token] = False
+        n_viseme = form[frame, 0]
+        is_viseme = k < n_viseme
+        viseme[frame[is_viseme], k[is_viseme]] = numbers[token[is_viseme]]
+        expression[frame[~is_viseme], (k - n_viseme)[~is_viseme]] = numbers[token[~is_viseme]]
+    low = np.zeros(masks[:, 2:].shape)
+    low[masks[:, 2:]] = numbers[is_low]  # row-major: each frame's values in FAP order
+    values = np.zeros((n_frames, N_FAPS))
+    values[:, 2:] = low[:, : N_FAPS - 2]
 
-    frame_numbers = expanded[:, 0]
-    too_large = np.flatnonzero(frame_numbers >= _FRAME_LIMIT)
+    frame_numbers = numbers[first_token]
+    too_large = np.flatnonzero(frame_numbers >= _EXACT_INTEGER)
     if too_large.size:
-        raise _error(source, value_lines[too_large[0]][0], "frame number is too large")
+        raise _error(source, value_numbers[too_large[0]], "frame number is too large")
     frame_numbers = frame_numbers.astype(np.int64)
     not_increasing = np.flatnonzero(np.diff(frame_numbers) <= 0)
     if not_increasing.size:
         i = not_increasing[0] + 1
         raise _error(
-            source, value_lines[i][0], f"frame number {frame_numbers[i]} does not follow frame "
-            f"{frame_numbers[i - 1]} (line {value_lines[i - 1][0]}): frame numbers must increase"
+            source, value_numbers[i], f"frame number {frame_numbers[i]} does not follow frame "
+            f"{frame_numbers[i - 1]} (line {value_numbers[i - 1]}): frame numbers must increase"
         )
-
-    masks = np.zeros((n_frames, N_FAPS), bool)
-    if n_frames:
-        masks[:] = np.array(unique_masks)[frame_mask, :N_FAPS]
-    values = np.zeros((n_frames, N_FAPS))
-    values[:, 2:] = expanded[:, _X_LOW:_X_DROPPED]
-    return FapStream(
-        version=version,
-        name=name,
-        fps=fps,
-        frame_numbers=frame_numbers,
-        mask=masks,
-        values=values,
-        viseme=expanded[:, _X_VISEME:_X_EXPRESSION].copy(),
-        expression=expanded[:, _X_EXPRESSION:_X_LOW].copy(),
-    )
+    return frame_numbers, masks[:, :N_FAPS], values, viseme, expression
 
 
-def _parse_decimals(text: str) -> np.ndarray:
-    """Convert the blank-separated decimal numbers of `text` to float64, exactly as `float()` would.
+def _scan_numbers(text: str, first_line: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Check and convert the blank-separated decimal numbers of `text` (lines of numbers) at once.
 
-    The tokens must already match `_NUMBER`. Each token is m * 10**scale with an integer mantissa m;
-    when m has at most 15 digits and |scale| <= 22, m and 10**|scale| are exact doubles and one
-    multiplication or division rounds correctly. The few other tokens go through `float()`.
+    Returns per token its float64 value (exactly as `float()` gives it), whether it is a finite decimal
+    number, whether it is all digits, and its line index (counted from `first_line`).
+
+    The characters of all tokens are walked column by column (character j of every token at once,
+    longest tokens first so each step works on a prefix of the arrays), checking the grammar
+    [sign] digits [. digits] [e [sign] digits] and accumulating each token as mantissa * 10**scale.
+    While the mantissa is below 2**53 and |scale| <= 22 both factors are exact doubles, so the one
+    multiplication or division rounds correctly. The rare other tokens (over 15 significant digits,
+    huge exponents, very long) go through `float()`.
     """
-    b = np.frombuffer(text.encode("ascii"), np.uint8)
-    in_token = (b != ord(" ")) & (b != ord("\t")) & (b != ord("\n"))
-    is_start = in_token.copy()
-    is_start[1:] &= ~in_token[:-1]
-    is_end = in_token.copy()
-    is_end[:-1] &= ~in_token[1:]
-    starts = np.flatnonzero(is_start)
-    ends = np.flatnonzero(is_end) + 1
-    n_tokens = len(starts)
-    token_of = np.cumsum(is_start, dtype=np.int32) - 1
+    data = text.encode("utf-8", errors="surrogatepass")
+    b = np.frombuffer(data, np.uint8)
+    blank = (b == ord(" ")) | (b == ord("\t")) | (b == ord("\n"))
+    edges = np.diff(blank.view(np.int8), prepend=np.int8(1), append=np.int8(1))
+    starts = np.flatnonzero(edges == -1)
+    ends = np.flatnonzero(edges == 1)
+    lengths = ends - starts
+    line_of_token = first_line + np.searchsorted(np.flatnonzero(b == ord("\n")), starts)
 
-    dots = np.flatnonzero(b == ord("."))
-    dot_at = np.full(n_tokens, -1)
-    dot_at[token_of[dots]] = dots
-    exps = np.flatnonzero((b | 0x20) == ord("e"))
-    mantissa_end = ends.copy()
-    mantissa_end[token_of[exps]] = exps
-    exponent_negative = np.zeros(n_tokens, bool)
-    exponent_negative[token_of[exps]] = b[exps + 1] == ord("-")
-    fraction_digits = np.where(dot_at >= 0, mantissa_end - dot_at - 1, 0)
+    n = len(starts)
+    clipped = np.minimum(lengths, _MAX_TOKEN).astype(np.uint8)
+    order = np.argsort(np.uint8(_MAX_TOKEN) - clipped, kind="stable")  # a radix sort: longest first
+    first = starts[order]
+    n_active = np.cumsum(np.bincount(clipped, minlength=_MAX_TOKEN + 1)[::-1])[::-1]
+    mantissa = np.zeros(n)
+    exponent = np.zeros(n)
+    fraction_digits = np.zeros(n)
+    mantissa_digits = np.zeros(n, np.int64)
+    exponent_digits = np.zeros(n, np.int64)
+    after_dot = np.zeros(n, bool)
+    in_exponent = np.zeros(n, bool)
+    after_e = np.zeros(n, bool)
+    exponent_negative = np.zeros(n, bool)
+    bad = np.zeros(n, bool)
+    has_dot = "." in text
+    has_exponent = "e" in text or "E" in text
+    has_sign = "-" in text or "+" in text
+    for j in range(_MAX_TOKEN):
+        k = n_active[j + 1]
+        if k == 0:
+            break
+        char = b[first[:k] + j]
+        digit = char - np.uint8(ord("0"))
+        is_digit = digit < 10
+        if has_sign:
+            is_sign = (char == ord("-")) | (char == ord("+"))
+            if j > 0:
+                bad[:k] |= is_sign & ~after_e[:k]
+        if has_exponent:
+            if has_sign:
+                exponent_negative[:k] |= after_e[:k] & (char == ord("-"))
+            exp_digit = is_digit & in_exponent[:k]
+            exponent[:k] = np.where(exp_digit, exponent[:k] * 10 + digit, exponent[:k])
+            exponent_digits[:k] += exp_digit
+            is_digit &= ~in_exponent[:k]
+            is_e = (char | 0x20) == ord("e")
+            bad[:k] |= is_e & (in_exponent[:k] | (mantissa_digits[:k] == 0))
+            in_exponent[:k] |= is_e
+            after_e[:k] = is_e
+        mantissa[:k] = np.where(is_digit, mantissa[:k] * 10 + digit, mantissa[:k])
+        mantissa_digits[:k] += is_digit
+        if has_dot:
+            fraction_digits[:k] += is_digit & after_dot[:k]
+            is_dot = char == ord(".")
+            bad[:k] |= is_dot & (after_dot[:k] | in_exponent[:k])
+            after_dot[:k] |= is_dot
+    bad |= (mantissa_digits == 0) | (in_exponent & (exponent_digits == 0))
 
-    digits = np.flatnonzero((b - np.uint8(ord("0"))) < 10)
-    digit_token = token_of[digits]
-    digit_value = (b[digits] - ord("0")).astype(np.float64)
-    in_mantissa = digits < mantissa_end[digit_token]
-    # place = how many mantissa (or exponent) digits follow this one in its token
-    place = np.where(
-        in_mantissa,
-        mantissa_end[digit_token] - digits - 1 - (dot_at[digit_token] > digits),
-        ends[digit_token] - digits - 1,
-    )
-    inexact = np.zeros(n_tokens, bool)
-    inexact[digit_token[(digit_value > 0) & (place >= np.where(in_mantissa, _EXACT_DIGITS, 3))]] = True
-    weight = digit_value * _POW10[np.minimum(place, len(_POW10) - 1)]
-    mantissa = np.bincount(digit_token[in_mantissa], weight[in_mantissa], minlength=n_tokens)
-    exponent = np.bincount(digit_token[~in_mantissa], weight[~in_mantissa], minlength=n_tokens)
     scale = np.where(exponent_negative, -exponent, exponent) - fraction_digits
-    inexact |= np.abs(scale) >= len(_POW10)
+    inexact = (mantissa > _EXACT_INTEGER) | (np.abs(scale) >= len(_POW10))
     power = _POW10[np.minimum(np.abs(scale), len(_POW10) - 1).astype(np.intp)]
-    result = np.where(scale >= 0, mantissa * power, mantissa / power)
-    result[b[starts] == ord("-")] *= -1
-    for i in np.flatnonzero(inexact):
-        result[i] = float(text[starts[i] : ends[i]])
-    return result
+    by_length = np.where(scale >= 0, mantissa * power, mantissa / power)
+    by_length[b[first] == ord("-")] *= -1
+    numbers = np.empty(n)
+    numbers[order] = by_length
+    well_formed = np.empty(n, bool)
+    well_formed[order] = ~bad
+    digits_only = np.empty(n, bool)
+    digits_only[order] = mantissa_digits == clipped[order]
+    for i in np.concatenate([order[inexact & ~bad], np.flatnonzero(lengths > _MAX_TOKEN)]):
+        token = data[starts[i] : ends[i]].decode("utf-8", errors="replace")
+        well_formed[i] = bool(_NUMBER_RE.fullmatch(token))
+        digits_only[i] = bool(_FRAME_RE.fullmatch(token))
+        numbers[i] = float(token) if well_formed[i] else 0.0
+    junk = np.flatnonzero(~_NUMBER_BYTES[b])  # never a blank, so always inside a token
+    well_formed[np.searchsorted(starts, junk, side="right") - 1] = False
+    well_formed &= np.isfinite(numbers)
+    return numbers, well_formed, digits_only, line_of_token
 
 
 # --- writing -------------------------------------------------------------------------------------------
 
 
 def _format_number(x: float) -> str:
-    return str(int(x)) if x.is_integer() and abs(x) < _FRAME_LIMIT else repr(x)
+    return str(int(x)) if x.is_integer() and abs(x) < _EXACT_INTEGER else repr(x)
 
 
 def _format_numbers(values: np.ndarray) -> list[str]:
-    integral = (values == np.rint(values)) & (np.abs(values) < _FRAME_LIMIT)
+    integral = (values == np.rint(values)) & (np.abs(values) < _EXACT_INTEGER)
     tokens = np.empty(len(values), object)
     tokens[integral] = list(map(str, values[integral].astype(np.int64).tolist()))
     tokens[~integral] = list(map(repr, values[~integral].tolist()))
@@ -426,24 +450,18 @@ def _check_stream(stream: FapStream, target: str) -> None:
 def _format(stream: FapStream, target: str) -> str:
     _check_stream(stream, target)
     mask = np.asarray(stream.mask, bool)
-    n_frames = len(mask)
-    expanded = np.zeros((n_frames, _X_DROPPED))
-    present = np.zeros((n_frames, _X_DROPPED), bool)
-    expanded[:, _X_VISEME:_X_EXPRESSION] = stream.viseme
-    expanded[:, _X_EXPRESSION:_X_LOW] = stream.expression
-    expanded[:, _X_LOW:] = np.asarray(stream.values, np.float64)[:, 2:]
-    present[:, _X_VISEME:_X_EXPRESSION] = mask[:, :1]
-    present[:, _X_EXPRESSION:_X_LOW] = mask[:, 1:2]
-    present[:, _X_LOW:] = mask[:, 2:]
-    tokens = _format_numbers(expanded[present])
+    # Each frame's values in file order: viseme fields, expression fields, FAPs 3..68.
+    row = np.hstack([stream.viseme, stream.expression, np.asarray(stream.values)[:, 2:]]).astype(np.float64)
+    present = np.hstack([np.repeat(mask[:, :2], [VISEME_FIELDS, EXPRESSION_FIELDS], axis=1), mask[:, 2:]])
+    tokens = _format_numbers(row[present])
     ends = np.cumsum(present.sum(axis=1)).tolist()
     mask_texts: dict[bytes, str] = {}
     name = "_".join(stream.name.split()) or "unnamed"
-    out = [f"{stream.version} {name} {_format_number(float(stream.fps))} {n_frames}\n"]
+    out = [f"{stream.version} {name} {_format_number(float(stream.fps))} {len(mask)}\n"]
     start = 0
     flags = mask.astype(np.uint8) + ord("0")
-    for frame, row, end in zip(np.asarray(stream.frame_numbers).tolist(), flags, ends, strict=True):
-        key = row.tobytes()
+    for frame, frame_flags, end in zip(np.asarray(stream.frame_numbers).tolist(), flags, ends, strict=True):
+        key = frame_flags.tobytes()
         mask_text = mask_texts.get(key)
         if mask_text is None:
             mask_text = mask_texts[key] = " ".join(key.decode("ascii"))

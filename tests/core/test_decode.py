@@ -136,3 +136,43 @@ def test_hold_missing_fills_partners_when_asked():
     assert dense[0, 6] == 50 and dense[0, 52] == 50 and dense[0, 53] == 50
     assert dense[1, 6] == 20 and dense[1, 5] == 20  # partner fill comes before holding
     assert hold_missing(mask, values)[0, 6] == 0
+
+
+def test_encode_inverts_decode_exactly():
+    from addon.mpeg4.encode import NOT_RECOVERED, fp_to_fap
+
+    values = RNG.integers(-600, 600, size=(6, 68)).astype(float)
+    values[:, [n - 1 for n in NOT_RECOVERED]] = 0
+    values[:, 46] = np.abs(values[:, 46]) * 100  # tongue roll, unidirectional, in AU
+    values[:, 22:26] *= 100  # eyeball angles up to ~0.6 rad
+    pivots = np.array([NEUTRAL[fp_index("3.5")] + [0.003, 0.012, 0.002], NEUTRAL[fp_index("3.6")] + [0, 0.011, 0]])
+    pts = fap_to_fp(NEUTRAL, values, FAPU, eye_pivots=pivots)
+    recovered = fp_to_fap(NEUTRAL, pts, FAPU, eye_pivots=pivots)
+    np.testing.assert_allclose(recovered, values, atol=1e-6)
+
+
+def test_encode_skips_missing_points():
+    from addon.mpeg4.encode import fp_to_fap, recoverable_faps
+
+    neutral = NEUTRAL.copy()
+    neutral[fp_index("2.4")] = np.nan
+    values = frames({3: 200, 6: 100, 31: 50})
+    pts = fap_to_fp(neutral, values, FAPU)
+    recovered = fp_to_fap(neutral, pts, FAPU)
+    assert recovered[0, 5] == 0 and recovered[0, 2] == pytest.approx(200) and recovered[0, 30] == pytest.approx(50)
+    assert 6 not in recoverable_faps(set(FP_IDS) - {"2.4"}) and 3 in recoverable_faps(set(FP_IDS))
+
+
+def test_head_angles_invert_head_rotation():
+    from addon.mpeg4.decode import head_angles, head_rotation
+
+    angles = RNG.uniform(-1.2, 1.2, size=(20, 3))
+    np.testing.assert_allclose(head_angles(head_rotation(angles)), angles, atol=1e-12)
+
+
+def test_head_pivot_falls_back_to_centroid_without_7_1():
+    neutral = NEUTRAL.copy()
+    neutral[fp_index("7.1")] = np.nan
+    out = fap_to_fp(neutral, frames({49: 0.0}), FAPU)[0]
+    known = np.all(np.isfinite(neutral), axis=1)
+    np.testing.assert_allclose(out[known], neutral[known], atol=1e-15)

@@ -1,0 +1,85 @@
+"""The sidebar panel: View3D > Sidebar > MPEG-4."""
+
+import bpy
+
+from ..mpeg4.feature_points import FP_IDS
+from . import face_data
+
+FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
+
+
+def active_face(context):
+    ob = context.active_object
+    if ob is None:
+        return None
+    if ob.type == "MESH" and (ob.mpeg4_face.control_object is not None or ob.mpeg4_face.fp_collection):
+        return ob
+    # an FP empty or the control mesh selected: show its face
+    parent = ob.parent
+    if parent is not None and parent.type == "MESH" and parent.mpeg4_face.control_object is not None:
+        return parent
+    return ob if ob.type == "MESH" else None
+
+
+class MPEG4_PT_face(bpy.types.Panel):
+    bl_label = "MPEG-4 Face"
+    bl_idname = "MPEG4_PT_face"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "MPEG-4"
+
+    def draw(self, context):
+        layout = self.layout
+        face = active_face(context)
+        if face is None:
+            layout.label(text="Select a face mesh", icon="INFO")
+            return
+        settings = face.mpeg4_face
+        layout.label(text=face.name, icon="MESH_DATA")
+        if settings.status:
+            box = layout.box()
+            box.alert = True
+            box.label(text=settings.status, icon="ERROR")
+
+        empties = face_data.fp_empties(face)
+        bound = face_data.BINDING_KEY_PROP in face.data
+        col = layout.column(align=True)
+        col.label(text=f"Feature points: {len(empties)} of {len(FP_IDS)} placed",
+                  icon="CHECKMARK" if len(empties) == len(FP_IDS) else "DOT")  # fmt: skip
+        if empties and len(empties) < len(FP_IDS):
+            missing = [fp_id for fp_id in FP_IDS if fp_id not in empties]
+            col.label(text="Missing: " + ", ".join(missing[:8]) + (" ..." if len(missing) > 8 else ""))
+        col.label(text="Bound" if bound else "Not bound", icon="LINKED" if bound else "UNLINKED")
+        row = layout.row(align=True)
+        row.operator("mpeg4.place_feature_points", icon="EMPTY_AXIS")
+        row.operator("mpeg4.setup_face", icon="MOD_MESHDEFORM")
+        if bound:
+            layout.operator("mpeg4.remove_face", icon="X")
+
+        if bound:
+            box = layout.box()
+            box.prop(settings, "enabled")
+            sub = box.column()
+            sub.active = settings.enabled
+            sub.prop(settings, "mode")
+            sub.prop(settings, "radius_fraction")
+            sub.prop(settings, "falloff_exponent")
+            sub.prop(settings, "use_masks")
+
+            if any(settings.fapu):
+                grid = layout.grid_flow(columns=2, align=True)
+                for label, value in zip(FAPU_LABELS, settings.fapu, strict=True):
+                    grid.label(text=f"{label} {value * 1000:.1f} mm")
+            else:
+                layout.label(text="FAPU unknown: place the eye, nose and mouth points", icon="ERROR")
+
+            col = layout.column(align=True)
+            col.operator("mpeg4.import_fap", icon="IMPORT")
+            col.operator("mpeg4.export_fap", icon="EXPORT")
+            col.prop(context.scene.mpeg4, "fill_partners")
+            row = layout.row(align=True)
+            row.operator("mpeg4.bake", text="Bake Shape Keys").target = "SHAPE_KEYS"
+            row.operator("mpeg4.bake", text="Bake Point Cache").target = "POINT_CACHE"
+
+
+CLASSES = (MPEG4_PT_face,)

@@ -1,0 +1,520 @@
+"""Planar Bones deformer and its SoFFD special case (Sánchez Lorenzo & Maddock, paper 000).
+
+A control mesh (triangulated MPEG-4 feature points) drives a dense mesh. `bind` runs once on the rest
+pose and keeps every (vertex, triangle) pair whose eq. 9 weight is positive, with the pair's region,
+normalised weight and local coordinates. `evaluate` rebuilds each control triangle's frames for new
+control positions and blends the per-triangle images (eq. 8): eq. 1 everywhere in ``"soffd"`` mode; eq. 1
+in the face region, eq. 12 in edge regions and eq. 13–14 in apex regions in ``"planar_bones"`` mode.
+
+Choices where the paper leaves room (see also `regions.locate`):
+
+* Affection radius (§3): for each triangle, ``radius_fraction`` × the point–triangle distance to the
+  nearest control-mesh vertex that is not one of its corners. Control points that coincide with a
+  corner (the inner-lip points of a closed mouth) count as that corner, so they do not shrink the radius
+  to zero; masks separate such lips instead. A triangle with no other control point starts at 0.
+* Coverage: every ``cover`` vertex outside all affection volumes raises the radius of its nearest
+  triangle (among those its masks allow) to ``(1 + RAISE_MARGIN)`` × its distance, so its raw eq. 9
+  weight is at least about 4e-4 at n = 2 instead of vanishing; weights are normalised afterwards anyway.
+* Zero-area control triangles (collinear or coincident corners) have no plane, so they are excluded
+  from influence and counted in `Binding.n_excluded`.
+* At evaluation a control triangle collapsed to a line has no normal: its normal and edge normals are
+  taken as zero (the height term vanishes) instead of NaN. In eq. 13 the in-plane part
+  (Π(S) − V_j) C⁻¹ C' · D/d always has length D; when d = 0 (then D = 0 too, or the deformed triangle is
+  collapsed) its limit is taken as the zero vector.
+"""
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import BinaryIO
+
+import numpy as np
+
+from addon.deform.regions import (
+    APEX,
+    EDGE,
+    FACE,
+    TriangleFrames,
+    affection_weight,
+    deformation_basis,
+    locate,
+    triangle_frames,
+)
+
+FORMAT_VERSION = 1
+MODES = ("planar_bones", "soffd")
+RAISE_MARGIN = 0.1
+COINCIDENCE = 1e-9  # relative to the control mesh extent: closer control points are the same point
+FLATNESS = 1e-10  # ‖cross‖ / (longest edge)² below this is a zero-area triangle
+
+
+class DeformError(ValueError):
+    """Bad input to a deformer: NaN coordinates, bad triangle indices, wrong shapes, bad masks."""
+
+
+@dataclass(frozen=True, eq=False)
+class Binding:
+    """Everything `evaluate` needs, in float64; pairs are sorted by triangle, then vertex.
+
+    Per pair p: ``pair_vertex``/``pair_triangle`` indices, ``pair_region`` (regions.FACE, EDGE + j,
+    APEX + j), ``pair_weight`` (eq. 9 × mask, normalised to sum 1 per vertex), ``pair_face_local``
+    (α, β, h) of eq. 1, ``pair_region_local`` in the region's own frame (A, B_j or C_j) and
+    ``pair_apex_distance`` D_j(S) of eq. 14. ``affection_radius`` (T,) is the final radius per triangle,
+    ``active`` (T,) is False for excluded zero-area triangles, ``n_raised`` counts triangles whose radius
+    was raised to cover the face.
+    """
+
+    rest_vertices: np.ndarray
+    control_rest: np.ndarray
+    triangles: np.ndarray
+    affection_radius: np.ndarray
+    active: np.ndarray
+    n_raised: int
+    pair_vertex: np.ndarray
+    pair_triangle: np.ndarray
+    pair_region: np.ndarray
+    pair_weight: np.ndarray
+    pair_face_local: np.ndarray
+    pair_region_local: np.ndarray
+    pair_apex_distance: np.ndarray
+    _evaluation: dict = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "_evaluation", _evaluation_arrays(self))
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.rest_vertices)
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.pair_vertex)
+
+    @property
+    def n_excluded(self) -> int:
+        """Zero-area control triangles left out of the deformation."""
+        return int(np.count_nonzero(~self.active))
+
+    @property
+    def n_static(self) -> int:
+        """Vertices no triangle affects; `evaluate` returns them bit-identical to the rest pose."""
+        return len(self._evaluation["static"])
+
+
+def bind(
+    rest_vertices: np.ndarray,
+    control_rest: np.ndarray,
+    triangles: np.ndarray,
+    *,
+    radius_fraction: float = 1.0,
+    falloff_exponent: float = 2.0,
+    vertex_masks: Mapping[str, np.ndarray] | None = None,
+    triangle_masks: Sequence[str | None] | None = None,
+    cover: np.ndarray | None = None,
+) -> Binding:
+    """Bind (N, 3) rest vertices to the control mesh (M, 3) points / (T, 3) triangles.
+
+    ``vertex_masks`` maps names to (N,) weights in [0, 1] (vertex-group weights or a mask image sampled
+    at the UVs); ``triangle_masks[t]`` names the mask that multiplies triangle t's weights (the paper's
+    texture masks at the eye and mouth openings) or is None. ``cover`` (N,) bool marks the vertices that
+    must lie in at least one affection volume (default: all). Raises `DeformError` on bad input.
+    """
+    rest = _points(rest_vertices, "rest_vertices")
+    control = _points(control_rest, "control_rest")
+    tris = _triangle_indices(triangles, len(control))
+    fraction = _positive(radius_fraction, "radius_fraction")
+    exponent = _positive(falloff_exponent, "falloff_exponent")
+    mask_values = _triangle_mask_values(vertex_masks, triangle_masks, len(tris), len(rest))
+    must_cover = _cover(cover, len(rest))
+
+    frames = triangle_frames(control[tris])
+    used = np.unique(tris)
+    tolerance = COINCIDENCE * max(float(np.ptp(control[used], axis=0).max()), 1e-300)
+    longest = frames.edge_lengths.max(axis=1)
+    active = (frames.doubled_areas > FLATNESS * longest**2) & (longest > tolerance)
+
+    radius = _initial_radius(frames, control, tris, used, active, tolerance) * fraction
+    sphere_centre, sphere_radius = _bounding_spheres(frames)
+    squared_norms = np.einsum("ij,ij->i", rest, rest)
+    rounding = 1e-12 * (squared_norms.max() + np.einsum("ij,ij->i", sphere_centre, sphere_centre).max())
+
+    def collect(t: int) -> dict[str, np.ndarray]:
+        reach = sphere_radius[t] + radius[t]
+        centre = sphere_centre[t]
+        squared = squared_norms - 2.0 * (rest @ centre) + centre @ centre
+        candidates = np.flatnonzero(squared <= reach * reach + rounding)  # cheap pre-filter
+        location = locate(frames, t, rest[candidates])
+        weight = affection_weight(location.distance, radius[t], exponent)
+        if mask_values[t] is not None:
+            weight *= mask_values[t][candidates]
+        keep = weight > 0.0
+        return {
+            "vertex": candidates[keep],
+            "weight": weight[keep],
+            "region": location.region[keep],
+            "face_local": location.face_local[keep],
+            "region_local": location.region_local[keep],
+            "apex_distance": location.apex_distance[keep],
+        }
+
+    active_ids = np.flatnonzero(active)
+    pairs = {t: collect(t) for t in active_ids}
+    affected = np.zeros(len(rest), dtype=bool)
+    for p in pairs.values():
+        affected[p["vertex"]] = True
+    uncovered = np.flatnonzero(must_cover & ~affected)
+    raised_radius = _raised_radius(frames, rest, uncovered, radius, active_ids, mask_values, tolerance)
+    raised = np.flatnonzero(raised_radius > radius)
+    radius = raised_radius
+    for t in raised:
+        pairs[t] = collect(t)
+
+    ordered = [pairs[t] for t in active_ids]
+    vertex = np.concatenate([p["vertex"] for p in ordered]) if ordered else np.zeros(0, np.intp)
+    weight = np.concatenate([p["weight"] for p in ordered]) if ordered else np.zeros(0)
+    triangle = np.repeat(active_ids, [len(p["vertex"]) for p in ordered])
+    total = np.bincount(vertex, weight, minlength=len(rest))
+
+    def stacked(key: str, shape: tuple[int, ...]) -> np.ndarray:
+        return np.concatenate([p[key] for p in ordered]) if ordered else np.zeros(shape)
+
+    return Binding(
+        rest_vertices=rest,
+        control_rest=control,
+        triangles=tris,
+        affection_radius=radius,
+        active=active,
+        n_raised=len(raised),
+        pair_vertex=vertex.astype(np.int32),
+        pair_triangle=triangle.astype(np.int32),
+        pair_region=stacked("region", (0,)).astype(np.int8),
+        pair_weight=weight / total[vertex],  # eq. 8 weights sum to 1 per vertex
+        pair_face_local=stacked("face_local", (0, 3)),
+        pair_region_local=stacked("region_local", (0, 3)),
+        pair_apex_distance=stacked("apex_distance", (0,)),
+    )
+
+
+def evaluate(
+    binding: Binding,
+    control_positions: np.ndarray,
+    mode: str = "planar_bones",
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """Deformed (N, 3) vertex positions for new (M, 3) control positions (eq. 8).
+
+    ``mode`` is ``"planar_bones"`` (eq. 1 / 12 / 13 by region) or ``"soffd"`` (eq. 1 for every region).
+    ``out``, if given, is an (N, 3) float64 or float32 array that receives the result and is returned;
+    float32 is the cheaper path for writing straight into Blender's vertex buffer.
+    """
+    if mode not in MODES:
+        raise DeformError(f"unknown mode {mode!r}; expected one of {MODES}")
+    control = _points(control_positions, "control_positions")
+    if control.shape != binding.control_rest.shape:
+        raise DeformError(
+            f"control_positions has shape {control.shape}, the binding expects {binding.control_rest.shape}"
+        )
+    n = binding.n_vertices
+    if out is not None and (out.shape != (n, 3) or out.dtype not in (np.float32, np.float64)):
+        raise DeformError(f"out must be a float32 or float64 array of shape {(n, 3)}")
+    single = out is not None and out.dtype == np.float32
+    arrays = _evaluation_arrays_for(binding, np.float32 if single else np.float64)
+    basis = deformation_basis(control[binding.triangles])
+    basis_t = np.ascontiguousarray(basis.transpose(0, 2, 1), dtype=arrays["dtype"])  # (T, 3, 7)
+
+    if mode == "planar_bones":
+        coefficients = arrays["bones"]
+        if len(arrays["apex_scale"]):
+            # Eq. 13–14: d_j(S) = ‖a b'_j + b b'_{j−1}‖ from the deformed Gram term g' = b'_j · b'_{j−1}.
+            edge_normals = basis[:, 4:7]
+            gram = np.einsum("tjk,tjk->tj", edge_normals, np.roll(edge_normals, 1, axis=1)).ravel()
+            squared = arrays["apex_squares"] + arrays["apex_cross"] * gram[arrays["apex_group"]]
+            d = np.sqrt(np.maximum(squared, 0.0))
+            ratio = np.divide(arrays["apex_scale"], d, out=np.zeros_like(d), where=d > 0.0)  # w · D / d
+            np.put(coefficients, arrays["apex_index_a"], ratio * arrays["apex_a"])
+            np.put(coefficients, arrays["apex_index_b"], ratio * arrays["apex_b"])
+    else:
+        coefficients = arrays["soffd"]
+        basis_t = basis_t[:, :, :4]
+    images = arrays["images"]
+    for t, start, stop in arrays["segments"]:
+        np.matmul(basis_t[t], coefficients[:, start:stop], out=images[:, start:stop])
+
+    result = np.empty((n, 3)) if out is None or single else out
+    for axis in range(3):  # eq. 8
+        result[:, axis] = np.bincount(arrays["vertex"], images[axis], minlength=n)
+    static = arrays["static"]
+    result[static] = binding.rest_vertices[static]
+    if out is None or result is out:
+        return result
+    out[...] = result
+    return out
+
+
+def save_binding(binding: Binding, file: str | BinaryIO) -> None:
+    """Write the binding as a compressed .npz with a format version."""
+    np.savez_compressed(
+        file,
+        format_version=np.int64(FORMAT_VERSION),
+        n_raised=np.int64(binding.n_raised),
+        **{name: getattr(binding, name) for name in _SAVED_ARRAYS},
+    )
+
+
+def load_binding(file: str | BinaryIO) -> Binding:
+    """Read a binding written by `save_binding`; a file of another format version is a `DeformError`."""
+    try:
+        with np.load(file, allow_pickle=False) as data:
+            version = int(data["format_version"]) if "format_version" in data.files else None
+            if version != FORMAT_VERSION:
+                raise DeformError(f"binding format version {version}, this add-on reads {FORMAT_VERSION}")
+            missing = [name for name in _SAVED_ARRAYS if name not in data.files]
+            if missing:
+                raise DeformError(f"binding file lacks {', '.join(missing)}")
+            arrays = {name: data[name] for name in _SAVED_ARRAYS}
+            n_raised = int(data["n_raised"])
+    except (OSError, ValueError, KeyError) as error:
+        if isinstance(error, DeformError):
+            raise
+        raise DeformError(f"cannot read binding: {error}") from error
+    return Binding(n_raised=n_raised, **arrays)
+
+
+@dataclass(frozen=True)
+class PlanarBonesDeformer:
+    """A `Binding` with a fixed mode, for looping over methods by name (see `addon.deform.METHODS`)."""
+
+    binding: Binding
+    mode: str = "planar_bones"
+
+    def evaluate(self, control_positions: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        return evaluate(self.binding, control_positions, self.mode, out)
+
+
+def bind_planar_bones(rest_vertices, control_rest, triangles, **params) -> PlanarBonesDeformer:
+    return PlanarBonesDeformer(bind(rest_vertices, control_rest, triangles, **params), "planar_bones")
+
+
+def bind_soffd(rest_vertices, control_rest, triangles, **params) -> PlanarBonesDeformer:
+    return PlanarBonesDeformer(bind(rest_vertices, control_rest, triangles, **params), "soffd")
+
+
+_SAVED_ARRAYS = (
+    "rest_vertices",
+    "control_rest",
+    "triangles",
+    "affection_radius",
+    "active",
+    "pair_vertex",
+    "pair_triangle",
+    "pair_region",
+    "pair_weight",
+    "pair_face_local",
+    "pair_region_local",
+    "pair_apex_distance",
+)
+
+
+def _evaluation_arrays(binding: Binding) -> dict:
+    """Per-pair coefficients on the rows of `regions.deformation_basis`, pre-multiplied by the weight.
+
+    Coordinate-major (rows × pairs) so each triangle's pairs are one matrix product. The apex columns
+    b'_j, b'_{j−1} of eq. 13 hold a·w·D/d and b·w·D/d, which depend on the deformed triangle: `evaluate`
+    rewrites them each frame, so a binding must not be evaluated from two threads at once.
+    """
+    n = len(binding.rest_vertices)
+    vertex = binding.pair_vertex.astype(np.intp)
+    triangle = binding.pair_triangle.astype(np.intp)
+    region = binding.pair_region.astype(np.intp)
+    weight = binding.pair_weight
+    p = len(vertex)
+    if not (
+        len(triangle) == len(region) == len(weight) == len(binding.pair_apex_distance) == p
+        and binding.pair_face_local.shape == binding.pair_region_local.shape == (p, 3)
+        and np.all(np.diff(triangle) >= 0)
+        and (p == 0 or (vertex.min() >= 0 and vertex.max() < n))
+    ):
+        raise DeformError("inconsistent binding arrays")
+    pairs = np.arange(p)
+    alpha, beta, height = binding.pair_face_local.T
+    soffd = np.stack([1.0 - alpha - beta, alpha, beta, height]) * weight  # eq. 1 on [V_0, V_1, V_2, n]
+
+    # Eq. 1 / 12 / 13 as coefficients on [V_0, V_1, V_2, n, b_0, b_1, b_2].
+    j = (region - 1) % 3
+    x, y, h = binding.pair_region_local.T
+    is_face = region == FACE
+    is_edge = (region >= EDGE) & (region < APEX)
+    is_apex = region >= APEX
+    bones = np.zeros((7, p))
+    bones[:4, is_face] = soffd[:, is_face]
+    edge, edge_j = pairs[is_edge], j[is_edge]
+    bones[edge_j, edge] = (1.0 - x[edge]) * weight[edge]
+    bones[(edge_j + 1) % 3, edge] = x[edge] * weight[edge]
+    bones[4 + edge_j, edge] = y[edge] * weight[edge]
+    apex, apex_j = pairs[is_apex], j[is_apex]
+    bones[apex_j, apex] = weight[apex]
+    bones[3, ~is_face] = h[~is_face] * weight[~is_face]
+
+    affected = np.zeros(n, dtype=bool)
+    affected[vertex] = True
+    a, b = x[apex], y[apex]  # in-plane coordinates on the rows b_j, b_{j−1} of C_j
+    return {
+        "dtype": np.float64,
+        "vertex": vertex,
+        "segments": _segments(triangle),
+        "soffd": np.ascontiguousarray(soffd),
+        "bones": bones,
+        "images": np.empty((3, p)),
+        "apex_a": a,
+        "apex_b": b,
+        "apex_squares": a * a + b * b,
+        "apex_cross": 2.0 * a * b,
+        "apex_group": triangle[apex] * 3 + apex_j,
+        "apex_scale": weight[apex] * binding.pair_apex_distance[apex],
+        "apex_index_a": (4 + apex_j) * p + apex,
+        "apex_index_b": (4 + (apex_j + 2) % 3) * p + apex,
+        "static": np.flatnonzero(~affected),
+    }
+
+
+def _evaluation_arrays_for(binding: Binding, dtype: type) -> dict:
+    """The float64 arrays, or a float32 copy of the per-pair coefficients made on first use."""
+    arrays = binding._evaluation
+    if dtype is np.float64:
+        return arrays
+    if "float32" not in arrays:
+        arrays["float32"] = dict(
+            arrays,
+            dtype=np.float32,
+            soffd=arrays["soffd"].astype(np.float32),
+            bones=arrays["bones"].astype(np.float32),
+            images=np.empty(arrays["images"].shape, np.float32),
+        )
+    return arrays["float32"]
+
+
+def _segments(sorted_triangle: np.ndarray) -> list[tuple[int, int, int]]:
+    """(triangle, start, stop) of each run of equal triangle indices."""
+    if len(sorted_triangle) == 0:
+        return []
+    starts = np.flatnonzero(np.r_[True, sorted_triangle[1:] != sorted_triangle[:-1]])
+    stops = np.r_[starts[1:], len(sorted_triangle)]
+    return [(int(sorted_triangle[s]), int(s), int(e)) for s, e in zip(starts, stops, strict=True)]
+
+
+def _initial_radius(
+    frames: TriangleFrames,
+    control: np.ndarray,
+    tris: np.ndarray,
+    used: np.ndarray,
+    active: np.ndarray,
+    tolerance: float,
+) -> np.ndarray:
+    """Distance from each triangle to the nearest control-mesh vertex that is not (at) a corner (§3)."""
+    separation = np.linalg.norm(control[used, None, :] - control[None, used, :], axis=-1)
+    same = np.zeros((len(control), len(control)), dtype=bool)
+    same[np.ix_(used, used)] = separation <= tolerance
+    radius = np.zeros(len(tris))
+    for t in np.flatnonzero(active):
+        others = used[~same[np.ix_(used, tris[t])].any(axis=1)]
+        if len(others):
+            radius[t] = locate(frames, t, control[others]).distance.min()
+    return radius
+
+
+def _raised_radius(
+    frames: TriangleFrames,
+    rest: np.ndarray,
+    uncovered: np.ndarray,
+    radius: np.ndarray,
+    active_ids: np.ndarray,
+    mask_values: list[np.ndarray | None],
+    tolerance: float,
+) -> np.ndarray:
+    """Radii raised so each uncovered vertex lies inside its nearest allowed triangle's volume (§3)."""
+    raised = radius.copy()
+    if len(uncovered) == 0 or len(active_ids) == 0:
+        return raised
+    nearest = np.full(len(uncovered), -1)
+    nearest_distance = np.full(len(uncovered), np.inf)
+    for t in active_ids:
+        distance = locate(frames, t, rest[uncovered]).distance
+        if mask_values[t] is not None:
+            distance = np.where(mask_values[t][uncovered] > 0.0, distance, np.inf)
+        closer = distance < nearest_distance
+        nearest[closer] = t
+        nearest_distance[closer] = distance[closer]
+    reachable = nearest >= 0
+    np.maximum.at(
+        raised, nearest[reachable], nearest_distance[reachable] * (1.0 + RAISE_MARGIN) + tolerance
+    )
+    return raised
+
+
+def _bounding_spheres(frames: TriangleFrames) -> tuple[np.ndarray, np.ndarray]:
+    centre = frames.corners.mean(axis=1)
+    return centre, np.linalg.norm(frames.corners - centre[:, None, :], axis=-1).max(axis=1)
+
+
+def _points(array: np.ndarray, name: str) -> np.ndarray:
+    points = np.asarray(array, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise DeformError(f"{name} must have shape (n, 3), got {points.shape}")
+    bad = ~np.isfinite(points).all(axis=1)
+    if bad.any():
+        raise DeformError(f"{name} has non-finite coordinates at rows {np.flatnonzero(bad)[:10].tolist()}")
+    return points
+
+
+def _triangle_indices(triangles: np.ndarray, n_control: int) -> np.ndarray:
+    tris = np.asarray(triangles)
+    if tris.ndim != 2 or tris.shape[1] != 3 or len(tris) == 0:
+        raise DeformError(f"triangles must have shape (T, 3) with T > 0, got {tris.shape}")
+    if not np.issubdtype(tris.dtype, np.integer):
+        raise DeformError(f"triangles must hold integer indices, got {tris.dtype}")
+    bad = ((tris < 0) | (tris >= n_control)).any(axis=1)
+    if bad.any():
+        raise DeformError(
+            f"triangles {np.flatnonzero(bad)[:10].tolist()} index outside 0..{n_control - 1} control points"
+        )
+    return tris.astype(np.intp)
+
+
+def _positive(value: float, name: str) -> float:
+    number = float(value)
+    if not (np.isfinite(number) and number > 0.0):
+        raise DeformError(f"{name} must be a positive finite number, got {value!r}")
+    return number
+
+
+def _triangle_mask_values(
+    vertex_masks: Mapping[str, np.ndarray] | None,
+    triangle_masks: Sequence[str | None] | None,
+    n_triangles: int,
+    n_vertices: int,
+) -> list[np.ndarray | None]:
+    """Per triangle, the (N,) mask weights that multiply its eq. 9 weights, or None."""
+    if triangle_masks is None:
+        return [None] * n_triangles
+    if len(triangle_masks) != n_triangles:
+        raise DeformError(f"triangle_masks has {len(triangle_masks)} entries for {n_triangles} triangles")
+    masks = dict(vertex_masks or {})
+    checked = {}
+    for name in {m for m in triangle_masks if m is not None}:
+        if name not in masks:
+            raise DeformError(f"triangle mask {name!r} is not among vertex_masks {sorted(masks)}")
+        values = np.asarray(masks[name], dtype=np.float64)
+        if values.shape != (n_vertices,):
+            raise DeformError(f"vertex mask {name!r} has shape {values.shape}, expected ({n_vertices},)")
+        if not (np.isfinite(values).all() and values.min() >= 0.0 and values.max() <= 1.0):
+            raise DeformError(f"vertex mask {name!r} must hold finite values in [0, 1]")
+        checked[name] = values
+    return [None if name is None else checked[name] for name in triangle_masks]
+
+
+def _cover(cover: np.ndarray | None, n_vertices: int) -> np.ndarray:
+    if cover is None:
+        return np.ones(n_vertices, dtype=bool)
+    flags = np.asarray(cover)
+    if flags.shape != (n_vertices,) or flags.dtype != bool:
+        raise DeformError(f"cover must be a bool array of shape ({n_vertices},)")
+    return flags

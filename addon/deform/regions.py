@@ -1,0 +1,168 @@
+"""Affection-volume regions of a control triangle (Planar Bones paper, §2.1: eq. 2–7, 9–11).
+
+Conventions, as in the paper: a triangle LMN = OPQ has corners V_0, V_1, V_2; e_j = V_{j+1} − V_j
+(eq. 7, indices mod 3); n = unit((M − L) × (N − L)) (eq. 3); b_j = unit(e_j × n) is the in-plane unit
+normal of edge j, which points out of the triangle for either winding. Points are row vectors, so the
+paper's s = o + (S − O) A⁻¹ A' reads `origin + local @ rows`.
+
+Regions are coded as small integers: ``FACE`` (R_A), ``EDGE + j`` (R_B,j), ``APEX + j`` (R_C,j).
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+FACE = 0
+EDGE = 1
+APEX = 4
+
+
+@dataclass(frozen=True)
+class TriangleFrames:
+    """Rest-pose geometry of T control triangles, everything `locate` needs."""
+
+    corners: np.ndarray  # (T, 3, 3) V_j
+    edge_lengths: np.ndarray  # (T, 3) ‖e_j‖
+    unit_edges: np.ndarray  # (T, 3, 3) e_j / ‖e_j‖
+    normals: np.ndarray  # (T, 3) n, eq. 3
+    edge_normals: np.ndarray  # (T, 3, 3) b_j
+    doubled_areas: np.ndarray  # (T,) ‖(M − L) × (N − L)‖
+
+
+def unit(vectors: np.ndarray) -> np.ndarray:
+    """Normalise along the last axis; zero vectors stay zero (a collapsed triangle must not give NaN)."""
+    norms = np.linalg.norm(vectors, axis=-1, keepdims=True)
+    return np.divide(vectors, norms, out=np.zeros_like(vectors), where=norms > 0.0)
+
+
+def triangle_frames(corners: np.ndarray) -> TriangleFrames:
+    """Frames of the (T, 3, 3) triangle corners (eq. 2, 3, 7, 10, 11)."""
+    edges = np.roll(corners, -1, axis=1) - corners
+    cross = np.cross(edges[:, 0], corners[:, 2] - corners[:, 0])
+    normals = unit(cross)
+    return TriangleFrames(
+        corners=corners,
+        edge_lengths=np.linalg.norm(edges, axis=-1),
+        unit_edges=unit(edges),
+        normals=normals,
+        edge_normals=unit(np.cross(edges, normals[:, None, :])),
+        doubled_areas=np.linalg.norm(cross, axis=-1),
+    )
+
+
+def deformation_basis(corners: np.ndarray) -> np.ndarray:
+    """Rows [V_0, V_1, V_2, n, b_0, b_1, b_2] of each deformed triangle, shape (T, 7, 3).
+
+    Every region's image (eq. 1, 12, 13) is a combination of these rows: eq. 1 is
+    (1 − α − β) o + α p + β q + h n', eq. 12 is (1 − x) v_j + x v_{j+1} + y b'_j + h n', and eq. 13 is
+    v_j + h n' plus the rescaled in-plane part a b'_j + b b'_{j−1}.
+    """
+    frames = triangle_frames(corners)
+    return np.concatenate([corners, frames.normals[:, None, :], frames.edge_normals], axis=1)
+
+
+@dataclass(frozen=True)
+class Location:
+    """Where points lie relative to one triangle's affection volume."""
+
+    region: np.ndarray  # (n,) int8 region code
+    distance: np.ndarray  # (n,) distance to the plane / edge line / apex of that region
+    face_local: np.ndarray  # (n, 3) (α, β, h) = (S − O) A⁻¹, eq. 1 (used by SoFFD for every region)
+    region_local: np.ndarray  # (n, 3) coordinates in the region's frame: A, B_j (eq. 10) or C_j (eq. 11)
+    apex_distance: np.ndarray  # (n,) D_j(S) of eq. 14 for apex regions, 0 elsewhere
+
+
+def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
+    """Region, distance and local coordinates of (n, 3) points for triangle t (eq. 4–7, 10, 11, 14).
+
+    Eq. 4 as printed is read with (u, v) the coordinates of the projection in the affine frame
+    (O; P − O, Q − O) and w = u + v, which is what makes "w ≤ 1" meaningful: u ≥ 0, v ≥ 0, w ≤ 1 is the
+    inside. The printed conditions are kept, but the labels of its lines 3–6 are permuted in print; we
+    label each cell by the edge it lies across or the apex it lies behind, so v < 0 (across OP) is
+    R'_B,0, w > 1 (across PQ) is R'_B,1, u < 0 (across QO) is R'_B,2, and the corner cells behind O, P, Q
+    are R'_C,0, R'_C,1, R'_C,2. Eq. 6 then picks the edge of the corner cell that the point projects
+    onto, and eq. 5 is applied to that edge as well: the printed eq. 6 omits this clamp, which only
+    matters behind an obtuse apex, where a point can project beyond the far end of the chosen edge.
+    The result is the partition of space into the points nearest to the face, to each open edge and to
+    each apex, so the distance below is the Euclidean point–triangle distance: continuous, and equal
+    on both sides of every region boundary, as are the images of eq. 1, 12 and 13 there.
+    """
+    corners = frames.corners[t]
+    origin = corners[0]
+    normal = frames.normals[t]
+    unit_edges = frames.unit_edges[t]
+    edge_normals = frames.edge_normals[t]
+    lengths = frames.edge_lengths[t]
+    rows_a = np.stack([corners[1] - origin, corners[2] - origin, normal])  # A^OPQ, eq. 2
+    probes = np.concatenate([np.linalg.inv(rows_a), unit_edges.T, edge_normals.T], axis=1)  # (3, 9)
+    projected = (points - origin) @ probes
+    face_local = projected[:, :3]
+    offsets = corners - origin
+    along = projected[:, 3:6] - np.einsum("jk,jk->j", offsets, unit_edges)  # c_j(S), eq. 7
+    outward = projected[:, 6:9] - np.einsum("jk,jk->j", offsets, edge_normals)  # (S − V_j) · b_j
+    height = face_local[:, 2]
+
+    u, v = face_local[:, 0], face_local[:, 1]
+    w = u + v
+    region = np.select(  # eq. 4
+        [
+            (u >= 0) & (v >= 0) & (w <= 1),
+            (u >= 0) & (v < 0) & (w <= 1),
+            (u >= 0) & (v >= 0) & (w > 1),
+            (u < 0) & (v >= 0) & (w <= 1),
+            (v < 0) & (w > 1),
+            (u < 0) & (w > 1),
+        ],
+        [FACE, EDGE + 0, EDGE + 1, EDGE + 2, APEX + 1, APEX + 2],
+        default=APEX + 0,
+    ).astype(np.int8)
+
+    rows = np.arange(len(points))
+    corner = np.flatnonzero(region >= APEX)  # eq. 6
+    i = region[corner] - APEX
+    previous = (i + 2) % 3
+    to_previous = along[corner, previous] <= lengths[previous]
+    to_next = ~to_previous & (along[corner, i] >= 0)
+    region[corner[to_previous]] = EDGE + previous[to_previous]
+    region[corner[to_next]] = EDGE + i[to_next]
+
+    edge = np.flatnonzero((region >= EDGE) & (region < APEX))  # eq. 5
+    j = region[edge] - EDGE
+    c = along[edge, j]
+    region[edge] = np.where(c < 0, APEX + j, np.where(c > lengths[j], APEX + (j + 1) % 3, EDGE + j))
+
+    k = (region.astype(np.intp) - 1) % 3  # feature index j of edge and apex regions
+    k_previous = (k + 2) % 3
+    is_edge = (region >= EDGE) & (region < APEX)
+    is_apex = region >= APEX
+    c_k = along[rows, k]
+    y_k = outward[rows, k]
+    y_previous = outward[rows, k_previous]
+    apex_distance = np.where(is_apex, np.hypot(c_k, y_k), 0.0)  # D_j(S) = ‖Π(S) − V_j‖, eq. 14
+
+    # In-plane coordinates (a, b) of Π(S) − V_j on the non-orthogonal rows b_j, b_{j−1} of C_j (eq. 11),
+    # from the dot products y_j, y_{j−1} and the Gram term g = b_j · b_{j−1}.
+    g = np.einsum("jk,jk->j", edge_normals, np.roll(edge_normals, 1, axis=0))[k]
+    gram = 1.0 - g * g
+    a = (y_k - g * y_previous) / gram
+    b = (y_previous - g * y_k) / gram
+
+    region_local = face_local.copy()
+    region_local[is_edge, 0] = c_k[is_edge] / lengths[k[is_edge]]  # e_j is un-normalised in B_j, eq. 10
+    region_local[is_edge, 1] = y_k[is_edge]
+    region_local[is_apex, 0] = a[is_apex]
+    region_local[is_apex, 1] = b[is_apex]
+
+    distance = np.select(
+        [is_edge, is_apex], [np.hypot(height, y_k), np.hypot(height, apex_distance)], np.abs(height)
+    )
+    return Location(region, distance, face_local, region_local, apex_distance)
+
+
+def affection_weight(distance: np.ndarray, radius: float, exponent: float) -> np.ndarray:
+    """Eq. 9: (½(1 + cos(π d / r)))ⁿ inside the affection radius r, 0 outside."""
+    if radius <= 0.0:
+        return np.zeros_like(distance)
+    inside = distance < radius
+    ratio = np.where(inside, distance / radius, 1.0)
+    return np.where(inside, (0.5 * (1.0 + np.cos(np.pi * ratio))) ** exponent, 0.0)

@@ -1,0 +1,202 @@
+"""The control mesh template: a triangulation of the skin feature points (Planar Bones' control mesh).
+
+`CONTROL_TRIANGLES` are FP-id triples over the 57 skin FPs, wound so that normals face out of the face
+(counter-clockwise seen from the front). No triangle bridges the mouth opening (the inner lip contour
+2.2-2.9 has upper-lip triangles above it and lower-lip triangles below it only) or an eye opening (the
+upper-lid triangles 3.11/3.1/3.13/3.7 and the lower-lid triangles 3.11/3.3/3.9/3.7 meet only at the eye
+corners), so the openings are holes in the mesh. `TRIANGLE_MASKS[t]` names the vertex group that limits
+triangle t's influence: triangles touching an upper-lip FP (8.1, 8.5, 8.6, 8.9, 8.10, 2.2, 2.6, 2.7) use
+"upper_lip", the lower-lip ones (8.2, 8.7, 8.8, 2.3, 2.8, 2.9) "lower_lip", the eyelid ones
+"upper_eyelid" (3.1, 3.2, 3.13, 3.14) / "lower_eyelid" (3.3, 3.4, 3.9, 3.10); all others None.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MASK_NAMES = ("upper_lip", "lower_lip", "upper_eyelid", "lower_eyelid")
+
+_TEMPLATE: tuple[tuple[tuple[str, str, str], str | None], ...] = (
+    (('4.1', '9.7', '3.11'), None),
+    (('4.2', '3.8', '9.6'), None),
+    (('4.1', '3.11', '3.13'), None),
+    (('4.2', '3.14', '3.8'), None),
+    (('4.1', '3.13', '4.3'), None),
+    (('4.2', '4.4', '3.14'), None),
+    (('4.3', '3.13', '3.7'), None),
+    (('4.4', '3.12', '3.14'), None),
+    (('4.3', '3.7', '4.5'), None),
+    (('4.4', '4.6', '3.12'), None),
+    (('3.11', '3.1', '3.13'), 'upper_eyelid'),
+    (('3.8', '3.14', '3.2'), 'upper_eyelid'),
+    (('3.1', '3.7', '3.13'), 'upper_eyelid'),
+    (('3.2', '3.14', '3.12'), 'upper_eyelid'),
+    (('3.11', '3.9', '3.3'), 'lower_eyelid'),
+    (('3.8', '3.4', '3.10'), 'lower_eyelid'),
+    (('3.3', '3.9', '3.7'), 'lower_eyelid'),
+    (('3.4', '3.12', '3.10'), 'lower_eyelid'),
+    (('3.11', '9.7', '9.13'), None),
+    (('3.8', '9.14', '9.6'), None),
+    (('3.11', '9.13', '3.9'), None),
+    (('3.8', '3.10', '9.14'), None),
+    (('3.9', '9.13', '5.3'), None),
+    (('3.10', '5.4', '9.14'), None),
+    (('3.9', '5.3', '3.7'), None),
+    (('3.10', '3.12', '5.4'), None),
+    (('3.7', '5.3', '5.1'), None),
+    (('3.12', '5.2', '5.4'), None),
+    (('4.5', '3.7', '5.1'), None),
+    (('4.6', '5.2', '3.12'), None),
+    (('9.7', '9.12', '9.13'), None),
+    (('9.6', '9.14', '9.12'), None),
+    (('9.13', '9.12', '9.3'), None),
+    (('9.14', '9.3', '9.12'), None),
+    (('9.13', '9.3', '9.1'), None),
+    (('9.14', '9.2', '9.3'), None),
+    (('9.3', '9.15', '9.1'), None),
+    (('9.3', '9.2', '9.15'), None),
+    (('9.1', '9.15', '9.5'), None),
+    (('9.2', '9.4', '9.15'), None),
+    (('9.13', '9.1', '5.3'), None),
+    (('9.14', '5.4', '9.2'), None),
+    (('9.1', '9.5', '5.3'), None),
+    (('9.2', '5.4', '9.4'), None),
+    (('5.3', '9.5', '5.1'), None),
+    (('5.4', '5.2', '9.4'), None),
+    (('9.15', '8.1', '8.10'), 'upper_lip'),
+    (('9.15', '8.9', '8.1'), 'upper_lip'),
+    (('9.15', '8.10', '9.5'), 'upper_lip'),
+    (('9.15', '9.4', '8.9'), 'upper_lip'),
+    (('9.5', '8.10', '8.5'), 'upper_lip'),
+    (('9.4', '8.6', '8.9'), 'upper_lip'),
+    (('9.5', '8.5', '8.3'), 'upper_lip'),
+    (('9.4', '8.4', '8.6'), 'upper_lip'),
+    (('9.5', '8.3', '5.1'), None),
+    (('9.4', '5.2', '8.4'), None),
+    (('8.1', '2.2', '2.6'), 'upper_lip'),
+    (('8.1', '2.7', '2.2'), 'upper_lip'),
+    (('8.1', '2.6', '8.10'), 'upper_lip'),
+    (('8.1', '8.9', '2.7'), 'upper_lip'),
+    (('8.10', '2.6', '8.5'), 'upper_lip'),
+    (('8.9', '8.6', '2.7'), 'upper_lip'),
+    (('8.5', '2.6', '2.4'), 'upper_lip'),
+    (('8.6', '2.5', '2.7'), 'upper_lip'),
+    (('8.5', '2.4', '8.3'), 'upper_lip'),
+    (('8.6', '8.4', '2.5'), 'upper_lip'),
+    (('2.3', '8.2', '8.7'), 'lower_lip'),
+    (('2.3', '8.8', '8.2'), 'lower_lip'),
+    (('2.3', '8.7', '2.8'), 'lower_lip'),
+    (('2.3', '2.9', '8.8'), 'lower_lip'),
+    (('2.8', '8.7', '2.4'), 'lower_lip'),
+    (('2.9', '2.5', '8.8'), 'lower_lip'),
+    (('2.4', '8.7', '8.3'), 'lower_lip'),
+    (('2.5', '8.4', '8.8'), 'lower_lip'),
+    (('8.2', '2.10', '8.7'), 'lower_lip'),
+    (('8.2', '8.8', '2.10'), 'lower_lip'),
+    (('8.7', '2.10', '2.11'), 'lower_lip'),
+    (('8.8', '2.12', '2.10'), 'lower_lip'),
+    (('8.7', '2.11', '8.3'), 'lower_lip'),
+    (('8.8', '8.4', '2.12'), 'lower_lip'),
+    (('8.3', '2.11', '5.1'), None),
+    (('8.4', '5.2', '2.12'), None),
+    (('5.1', '2.11', '2.13'), None),
+    (('5.2', '2.14', '2.12'), None),
+    (('2.11', '2.10', '2.1'), None),
+    (('2.12', '2.1', '2.10'), None),
+    (('2.11', '2.1', '2.13'), None),
+    (('2.12', '2.14', '2.1'), None),
+    (('4.1', '4.2', '9.7'), None),
+    (('4.2', '9.6', '9.7'), None),
+    (('9.7', '9.6', '9.12'), None),
+)
+
+CONTROL_TRIANGLES: tuple[tuple[str, str, str], ...] = tuple(triangle for triangle, _ in _TEMPLATE)
+TRIANGLE_MASKS: tuple[str | None, ...] = tuple(mask for _, mask in _TEMPLATE)
+
+
+class ControlMeshError(ValueError):
+    """Control-mesh input that cannot be checked (wrong shapes, indices out of range, NaN)."""
+
+
+def control_fp_ids(fp_order: tuple[str, ...]) -> tuple[str, ...]:
+    """The FP ids the template uses, in the order of `fp_order` (e.g. `feature_points.FP_IDS`)."""
+    used = {fp_id for triangle in CONTROL_TRIANGLES for fp_id in triangle}
+    return tuple(fp_id for fp_id in fp_order if fp_id in used)
+
+
+def template_indices(fp_ids: tuple[str, ...]) -> np.ndarray:
+    """CONTROL_TRIANGLES as a (T, 3) int array of rows into `fp_ids`."""
+    row = {fp_id: i for i, fp_id in enumerate(fp_ids)}
+    missing = sorted({fp_id for triangle in CONTROL_TRIANGLES for fp_id in triangle} - row.keys())
+    if missing:
+        raise ControlMeshError(f"the control mesh needs FPs {', '.join(missing)}, not in the given ids")
+    return np.array([[row[fp_id] for fp_id in triangle] for triangle in CONTROL_TRIANGLES], dtype=np.int64)
+
+
+def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
+    """Problems that stop (points (M, 3), triangles (T, 3)) from being a control mesh; [] if none.
+
+    Checked: every point used, no degenerate or repeated triangle, every edge in at most two triangles,
+    each vertex's triangles forming one fan (a manifold surface with boundary) and a consistent
+    orientation (an edge shared by two triangles runs in opposite directions in them).
+    """
+    points = np.asarray(points, dtype=np.float64)
+    triangles = np.asarray(triangles)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ControlMeshError(f"points must have shape (M, 3), got {points.shape}")
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or not np.issubdtype(triangles.dtype, np.integer):
+        raise ControlMeshError(f"triangles must be integers of shape (T, 3), got {triangles.dtype} {triangles.shape}")
+    if not np.all(np.isfinite(points)):
+        raise ControlMeshError("points contain NaN or infinity")
+    if triangles.size and (triangles.min() < 0 or triangles.max() >= len(points)):
+        raise ControlMeshError(f"triangle indices must lie in [0, {len(points)})")
+
+    problems = []
+    unused = sorted(set(range(len(points))) - set(triangles.ravel().tolist()))
+    if unused:
+        problems.append(f"points used by no triangle: {unused}")
+    corners = points[triangles]
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    repeated_corner = (triangles[:, 0] == triangles[:, 1]) | (triangles[:, 1] == triangles[:, 2])
+    repeated_corner |= triangles[:, 0] == triangles[:, 2]
+    scale = np.ptp(points, axis=0).max() if len(points) else 0.0
+    for t in np.flatnonzero(repeated_corner | (areas <= 1e-12 * scale**2)):
+        problems.append(f"triangle {t} {triangles[t].tolist()} is degenerate")
+    seen: dict[tuple[int, ...], int] = {}
+    for t, triangle in enumerate(triangles.tolist()):
+        key = tuple(sorted(triangle))
+        if key in seen:
+            problems.append(f"triangles {seen[key]} and {t} have the same corners {list(key)}")
+        seen.setdefault(key, t)
+
+    directed: dict[tuple[int, int], list[int]] = {}
+    for t, (a, b, c) in enumerate(triangles.tolist()):
+        for edge in ((a, b), (b, c), (c, a)):
+            directed.setdefault(edge, []).append(t)
+    undirected: dict[tuple[int, int], list[int]] = {}
+    for (a, b), ts in directed.items():
+        undirected.setdefault((min(a, b), max(a, b)), []).extend(ts)
+        if len(ts) > 1:
+            problems.append(f"edge {a}->{b} runs the same way in triangles {ts}: inconsistent orientation")
+    for edge, ts in undirected.items():
+        if len(ts) > 2:
+            problems.append(f"edge {list(edge)} is shared by {len(ts)} triangles {ts}: non-manifold")
+
+    for v in range(len(points)):
+        around = [t for t in range(len(triangles)) if v in triangles[t]]
+        if len(around) > 1 and not _one_fan(triangles, around, v):
+            problems.append(f"the triangles around point {v} form more than one fan: non-manifold vertex")
+    return problems
+
+
+def _one_fan(triangles: np.ndarray, around: list[int], v: int) -> bool:
+    """Whether the triangles around v are connected through edges that contain v."""
+    spokes = {t: set(triangles[t].tolist()) - {v} for t in around}
+    reached, frontier = {around[0]}, [around[0]]
+    while frontier:
+        t = frontier.pop()
+        for u in around:
+            if u not in reached and spokes[t] & spokes[u]:
+                reached.add(u)
+                frontier.append(u)
+    return len(reached) == len(around)

@@ -1,0 +1,370 @@
+"""Planar Bones / SoFFD deformer: invariants, hand-worked regions, masks, radii, degenerate input."""
+
+import io
+
+import numpy as np
+import pytest
+
+from addon.deform.planar_bones import DeformError, bind, evaluate, load_binding, save_binding
+from addon.deform.regions import APEX, EDGE, FACE, locate, triangle_frames
+
+MODES = ("planar_bones", "soffd")
+
+
+def icosahedron(radius: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    g = (1.0 + 5.0**0.5) / 2.0
+    points = np.array(
+        [[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
+         [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], dtype=float
+    )  # fmt: skip
+    triangles = np.array(
+        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
+         [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
+         [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
+    )  # fmt: skip
+    return radius * points / np.linalg.norm(points[0]), triangles
+
+
+def sphere_points(n: int, radius: float = 0.1, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    directions = rng.standard_normal((n, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    return radius * directions * (1.0 + 0.1 * rng.uniform(-1.0, 1.0, (n, 1)))
+
+
+def random_rigid(seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    q, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    return q * np.sign(np.linalg.det(q)), rng.standard_normal(3)
+
+
+@pytest.fixture(scope="module")
+def sphere():
+    control, triangles = icosahedron()
+    rest = sphere_points(3000)
+    return rest, control, triangles, bind(rest, control, triangles)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_identity_reproduces_rest_pose(sphere, mode):
+    rest, control, _, binding = sphere
+    assert binding.n_static == 0
+    assert np.abs(evaluate(binding, control, mode) - rest).max() < 1e-9
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_rigid_motion_moves_every_vertex_rigidly(sphere, mode, seed):
+    rest, control, _, binding = sphere
+    rotation, translation = random_rigid(seed)
+    moved = evaluate(binding, control @ rotation.T + translation, mode)
+    assert np.abs(moved - (rest @ rotation.T + translation)).max() < 1e-6
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_float32_output_matches_float64(sphere, mode):
+    _, control, _, binding = sphere
+    deformed = control + 0.01 * np.sin(50.0 * control)
+    single = evaluate(binding, deformed, mode, out=np.empty((binding.n_vertices, 3), np.float32))
+    assert np.abs(single - evaluate(binding, deformed, mode)).max() < 1e-6
+
+
+def test_planar_bones_and_soffd_differ_under_stretch(sphere):
+    _, control, _, binding = sphere
+    stretched = control * np.array([1.5, 1.0, 0.7])
+    difference = np.abs(evaluate(binding, stretched) - evaluate(binding, stretched, "soffd")).max()
+    assert difference > 1e-4
+
+
+# ---------------------------------------------------------------- hand-worked single triangle
+
+O, P, Q = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+o, p, q = np.array([0.0, 0.0, 0.0]), np.array([4.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.0])
+FACE_POINT = np.array([0.5, 0.25, 0.3])
+EDGE_POINT = np.array([1.0, -0.5, 0.2])
+APEX_POINT = np.array([3.0, -1.0, 0.1])
+
+
+@pytest.fixture(scope="module")
+def single_triangle():
+    rest = np.array([FACE_POINT, EDGE_POINT, APEX_POINT])
+    binding = bind(rest, np.array([O, P, Q]), np.array([[0, 1, 2]]))
+    return binding, evaluate(binding, np.array([o, p, q])), evaluate(binding, np.array([o, p, q]), "soffd")
+
+
+def test_hand_worked_regions(single_triangle):
+    binding, _, _ = single_triangle
+    assert binding.pair_region.tolist() == [FACE, EDGE + 0, APEX + 1]
+    # No other control point: the radius starts at 0 and is raised to cover all three points.
+    assert binding.n_raised == 1
+    assert binding.affection_radius[0] == pytest.approx(1.1 * np.hypot(np.hypot(1.0, 1.0), 0.1), rel=1e-8)
+
+
+def test_hand_worked_face_region(single_triangle):
+    _, planar, soffd = single_triangle
+    # A rows (2,0,0), (0,1,0), (0,0,1): (α, β, h) = (0.5/2, 0.25/1, 0.3); eq. 1 with n' = (0,0,1).
+    expected = o + 0.25 * (p - o) + 0.25 * (q - o) + 0.3 * np.array([0.0, 0.0, 1.0])
+    np.testing.assert_allclose(planar[0], [1.25, 0.25, 0.3], atol=1e-12)
+    np.testing.assert_allclose(planar[0], expected, atol=1e-12)
+    np.testing.assert_allclose(soffd[0], expected, atol=1e-12)
+
+
+def test_hand_worked_edge_region(single_triangle):
+    _, planar, soffd = single_triangle
+    # Edge 0 = OP, e_0 = (2,0,0), b_0 = unit(e_0 × n) = (0,-1,0); S − O = (1,-0.5,0.2):
+    # x = 1/2, y = 0.5, h = 0.2. Deformed: e_0' = (4,0,0), b_0' = (0,-1,0), n' = (0,0,1). Eq. 12:
+    expected = o + 0.5 * np.array([4.0, 0.0, 0.0]) + 0.5 * np.array([0.0, -1.0, 0.0]) + 0.2 * np.array([0, 0, 1])
+    np.testing.assert_allclose(planar[1], [2.0, -0.5, 0.2], atol=1e-12)
+    np.testing.assert_allclose(planar[1], expected, atol=1e-12)
+    # SoFFD (eq. 1): (α, β, h) = (0.5, -0.5, 0.2) → 0.5 p − 0.5 q + 0.2 n' shears the point.
+    np.testing.assert_allclose(soffd[1], [1.5, -0.5, 0.2], atol=1e-12)
+
+
+def test_hand_worked_apex_region(single_triangle):
+    _, planar, _ = single_triangle
+    # Apex 1 = P. c_0 = 3 > ‖e_0‖ = 2 → R_C,1 (eq. 5). C_1 rows: b_1 = unit((-2,1,0) × n) = (1,2,0)/√5,
+    # b_0 = (0,-1,0), n. S − P = (1,-1,0.1) = a b_1 + b b_0 + h n → a = √5, b = 3, h = 0.1; D = √2.
+    # Deformed: e_1' = q − p = (-3,1,0) → b_1' = (1,3,0)/√10, b_0' = (0,-1,0).
+    a, b, h, big_d = 5.0**0.5, 3.0, 0.1, 2.0**0.5
+    mapped = a * np.array([1.0, 3.0, 0.0]) / 10.0**0.5 + b * np.array([0.0, -1.0, 0.0])
+    small_d = (mapped[0] ** 2 + mapped[1] ** 2) ** 0.5  # eq. 14
+    expected = p + mapped * big_d / small_d + h * np.array([0.0, 0.0, 1.0])  # eq. 13
+    np.testing.assert_allclose(planar[2], expected, atol=1e-12)
+    np.testing.assert_allclose(planar[2], [4.886631, -1.101764, 0.1], atol=1e-6)
+    assert np.linalg.norm(planar[2] - p) == pytest.approx(np.linalg.norm(APEX_POINT - P), rel=1e-12)
+
+
+def obtuse_triangle_distance(point: np.ndarray, corners: np.ndarray) -> float:
+    """Brute-force reference: min over the inside projection and the three clamped segments."""
+    origin, edge_1, edge_2 = corners[0], corners[1] - corners[0], corners[2] - corners[0]
+    normal = np.cross(edge_1, edge_2)
+    normal /= np.linalg.norm(normal)
+    height = (point - origin) @ normal
+    gram = np.array([[edge_1 @ edge_1, edge_1 @ edge_2], [edge_1 @ edge_2, edge_2 @ edge_2]])
+    u, v = np.linalg.solve(gram, [(point - origin) @ edge_1, (point - origin) @ edge_2])
+    best = abs(height) if (u >= 0 and v >= 0 and u + v <= 1) else np.inf
+    for j in range(3):
+        start, end = corners[j], corners[(j + 1) % 3]
+        t = np.clip((point - start) @ (end - start) / ((end - start) @ (end - start)), 0.0, 1.0)
+        best = min(best, np.linalg.norm(point - (start + t * (end - start))))
+    return best
+
+
+def test_region_distance_is_point_triangle_distance_for_obtuse_triangles():
+    corners = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [-1.0, 0.1, 0.05]])  # ~174° at V_0
+    frames = triangle_frames(corners[None])
+    points = np.random.default_rng(4).uniform(-12.0, 12.0, (4000, 3))
+    points = np.concatenate([points, [[-10.0, 0.0, 0.3]]])  # behind the obtuse apex, beyond V_2
+    location = locate(frames, 0, points)
+    reference = np.array([obtuse_triangle_distance(s, corners) for s in points])
+    np.testing.assert_allclose(location.distance, reference, rtol=1e-9, atol=1e-12)
+    assert location.region[-1] == APEX + 2
+
+
+# ---------------------------------------------------------------- continuity
+
+
+def sheet(spacing: float = 0.02) -> tuple[np.ndarray, np.ndarray]:
+    """A bumpy 4 × 4 control grid, 18 triangles."""
+    x, y = np.meshgrid(np.arange(4) * spacing, np.arange(4) * spacing, indexing="ij")
+    z = 0.3 * spacing * np.sin(x / spacing * 1.7) * np.cos(y / spacing * 1.3)
+    points = np.stack([x, y, z], axis=-1).reshape(-1, 3)
+    triangles = []
+    for i in range(3):
+        for j in range(3):
+            a, b, c, d = 4 * i + j, 4 * (i + 1) + j, 4 * (i + 1) + j + 1, 4 * i + j + 1
+            triangles += [[a, b, c], [a, c, d]] if (i + j) % 2 else [[a, b, d], [b, c, d]]
+    return points, np.array(triangles)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_deformation_is_continuous_across_regions_and_triangles(mode):
+    control, triangles = sheet()
+    rng = np.random.default_rng(5)
+    steps = np.linspace(0.0, 1.0, 1501)
+    step_length = []
+    walks = []
+    for _ in range(12):
+        start = np.r_[rng.uniform(0.005, 0.055, 2), rng.uniform(-0.006, 0.006)]
+        end = np.r_[rng.uniform(0.005, 0.055, 2), rng.uniform(-0.006, 0.006)]
+        walks.append(start + steps[:, None] * (end - start))
+        step_length.append(np.linalg.norm(end - start) / (len(steps) - 1))
+    rest = np.concatenate(walks)
+    binding = bind(rest, control, triangles)
+    deformed = control + rng.normal(0.0, 0.004, control.shape)
+    moved = evaluate(binding, deformed, mode).reshape(len(walks), len(steps), 3)
+    jumps = np.linalg.norm(np.diff(moved, axis=1), axis=2)
+    assert (jumps.max(axis=1) <= 50.0 * np.array(step_length)).all()
+    # The walks do cross regions and enter and leave affection volumes.
+    for walk in range(len(walks)):
+        on_walk = binding.pair_vertex // len(steps) == walk
+        assert len(np.unique(binding.pair_region[on_walk])) >= 5
+        assert len(np.unique(binding.pair_triangle[on_walk])) >= 6
+
+
+# ---------------------------------------------------------------- masks and radii
+
+
+def lips() -> tuple[np.ndarray, np.ndarray]:
+    upper = [[0.0, 0.005, 0.0], [0.04, 0.005, 0.0], [0.02, 0.025, 0.0]]
+    lower = [[0.0, -0.005, 0.0], [0.04, -0.005, 0.0], [0.02, -0.025, 0.0]]
+    return np.array(upper + lower), np.array([[0, 1, 2], [3, 5, 4]])
+
+
+def test_mask_keeps_lower_lip_still_when_upper_lip_moves():
+    control, triangles = lips()
+    rest = np.array([[0.02, -0.0045, 0.001], [0.02, -0.015, 0.0], [0.02, 0.01, 0.0]])  # lower ×2, upper
+    moved = control.copy()
+    moved[:3] += [0.0, 0.004, 0.001]  # only the upper-lip feature points
+    unmasked = bind(rest, control, triangles, radius_fraction=2.0)
+    assert np.linalg.norm(evaluate(unmasked, moved)[0] - rest[0]) > 1e-4  # upper lip pulls lower lip
+    upper_lip = np.array([0.0, 0.0, 1.0])  # mask weight of the upper-lip triangle per vertex
+    masked = bind(
+        rest, control, triangles, radius_fraction=2.0, vertex_masks={"upper": upper_lip}, triangle_masks=["upper", None]
+    )
+    result = evaluate(masked, moved)
+    np.testing.assert_allclose(result[:2], rest[:2], atol=1e-12)
+    assert np.linalg.norm(result[2] - rest[2]) > 1e-3
+
+
+def test_affection_radius_is_distance_to_nearest_other_feature_point():
+    control, triangles = lips()
+    binding = bind(np.zeros((1, 3)), control, triangles, radius_fraction=0.5, cover=np.zeros(1, bool))
+    np.testing.assert_allclose(binding.affection_radius, [0.005, 0.005], rtol=1e-12)  # 0.5 × 0.01
+    assert binding.n_raised == 0
+
+
+def test_far_vertex_raises_nearest_triangle_radius():
+    control, triangles = lips()
+    far = np.array([[0.02, 0.2, 0.0]])  # 0.175 above the upper lip's apex
+    binding = bind(far, control, triangles)
+    assert binding.n_raised == 1
+    assert binding.affection_radius[0] == pytest.approx(0.175 * 1.1, rel=1e-6)
+    assert binding.affection_radius[1] == pytest.approx(0.01)
+    assert binding.n_static == 0
+    shifted = evaluate(binding, control + [0.0, 0.0, 0.003])
+    np.testing.assert_allclose(shifted, far + [0.0, 0.0, 0.003], atol=1e-12)
+
+
+def test_small_radius_fraction_still_covers_every_vertex(sphere):
+    rest, control, triangles, _ = sphere
+    binding = bind(rest, control, triangles, radius_fraction=0.05)
+    assert binding.n_raised > 0
+    assert binding.n_static == 0
+    assert np.abs(evaluate(binding, control) - rest).max() < 1e-9
+
+
+def test_vertices_outside_cover_stay_bit_identical():
+    control, triangles = lips()
+    rest = np.array([[0.02, 0.01, 0.0], [0.5, 0.5, 0.5]])
+    binding = bind(rest, control, triangles, cover=np.array([True, False]))
+    assert binding.n_static == 1
+    result = evaluate(binding, control * 1.3 + 0.01)
+    assert result[1].tobytes() == rest[1].tobytes()
+
+
+# ---------------------------------------------------------------- degenerate input
+
+
+def test_zero_area_triangle_is_excluded():
+    control, triangles = icosahedron()
+    control = np.concatenate([control, [[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.02, 0.0, 0.0]]])
+    triangles = np.concatenate([triangles, [[12, 13, 14], [0, 0, 1]]])
+    rest = sphere_points(500)
+    binding = bind(rest, control, triangles)
+    assert binding.n_excluded == 2
+    assert not np.isin(binding.pair_triangle, [20, 21]).any()
+    assert np.abs(evaluate(binding, control) - rest).max() < 1e-9
+
+
+def test_coincident_feature_points_do_not_shrink_the_radius():
+    # Closed mouth: the inner-lip points of both lips coincide.
+    control = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.02, 0.02, 0.0], [0.0, 0.0, 0.0], [0.04, 0.0, 0.0],
+                        [0.02, -0.02, 0.0], [0.1, 0.0, 0.0]])  # fmt: skip
+    triangles = np.array([[0, 1, 2], [3, 5, 4]])
+    rest = np.array([[0.02, 0.005, 0.001], [0.02, -0.005, 0.001]])
+    binding = bind(rest, control, triangles)
+    np.testing.assert_allclose(binding.affection_radius, [0.02, 0.02], rtol=1e-9)  # to the other lip's apex
+    assert np.isfinite(evaluate(binding, control * 1.1)).all()
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_vertices_exactly_on_plane_edge_and_apex(mode):
+    rest = np.array([O, P, Q, (O + P) / 2, (P + Q) / 2, [0.5, 0.25, 0.0], [2.0, 0.0, 0.3], [1.0, 0.0, -0.2]])
+    binding = bind(rest, np.array([O, P, Q]), np.array([[0, 1, 2]]))
+    assert np.abs(evaluate(binding, np.array([O, P, Q]), mode) - rest).max() < 1e-12
+    result = evaluate(binding, np.array([o, p, q]), mode)
+    assert np.isfinite(result).all()
+    np.testing.assert_allclose(result[:3], [o, p, q], atol=1e-12)
+    np.testing.assert_allclose(result[6], p + [0.0, 0.0, 0.3], atol=1e-12)  # above the apex: d = D = 0
+    rotation, translation = random_rigid(7)
+    rigid = evaluate(binding, np.array([O, P, Q]) @ rotation.T + translation, mode)
+    np.testing.assert_allclose(rigid, rest @ rotation.T + translation, atol=1e-12)
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_collapsed_control_triangle_gives_finite_output(mode):
+    rest = np.array([FACE_POINT, EDGE_POINT, APEX_POINT])
+    binding = bind(rest, np.array([O, P, Q]), np.array([[0, 1, 2]]))
+    for collapsed in (np.zeros((3, 3)), np.array([O, P, 2 * P])):
+        assert np.isfinite(evaluate(binding, collapsed, mode)).all()
+
+
+@pytest.mark.parametrize(
+    ("rest", "control", "triangles", "message"),
+    [
+        (np.array([[np.nan, 0, 0]]), np.array([O, P, Q]), [[0, 1, 2]], "rest_vertices has non-finite"),
+        (np.zeros((1, 3)), np.array([O, P, [np.inf, 0, 0]]), [[0, 1, 2]], "control_rest has non-finite"),
+        (np.zeros((1, 3)), np.array([O, P, Q]), [[0, 1, 3]], "index outside"),
+        (np.zeros((1, 3)), np.array([O, P, Q]), [[0, 1, -1]], "index outside"),
+        (np.zeros((1, 3)), np.array([O, P, Q]), [[0.0, 1.0, 2.0]], "integer"),
+        (np.zeros((1, 2)), np.array([O, P, Q]), [[0, 1, 2]], "shape"),
+    ],
+)
+def test_bad_input_raises_deform_error(rest, control, triangles, message):
+    with pytest.raises(DeformError, match=message):
+        bind(rest, control, np.asarray(triangles))
+
+
+def test_bad_evaluate_input_raises_deform_error(single_triangle):
+    binding, _, _ = single_triangle
+    with pytest.raises(DeformError, match="non-finite"):
+        evaluate(binding, np.array([o, p, [np.nan, 0.0, 0.0]]))
+    with pytest.raises(DeformError, match="shape"):
+        evaluate(binding, np.array([o, p]))
+    with pytest.raises(DeformError, match="unknown mode"):
+        evaluate(binding, np.array([o, p, q]), "bones")
+
+
+def test_bad_masks_raise_deform_error():
+    control, triangles = lips()
+    rest = np.zeros((2, 3))
+    with pytest.raises(DeformError, match="not among"):
+        bind(rest, control, triangles, vertex_masks={}, triangle_masks=["upper", None])
+    with pytest.raises(DeformError, match=r"\[0, 1\]"):
+        bind(rest, control, triangles, vertex_masks={"m": np.array([0.0, 2.0])}, triangle_masks=["m", None])
+
+
+# ---------------------------------------------------------------- save / load
+
+
+def test_save_load_round_trip(sphere):
+    _, control, _, binding = sphere
+    buffer = io.BytesIO()
+    save_binding(binding, buffer)
+    buffer.seek(0)
+    loaded = load_binding(buffer)
+    deformed = control + 0.01 * np.cos(30.0 * control)
+    for mode in MODES:
+        assert np.array_equal(evaluate(loaded, deformed, mode), evaluate(binding, deformed, mode))
+    assert loaded.n_raised == binding.n_raised
+    np.testing.assert_array_equal(loaded.affection_radius, binding.affection_radius)
+
+
+def test_load_rejects_other_format_version(sphere, tmp_path):
+    path = tmp_path / "binding.npz"
+    np.savez_compressed(path, format_version=np.int64(99))
+    with pytest.raises(DeformError, match="version 99"):
+        load_binding(path)
+    with pytest.raises(DeformError, match="cannot read"):
+        load_binding(tmp_path / "missing.npz")
