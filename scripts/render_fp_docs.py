@@ -1,4 +1,4 @@
-"""Render the sample head with its 84 feature points labelled: `docs/fp_front.png`, `docs/fp_three_quarter.png`.
+"""Render the sample head with its 84 feature points labelled (`docs/fp_front.png`, `fp_three_quarter.png`).
 
     /work/venv/bin/python scripts/render_fp_docs.py [--blend sample_blends/makehuman_head.blend] [--out docs/]
 
@@ -20,8 +20,8 @@ SPHERE_RADIUS = 0.0012  # m
 LABEL_SIZE = 0.0032  # m
 VIEWS = {
     # name: (direction from the head to the camera in head-local coordinates, orthographic scale in m)
-    "fp_front": (Vector((0.0, -1.0, 0.0)), 0.25),
-    "fp_three_quarter": (Vector((0.75, -1.0, 0.1)), 0.25),
+    "fp_front": (Vector((0.0, -1.0, 0.0)), 0.27),
+    "fp_three_quarter": (Vector((0.75, -1.0, 0.1)), 0.27),
 }
 SKIN = (0.82, 0.78, 0.74, 1.0)
 MARK = (0.85, 0.1, 0.05, 1.0)
@@ -73,8 +73,8 @@ def _uv_sphere(mesh: bpy.types.Mesh, radius: float, rings: int = 8, segments: in
         polar = math.pi * i / rings
         for j in range(segments):
             azimuth = 2 * math.pi * j / segments
-            vertices.append((radius * math.sin(polar) * math.cos(azimuth),
-                             radius * math.sin(polar) * math.sin(azimuth), radius * math.cos(polar)))  # fmt: skip
+            ring = radius * math.sin(polar)
+            vertices.append((ring * math.cos(azimuth), ring * math.sin(azimuth), radius * math.cos(polar)))
     vertices.append((0.0, 0.0, -radius))
     faces = [(0, 1 + (j + 1) % segments, 1 + j) for j in range(segments)]
     for i in range(rings - 2):
@@ -105,7 +105,7 @@ def render(blend: Path, out: Path) -> None:
     scene.collection.objects.link(camera)
     scene.camera = camera
     camera.data.type = "ORTHO"
-    centre = head.matrix_world @ Vector((0.0, -0.05, 0.03))
+    centre = head.matrix_world @ Vector((0.0, -0.05, 0.04))
     for name, (direction, scale) in VIEWS.items():
         made = decorate(head, direction)
         camera.data.ortho_scale = scale

@@ -27,6 +27,7 @@ FP_PROP = "mpeg4_fp"
 CREATED_PROP = "mpeg4_created"  # on objects set-up created (and remove may delete)
 FP_IDS_PROP = "mpeg4_fp_ids"
 REST_PROP = "mpeg4_rest"
+EMPTY_REST_PROP = "mpeg4_rest"  # on each FP empty: its face-local location at set-up (the neutral face)
 BINDING_PROP = "mpeg4_binding"
 BINDING_KEY_PROP = "mpeg4_binding_key"
 SHAPE_KEY_NAME = "MPEG-4 Planar Bones"

@@ -30,6 +30,7 @@ class _State:
     binding: Binding
     control_ids: list[str]
     out: np.ndarray
+    names: list[str] | None = None  # object names of the control empties, looked up by name each frame
     last: np.ndarray | None = None
     mode: str = ""
 
@@ -70,14 +71,26 @@ def _state(face) -> _State:
     return state
 
 
-def control_positions(face, ids: list[str]) -> np.ndarray:
-    """(M, 3) face-local positions of the control FPs, in the control mesh's vertex order."""
+def control_empties(face, state: _State) -> dict:
+    """The control FPs' empties in the control mesh's vertex order (by cached name, rescanned if stale)."""
+    objects = bpy.data.objects
+    if state.names is not None:
+        found = [objects.get(name) for name in state.names]
+        if all(ob is not None and ob.get(face_data.FP_PROP) == fp_id
+               for ob, fp_id in zip(found, state.control_ids, strict=True)):  # fmt: skip
+            return dict(zip(state.control_ids, found, strict=True))
     empties = face_data.fp_empties(face)
-    missing = [fp_id for fp_id in ids if not _linked(empties.get(fp_id))]
+    missing = [fp_id for fp_id in state.control_ids if fp_id not in empties]
     if missing:
+        state.names = None
         raise LookupError(f"feature point empties missing: {', '.join(missing)}")
-    positions = face_data.local_positions(face, {fp_id: empties[fp_id] for fp_id in ids})
-    return np.array([positions[fp_id] for fp_id in ids])
+    state.names = [empties[fp_id].name for fp_id in state.control_ids]
+    return {fp_id: empties[fp_id] for fp_id in state.control_ids}
+
+
+def control_positions(face, state: _State) -> np.ndarray:
+    """(M, 3) face-local positions of the control FPs, in the control mesh's vertex order."""
+    return np.array(list(face_data.local_positions(face, control_empties(face, state)).values()))
 
 
 def apply_face(face, force: bool = False) -> bool:
@@ -87,7 +100,7 @@ def apply_face(face, force: bool = False) -> bool:
         if not _linked(settings.control_object):
             raise LookupError("the control mesh was deleted")
         state = _state(face)
-        points = control_positions(face, state.control_ids)
+        points = control_positions(face, state)
         mode = MODES[settings.mode]
         if not force and state.mode == mode and state.last is not None and np.array_equal(points, state.last):
             return True

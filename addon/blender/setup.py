@@ -41,8 +41,9 @@ def ensure_fp_collection(face) -> bpy.types.Collection:
         coll = bpy.data.collections.new(face_data.fp_collection_name(face))
         coll[face_data.CREATED_PROP] = True
     settings.fp_collection = coll
-    if not coll.users_scene and coll.name not in bpy.context.scene.collection.children:
-        bpy.context.scene.collection.children.link(coll)
+    scene_root = bpy.context.scene.collection
+    if coll not in scene_root.children_recursive:
+        scene_root.children.link(coll)
     return coll
 
 
@@ -88,6 +89,21 @@ def snap_to_surface(face, empties: dict) -> int:
             ob.location = location
             moved += 1
     return moved
+
+
+def record_neutral(empties: dict) -> dict[str, np.ndarray]:
+    """The neutral face: each empty's face-local location, measured now unless it is animated.
+
+    An animated empty keeps the neutral position measured at its first set-up, so setting up again
+    in the middle of an animation does not take a posed frame for the neutral face.
+    """
+    positions = {}
+    for fp_id, ob in empties.items():
+        animated = ob.animation_data is not None and ob.animation_data.action is not None
+        if not animated or face_data.EMPTY_REST_PROP not in ob:
+            ob[face_data.EMPTY_REST_PROP] = list(ob.location)
+        positions[fp_id] = np.array(ob[face_data.EMPTY_REST_PROP], dtype=np.float64)
+    return positions
 
 
 def build_control(face, positions: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray, list[str | None]]:
@@ -200,7 +216,7 @@ def set_up(face) -> list[str]:
     moved = snap_to_surface(face, empties)
     if moved:
         notes.append(f"snapped {moved} feature points onto the surface")
-    positions = face_data.local_positions(face, empties)
+    positions = record_neutral(empties)
 
     ids, tris, tri_masks = build_control(face, positions)
     points = np.array([positions[fp_id] for fp_id in ids])
@@ -279,6 +295,9 @@ def remove(face) -> list[str]:
         created = [ob for ob in coll.all_objects if face_data.CREATED_PROP in ob]
         for ob in created:
             bpy.data.objects.remove(ob)
+        for ob in coll.all_objects:
+            if face_data.EMPTY_REST_PROP in ob:
+                del ob[face_data.EMPTY_REST_PROP]
         if face_data.CREATED_PROP in coll and not coll.all_objects:
             bpy.data.collections.remove(coll)
         if created:

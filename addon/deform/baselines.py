@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from addon.deform.planar_bones import COINCIDENCE, DeformError, _points, _triangle_indices
+from addon.deform.inputs import COINCIDENCE, DeformError, check_points, check_triangles
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,10 +36,12 @@ class RbfBinding:
         return evaluate_rbf(self, control_positions, out)
 
 
-def bind_rbf(rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray | None = None) -> RbfBinding:
+def bind_rbf(
+    rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray | None = None
+) -> RbfBinding:
     """Solve the multiquadric system once; coincident or coplanar control points raise `DeformError`."""
-    rest = _points(rest_vertices, "rest_vertices")
-    control = _points(control_rest, "control_rest")
+    rest = check_points(rest_vertices, "rest_vertices")
+    control = check_points(control_rest, "control_rest")
     index = _control_index(control, triangles)
     points = control[index]
     k = len(points)
@@ -74,7 +76,9 @@ def bind_rbf(rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.
     return RbfBinding(rest, control, index, basis @ inverse)
 
 
-def evaluate_rbf(binding: RbfBinding, control_positions: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+def evaluate_rbf(
+    binding: RbfBinding, control_positions: np.ndarray, out: np.ndarray | None = None
+) -> np.ndarray:
     displacement = _displacement(binding.control_rest, binding.control_index, control_positions)
     return _write(binding.rest_vertices + binding.vertex_weights @ displacement, out)
 
@@ -97,10 +101,12 @@ def bind_fp_weighted(
     rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray
 ) -> FpWeightedBinding:
     """Weights of each feature point on the vertices within its extent (see the module docstring)."""
-    rest = _points(rest_vertices, "rest_vertices")
-    control = _points(control_rest, "control_rest")
-    tris = _triangle_indices(triangles, len(control))
-    edges = np.unique(np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0)
+    rest = check_points(rest_vertices, "rest_vertices")
+    control = check_points(control_rest, "control_rest")
+    tris = check_triangles(triangles, len(control))
+    edges = np.unique(
+        np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0
+    )
     edges = edges[edges[:, 0] != edges[:, 1]]
     vertices, points, weights = [], [], []
     for fp in np.unique(tris):
@@ -113,7 +119,9 @@ def bind_fp_weighted(
         relative = rest - control[fp]
         distance = np.linalg.norm(relative, axis=1)
         near = np.flatnonzero(distance < lengths.max())  # the extent never exceeds the farthest neighbour
-        cosine = (relative[near] @ (offsets / lengths[:, None]).T) / np.maximum(distance[near], 1e-300)[:, None]
+        cosine = (relative[near] @ (offsets / lengths[:, None]).T) / np.maximum(distance[near], 1e-300)[
+            :, None
+        ]
         order = np.argsort(-cosine, axis=1)[:, :2]
         if len(neighbours) == 1:
             order = np.zeros((len(near), 2), dtype=np.intp)
@@ -146,7 +154,9 @@ def bind_fp_weighted(
 def evaluate_fp_weighted(
     binding: FpWeightedBinding, control_positions: np.ndarray, out: np.ndarray | None = None
 ) -> np.ndarray:
-    displacement = _displacement(binding.control_rest, np.arange(len(binding.control_rest)), control_positions)
+    displacement = _displacement(
+        binding.control_rest, np.arange(len(binding.control_rest)), control_positions
+    )
     moved = displacement[binding.pair_point] * binding.pair_coefficient[:, None]
     n = len(binding.rest_vertices)
     result = binding.rest_vertices + np.stack(
@@ -158,13 +168,15 @@ def evaluate_fp_weighted(
 def _control_index(control: np.ndarray, triangles: np.ndarray | None) -> np.ndarray:
     if triangles is None:
         return np.arange(len(control))
-    return np.unique(_triangle_indices(triangles, len(control)))
+    return np.unique(check_triangles(triangles, len(control)))
 
 
 def _displacement(control_rest: np.ndarray, index: np.ndarray, control_positions: np.ndarray) -> np.ndarray:
-    control = _points(control_positions, "control_positions")
+    control = check_points(control_positions, "control_positions")
     if control.shape != control_rest.shape:
-        raise DeformError(f"control_positions has shape {control.shape}, the binding expects {control_rest.shape}")
+        raise DeformError(
+            f"control_positions has shape {control.shape}, the binding expects {control_rest.shape}"
+        )
     return control[index] - control_rest[index]
 
 

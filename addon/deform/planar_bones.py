@@ -23,12 +23,14 @@ Choices where the paper leaves room (see also `regions.locate`):
   collapsed) its limit is taken as the zero vector.
 """
 
+import zipfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import BinaryIO
 
 import numpy as np
 
+from addon.deform.inputs import COINCIDENCE, DeformError, check_points, check_positive, check_triangles
 from addon.deform.regions import (
     APEX,
     EDGE,
@@ -43,12 +45,7 @@ from addon.deform.regions import (
 FORMAT_VERSION = 1
 MODES = ("planar_bones", "soffd")
 RAISE_MARGIN = 0.1
-COINCIDENCE = 1e-9  # relative to the control mesh extent: closer control points are the same point
 FLATNESS = 1e-10  # ‖cross‖ / (longest edge)² below this is a zero-area triangle
-
-
-class DeformError(ValueError):
-    """Bad input to a deformer: NaN coordinates, bad triangle indices, wrong shapes, bad masks."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,13 +113,15 @@ def bind(
     ``vertex_masks`` maps names to (N,) weights in [0, 1] (vertex-group weights or a mask image sampled
     at the UVs); ``triangle_masks[t]`` names the mask that multiplies triangle t's weights (the paper's
     texture masks at the eye and mouth openings) or is None. ``cover`` (N,) bool marks the vertices that
-    must lie in at least one affection volume (default: all). Raises `DeformError` on bad input.
+    must lie in at least one affection volume (default: all); one that every nearby triangle's mask
+    excludes cannot be covered and stays at rest (counted in `Binding.n_static`). Raises `DeformError`
+    on bad input.
     """
-    rest = _points(rest_vertices, "rest_vertices")
-    control = _points(control_rest, "control_rest")
-    tris = _triangle_indices(triangles, len(control))
-    fraction = _positive(radius_fraction, "radius_fraction")
-    exponent = _positive(falloff_exponent, "falloff_exponent")
+    rest = check_points(rest_vertices, "rest_vertices")
+    control = check_points(control_rest, "control_rest")
+    tris = check_triangles(triangles, len(control))
+    fraction = check_positive(radius_fraction, "radius_fraction")
+    exponent = check_positive(falloff_exponent, "falloff_exponent")
     mask_values = _triangle_mask_values(vertex_masks, triangle_masks, len(tris), len(rest))
     must_cover = _cover(cover, len(rest))
 
@@ -204,11 +203,13 @@ def evaluate(
 
     ``mode`` is ``"planar_bones"`` (eq. 1 / 12 / 13 by region) or ``"soffd"`` (eq. 1 for every region).
     ``out``, if given, is an (N, 3) float64 or float32 array that receives the result and is returned;
-    float32 is the cheaper path for writing straight into Blender's vertex buffer.
+    a float32 ``out`` selects float32 per-pair products (about 1e-7 relative error), the cheaper path for
+    Blender's float32 vertex buffer. Vertices no triangle affects are copied from the rest pose. The
+    binding holds per-frame scratch arrays, so one binding must not be evaluated from two threads at once.
     """
     if mode not in MODES:
         raise DeformError(f"unknown mode {mode!r}; expected one of {MODES}")
-    control = _points(control_positions, "control_positions")
+    control = check_points(control_positions, "control_positions")
     if control.shape != binding.control_rest.shape:
         raise DeformError(
             f"control_positions has shape {control.shape}, the binding expects {binding.control_rest.shape}"
@@ -239,15 +240,12 @@ def evaluate(
     for t, start, stop in arrays["segments"]:
         np.matmul(basis_t[t], coefficients[:, start:stop], out=images[:, start:stop])
 
-    result = np.empty((n, 3)) if out is None or single else out
+    result = np.empty((n, 3)) if out is None else out
     for axis in range(3):  # eq. 8
         result[:, axis] = np.bincount(arrays["vertex"], images[axis], minlength=n)
     static = arrays["static"]
     result[static] = binding.rest_vertices[static]
-    if out is None or result is out:
-        return result
-    out[...] = result
-    return out
+    return result
 
 
 def save_binding(binding: Binding, file: str | BinaryIO) -> None:
@@ -272,7 +270,7 @@ def load_binding(file: str | BinaryIO) -> Binding:
                 raise DeformError(f"binding file lacks {', '.join(missing)}")
             arrays = {name: data[name] for name in _SAVED_ARRAYS}
             n_raised = int(data["n_raised"])
-    except (OSError, ValueError, KeyError) as error:
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as error:
         if isinstance(error, DeformError):
             raise
         raise DeformError(f"cannot read binding: {error}") from error
@@ -444,46 +442,13 @@ def _raised_radius(
         nearest[closer] = t
         nearest_distance[closer] = distance[closer]
     reachable = nearest >= 0
-    np.maximum.at(
-        raised, nearest[reachable], nearest_distance[reachable] * (1.0 + RAISE_MARGIN) + tolerance
-    )
+    np.maximum.at(raised, nearest[reachable], nearest_distance[reachable] * (1.0 + RAISE_MARGIN) + tolerance)
     return raised
 
 
 def _bounding_spheres(frames: TriangleFrames) -> tuple[np.ndarray, np.ndarray]:
     centre = frames.corners.mean(axis=1)
     return centre, np.linalg.norm(frames.corners - centre[:, None, :], axis=-1).max(axis=1)
-
-
-def _points(array: np.ndarray, name: str) -> np.ndarray:
-    points = np.asarray(array, dtype=np.float64)
-    if points.ndim != 2 or points.shape[1] != 3:
-        raise DeformError(f"{name} must have shape (n, 3), got {points.shape}")
-    bad = ~np.isfinite(points).all(axis=1)
-    if bad.any():
-        raise DeformError(f"{name} has non-finite coordinates at rows {np.flatnonzero(bad)[:10].tolist()}")
-    return points
-
-
-def _triangle_indices(triangles: np.ndarray, n_control: int) -> np.ndarray:
-    tris = np.asarray(triangles)
-    if tris.ndim != 2 or tris.shape[1] != 3 or len(tris) == 0:
-        raise DeformError(f"triangles must have shape (T, 3) with T > 0, got {tris.shape}")
-    if not np.issubdtype(tris.dtype, np.integer):
-        raise DeformError(f"triangles must hold integer indices, got {tris.dtype}")
-    bad = ((tris < 0) | (tris >= n_control)).any(axis=1)
-    if bad.any():
-        raise DeformError(
-            f"triangles {np.flatnonzero(bad)[:10].tolist()} index outside 0..{n_control - 1} control points"
-        )
-    return tris.astype(np.intp)
-
-
-def _positive(value: float, name: str) -> float:
-    number = float(value)
-    if not (np.isfinite(number) and number > 0.0):
-        raise DeformError(f"{name} must be a positive finite number, got {value!r}")
-    return number
 
 
 def _triangle_mask_values(

@@ -255,47 +255,37 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
         return (np.zeros(0, np.int64), np.zeros((0, N_FAPS), bool), np.zeros((0, N_FAPS)),
                 np.zeros((0, VISEME_FIELDS)), np.zeros((0, EXPRESSION_FIELDS)))
     masks = _parse_masks(mask_texts, mask_numbers, source)
-    # In blocks of lines, so that the per-token arrays stay in the processor's cache (twice as fast).
-    blocks = [
-        _scan_numbers("\n".join(value_texts[i : i + _BLOCK_LINES]), i)
-        for i in range(0, n_frames, _BLOCK_LINES)
-    ]
-    numbers, well_formed, digits_only, line_of_token = (np.concatenate(parts) for parts in zip(*blocks, strict=True))
-
-    n_tokens = np.bincount(line_of_token, minlength=n_frames)
-    first_token = np.cumsum(n_tokens) - n_tokens
+    frame_numbers, numbers, n_numbers, bad_line = _scan_value_lines(value_texts)
     n_low = masks[:, 2:].sum(axis=1)  # includes a 69th flag, whose value is read and dropped
-    n_high = n_tokens - 1 - n_low
+    n_high = n_numbers - n_low
     form = _FORM_BY_COUNT[2 * masks[:, 0] + masks[:, 1], np.clip(n_high, 0, _MAX_HIGH_LEVEL)]
-    bad_line = (form[:, 0] < 0) | (n_high < 0) | (n_high > _MAX_HIGH_LEVEL)
-    bad_line |= ~digits_only[first_token]
-    bad_line[line_of_token[~well_formed]] = True
+    bad_line |= (form[:, 0] < 0) | (n_high < 0) | (n_high > _MAX_HIGH_LEVEL)
     if bad_line.any():
         i = int(np.argmax(bad_line))
         raise _value_line_error(value_texts[i], value_numbers[i], masks[i], mask_numbers[i], source)
 
-    # Tokens of a line: the frame number, then n_high viseme/expression values, then low-level values.
-    is_low = np.ones(len(numbers), bool)
-    is_low[first_token] = False
+    # After the frame number a line holds n_high viseme/expression values, then the low-level values.
     viseme = np.zeros((n_frames, VISEME_FIELDS))
     expression = np.zeros((n_frames, EXPRESSION_FIELDS))
+    dropped = []  # high-level values and those of a 69th flag
     high_frames = np.flatnonzero(n_high)
     if high_frames.size:
         counts = n_high[high_frames]
         frame = np.repeat(high_frames, counts)
         k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-        token = first_token[frame] + 1 + k
-        is_low[token] = False
+        index = np.repeat((np.cumsum(n_numbers) - n_numbers)[high_frames], counts) + k
         n_viseme = form[frame, 0]
         is_viseme = k < n_viseme
-        viseme[frame[is_viseme], k[is_viseme]] = numbers[token[is_viseme]]
-        expression[frame[~is_viseme], (k - n_viseme)[~is_viseme]] = numbers[token[~is_viseme]]
-    low = np.zeros(masks[:, 2:].shape)
-    low[masks[:, 2:]] = numbers[is_low]  # row-major: each frame's values in FAP order
+        viseme[frame[is_viseme], k[is_viseme]] = numbers[index[is_viseme]]
+        expression[frame[~is_viseme], (k - n_viseme)[~is_viseme]] = numbers[index[~is_viseme]]
+        dropped.append(index)
+    if masks.shape[1] > N_FAPS:
+        dropped.append((np.cumsum(n_numbers) - 1)[masks[:, N_FAPS]])
+    if dropped:
+        numbers = np.delete(numbers, np.concatenate(dropped))
     values = np.zeros((n_frames, N_FAPS))
-    values[:, 2:] = low[:, : N_FAPS - 2]
+    values[:, 2:][masks[:, 2:N_FAPS]] = numbers  # row-major: each frame's values in FAP order
 
-    frame_numbers = numbers[first_token]
     too_large = np.flatnonzero(frame_numbers >= _EXACT_INTEGER)
     if too_large.size:
         raise _error(source, value_numbers[too_large[0]], "frame number is too large")
@@ -310,11 +300,32 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
     return frame_numbers, masks[:, :N_FAPS], values, viseme, expression
 
 
-def _scan_numbers(text: str, first_line: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _scan_value_lines(texts: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Frame numbers (as float64), the other numbers of all lines in order, their count per line, and
+    whether a line holds a malformed token or a frame number that is not a non-negative integer."""
+    frame_numbers, numbers, n_numbers, bad_line = [], [], [], []
+    # In blocks of lines, so that the per-token arrays stay in the processor's cache (twice as fast).
+    for i in range(0, len(texts), _BLOCK_LINES):
+        block = texts[i : i + _BLOCK_LINES]
+        tokens, well_formed, digits_only, line_of_token = _scan_numbers("\n".join(block))
+        n_tokens = np.bincount(line_of_token, minlength=len(block))
+        first_token = np.cumsum(n_tokens) - n_tokens
+        bad = ~digits_only[first_token]
+        bad[line_of_token[~well_formed]] = True
+        bad_line.append(bad)
+        frame_numbers.append(tokens[first_token])
+        n_numbers.append(n_tokens - 1)
+        is_number = np.ones(len(tokens), bool)
+        is_number[first_token] = False
+        numbers.append(tokens[is_number])
+    return tuple(np.concatenate(parts) for parts in (frame_numbers, numbers, n_numbers, bad_line))
+
+
+def _scan_numbers(text: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Check and convert the blank-separated decimal numbers of `text` (lines of numbers) at once.
 
     Returns per token its float64 value (exactly as `float()` gives it), whether it is a finite decimal
-    number, whether it is all digits, and its line index (counted from `first_line`).
+    number, whether it is all digits, and its line index.
 
     The characters of all tokens are walked column by column (character j of every token at once,
     longest tokens first so each step works on a prefix of the arrays), checking the grammar
@@ -330,7 +341,7 @@ def _scan_numbers(text: str, first_line: int = 0) -> tuple[np.ndarray, np.ndarra
     starts = np.flatnonzero(edges == -1)
     ends = np.flatnonzero(edges == 1)
     lengths = ends - starts
-    line_of_token = first_line + np.searchsorted(np.flatnonzero(b == ord("\n")), starts)
+    line_of_token = np.searchsorted(np.flatnonzero(b == ord("\n")), starts)
 
     n = len(starts)
     clipped = np.minimum(lengths, _MAX_TOKEN).astype(np.uint8)

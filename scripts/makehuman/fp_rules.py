@@ -38,9 +38,9 @@ Rules, by group (FP ids of the face's left side; "ring" = a closed quad edge loo
   the lip corner, below the outer eye corner. 5.3 = the forward-facing skin vertex nearest to
   ((3.5.x + 3.7.x) / 2, (3.9.y + 9.3.y) / 2): the cheek bone below and outside the pupil.
 - Nose. 9.3 = the most forward skin vertex (the nose tip stands out further than lips and chin).
-  9.15 = subnasale: on the midline profile between 9.3 and 8.1, the vertex furthest inside the chord 9.3-8.1. 9.1 = the vertex `nose-left-dilatation` moves
-  the most to the side (the outer point of the nose wing, which stretch_l_nose moves). 9.5 = the
-  lowest vertex that `nose-left-dilatation` moves by at least 20 % of that, lateral to half of 9.1.x
+  9.15 = subnasale: on the midline profile between 9.3 and 8.1, the vertex furthest inside the chord
+  9.3-8.1. 9.1 = the vertex `nose-left-dilatation` moves the most to the side (the outer point of
+  the nose wing, which stretch_l_nose moves). 9.5 = the lowest vertex that `nose-left-dilatation` moves by at least 20 % of that, lateral to half of 9.1.x
   (the bottom of the wing, where it meets the lip). Nasion = the deepest (smallest z) vertex of the
   midline profile going up from 9.3 to the height of 4.3. 9.12 = the vertex of that stretch nearest in y
   to the middle of nasion and 9.3. 9.13 / 9.7 = among the skin vertices within 0.02 dm of the height of
@@ -53,10 +53,11 @@ Rules, by group (FP ids of the face's left side; "ring" = a closed quad edge loo
   of 6.2.z (the border at mid-length).
 - Head. 7.1 = the centre of the `joint-head` marker cube (MakeHuman's head joint at the top of the
   spine); it is a point inside the neck, not on a surface.
-- Ears. The ear is the set of vertices `l-ear-trans-up` moves rigidly (>= 99 % of its largest motion); its attachment is the
-  ear vertices next to a vertex moved less. 10.9 / 10.5 = the highest / lowest ear vertex; 10.1 = the
-  highest attachment vertex in front of the ear's mean z; 10.7 = the lowest attachment vertex; 10.3 = the most forward
-  attachment vertex (tragus).
+- Ears. The ear is the set of vertices `l-ear-trans-up` moves rigidly (>= 99 % of its largest
+  motion); its attachment is the ear vertices next to a vertex moved less. 10.9 = the highest ear
+  vertex off the attachment (the free rim of the helix); 10.5 = the lowest ear vertex; 10.1 = the
+  highest attachment vertex in front of the ear's mean z; 10.7 = the lowest attachment vertex; 10.3 =
+  the most forward attachment vertex (tragus).
 - Hairline and skull (a bald mesh: placed where the standard puts them on the skull). 11.1 = the
   midline vertex nearest in y to nasion + (nasion - 9.15) (the upper facial third equals the middle
   one). 11.3 = the forward-facing skin vertex nearest (4.5.x, 11.1.y - (11.1.y - 4.3.y) / 3). 11.4 =
@@ -291,7 +292,7 @@ def derive_left_and_mid(mesh: ObjMesh, targets: dict[str, np.ndarray]) -> dict[s
     ear = set(np.flatnonzero(ear_move >= 0.99 * ear_move.max()).tolist()) & set(skin.vertices.tolist())
     attachment = [v for v in ear if any(w not in ear for w in skin.neighbours[v])]
     ear_centre_z = np.mean([p[v, 2] for v in ear])
-    on_skin("10.9", max(ear, key=lambda v: p[v, 1]))
+    on_skin("10.9", max(ear - set(attachment), key=lambda v: p[v, 1]))
     on_skin("10.5", min(ear, key=lambda v: p[v, 1]))
     on_skin("10.1", max((v for v in attachment if p[v, 2] > ear_centre_z), key=lambda v: p[v, 1]))
     on_skin("10.7", min(attachment, key=lambda v: p[v, 1]))
@@ -315,7 +316,9 @@ def derive_left_and_mid(mesh: ObjMesh, targets: dict[str, np.ndarray]) -> dict[s
     return fp
 
 
-def mirror_placements(mesh: ObjMesh, fp: dict[str, Placement], partners: dict[str, str]) -> dict[str, Placement]:
+def mirror_placements(
+    mesh: ObjMesh, fp: dict[str, Placement], partners: dict[str, str]
+) -> dict[str, Placement]:
     """Add the right-side FPs as the vertex-exact mirror images of their left partners."""
     roles = {"eye_left": "eye_right"}
     head = cut_head(mesh)

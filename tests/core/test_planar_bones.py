@@ -78,7 +78,7 @@ def test_planar_bones_and_soffd_differ_under_stretch(sphere):
 
 # ---------------------------------------------------------------- hand-worked single triangle
 
-O, P, Q = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+O, P, Q = np.array([0.0, 0.0, 0.0]), np.array([2.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])  # noqa: E741
 o, p, q = np.array([0.0, 0.0, 0.0]), np.array([4.0, 0.0, 0.0]), np.array([1.0, 1.0, 0.0])
 FACE_POINT = np.array([0.5, 0.25, 0.3])
 EDGE_POINT = np.array([1.0, -0.5, 0.2])
@@ -113,7 +113,9 @@ def test_hand_worked_edge_region(single_triangle):
     _, planar, soffd = single_triangle
     # Edge 0 = OP, e_0 = (2,0,0), b_0 = unit(e_0 × n) = (0,-1,0); S − O = (1,-0.5,0.2):
     # x = 1/2, y = 0.5, h = 0.2. Deformed: e_0' = (4,0,0), b_0' = (0,-1,0), n' = (0,0,1). Eq. 12:
-    expected = o + 0.5 * np.array([4.0, 0.0, 0.0]) + 0.5 * np.array([0.0, -1.0, 0.0]) + 0.2 * np.array([0, 0, 1])
+    expected = (
+        o + 0.5 * np.array([4.0, 0.0, 0.0]) + 0.5 * np.array([0.0, -1.0, 0.0]) + 0.2 * np.array([0, 0, 1])
+    )
     np.testing.assert_allclose(planar[1], [2.0, -0.5, 0.2], atol=1e-12)
     np.testing.assert_allclose(planar[1], expected, atol=1e-12)
     # SoFFD (eq. 1): (α, β, h) = (0.5, -0.5, 0.2) → 0.5 p − 0.5 q + 0.2 n' shears the point.
@@ -220,7 +222,12 @@ def test_mask_keeps_lower_lip_still_when_upper_lip_moves():
     assert np.linalg.norm(evaluate(unmasked, moved)[0] - rest[0]) > 1e-4  # upper lip pulls lower lip
     upper_lip = np.array([0.0, 0.0, 1.0])  # mask weight of the upper-lip triangle per vertex
     masked = bind(
-        rest, control, triangles, radius_fraction=2.0, vertex_masks={"upper": upper_lip}, triangle_masks=["upper", None]
+        rest,
+        control,
+        triangles,
+        radius_fraction=2.0,
+        vertex_masks={"upper": upper_lip},
+        triangle_masks=["upper", None],
     )
     result = evaluate(masked, moved)
     np.testing.assert_allclose(result[:2], rest[:2], atol=1e-12)
@@ -279,8 +286,9 @@ def test_zero_area_triangle_is_excluded():
 
 def test_coincident_feature_points_do_not_shrink_the_radius():
     # Closed mouth: the inner-lip points of both lips coincide.
-    control = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.02, 0.02, 0.0], [0.0, 0.0, 0.0], [0.04, 0.0, 0.0],
-                        [0.02, -0.02, 0.0], [0.1, 0.0, 0.0]])  # fmt: skip
+    upper = [[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.02, 0.02, 0.0]]
+    lower = [[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.02, -0.02, 0.0]]
+    control = np.array(upper + lower + [[0.1, 0.0, 0.0]])
     triangles = np.array([[0, 1, 2], [3, 5, 4]])
     rest = np.array([[0.02, 0.005, 0.001], [0.02, -0.005, 0.001]])
     binding = bind(rest, control, triangles)

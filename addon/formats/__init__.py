@@ -1,0 +1,1 @@
+"""File formats other than MPEG-4's own (no bpy)."""

@@ -1,0 +1,138 @@
+"""The control-mesh template: real skin FPs, no duplicates, manifold, valid masks; and the checker itself."""
+
+import numpy as np
+import pytest
+
+from addon.mpeg4.control_mesh import (
+    CONTROL_TRIANGLES,
+    MASK_NAMES,
+    TRIANGLE_MASKS,
+    ControlMeshError,
+    check_control_mesh,
+    control_fp_ids,
+    template_indices,
+)
+from addon.mpeg4.feature_points import FEATURE_POINTS, FP_IDS, feature_point
+
+SKIN_IDS = tuple(fp.id for fp in FEATURE_POINTS if fp.surface == "skin")
+UPPER_LIP = {"8.1", "8.5", "8.6", "8.9", "8.10", "2.2", "2.6", "2.7"}
+LOWER_LIP = {"8.2", "8.7", "8.8", "2.3", "2.8", "2.9"}
+UPPER_LID = {"3.1", "3.2", "3.13", "3.14"}
+LOWER_LID = {"3.3", "3.4", "3.9", "3.10"}
+
+
+def test_every_id_is_a_skin_fp_and_every_skin_fp_is_used():
+    used = {fp_id for triangle in CONTROL_TRIANGLES for fp_id in triangle}
+    assert all(feature_point(fp_id).surface == "skin" for fp_id in used)
+    assert used == set(SKIN_IDS)
+    assert control_fp_ids(FP_IDS) == SKIN_IDS
+
+
+def test_no_duplicate_or_degenerate_triangles():
+    keys = [frozenset(triangle) for triangle in CONTROL_TRIANGLES]
+    assert all(len(key) == 3 for key in keys)
+    assert len(set(keys)) == len(keys)
+
+
+def test_template_is_a_consistently_oriented_manifold():
+    ids = control_fp_ids(FP_IDS)
+    triangles = template_indices(ids)
+    # Topology only: random points in general position do not change edge sharing or winding.
+    points = np.random.default_rng(0).normal(size=(len(ids), 3))
+    assert check_control_mesh(points, triangles) == []
+
+
+def test_template_is_mirror_symmetric_up_to_the_midline_quads():
+    mirror = {fp.id: fp.mirror or fp.id for fp in FEATURE_POINTS}
+    triangles = {frozenset(t) for t in CONTROL_TRIANGLES}
+    asymmetric = [t for t in triangles if frozenset(mirror[i] for i in t) not in triangles]
+    # Only the bridge between the brows and the nose bone (no midline FP there) is split one way.
+    assert all(t <= {"4.1", "4.2", "9.6", "9.7", "9.12"} for t in asymmetric)
+
+
+def test_masks_are_valid_and_match_the_lip_and_eyelid_fps():
+    assert len(TRIANGLE_MASKS) == len(CONTROL_TRIANGLES)
+    for triangle, mask in zip(CONTROL_TRIANGLES, TRIANGLE_MASKS, strict=True):
+        fps = set(triangle)
+        assert mask is None or mask in MASK_NAMES
+        expected = [name for name, group in (("upper_lip", UPPER_LIP), ("lower_lip", LOWER_LIP),
+                                             ("upper_eyelid", UPPER_LID), ("lower_eyelid", LOWER_LID))
+                    if fps & group]  # fmt: skip
+        assert expected == ([mask] if mask else []), triangle
+
+
+def test_no_triangle_bridges_the_mouth_or_an_eye():
+    for triangle in CONTROL_TRIANGLES:
+        fps = set(triangle)
+        assert not (fps & UPPER_LIP and fps & LOWER_LIP), triangle
+        assert not (fps & UPPER_LID and fps & LOWER_LID), triangle
+
+
+def test_openings_are_holes_bounded_by_the_inner_contours():
+    edges: dict[frozenset, int] = {}
+    for triangle in CONTROL_TRIANGLES:
+        for k in range(3):
+            edge = frozenset((triangle[k], triangle[(k + 1) % 3]))
+            edges[edge] = edges.get(edge, 0) + 1
+    mouth = ["2.2", "2.6", "2.4", "2.8", "2.3", "2.9", "2.5", "2.7"]
+    left_eye = ["3.11", "3.1", "3.7", "3.3"]
+    for ring in (mouth, left_eye):
+        for a, b in zip(ring, ring[1:] + ring[:1], strict=True):
+            if {a, b} == {"2.2", "2.3"}:
+                continue
+            assert edges.get(frozenset((a, b))) == 1, (a, b)  # a boundary edge of the hole
+    assert frozenset(("2.2", "2.3")) not in edges
+
+
+def _square():
+    points = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    return points, np.array([[0, 1, 2], [0, 2, 3]])
+
+
+def test_checker_accepts_a_hand_made_square():
+    assert check_control_mesh(*_square()) == []
+
+
+def test_checker_reports_flipped_triangle():
+    points, triangles = _square()
+    problems = check_control_mesh(points, np.array([triangles[0], triangles[1][::-1]]))
+    assert any("inconsistent orientation" in p for p in problems)
+
+
+def test_checker_reports_edge_in_three_triangles_and_duplicates():
+    points = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]])
+    triangles = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    assert any("non-manifold" in p for p in check_control_mesh(points, triangles))
+    duplicated = np.array([[0, 1, 2], [2, 1, 0], [0, 3, 1], [0, 1, 4]])
+    assert any("same corners" in p for p in check_control_mesh(points, duplicated))
+
+
+def test_checker_reports_bow_tie_vertex_and_unused_point():
+    points = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [-1, 0, 0], [-1, -1, 0], [5, 5, 5]])
+    problems = check_control_mesh(points, np.array([[0, 1, 2], [0, 3, 4]]))
+    assert any("more than one fan" in p for p in problems)
+    assert any("used by no triangle: [5]" in p for p in problems)
+
+
+def test_checker_reports_degenerate_triangle():
+    points = np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]])
+    assert any("degenerate" in p for p in check_control_mesh(points, np.array([[0, 1, 2]])))
+
+
+@pytest.mark.parametrize(
+    ("points", "triangles"),
+    [
+        (np.zeros((3, 2)), np.array([[0, 1, 2]])),
+        (np.zeros((3, 3)), np.array([[0, 1, 3]])),
+        (np.zeros((3, 3)), np.array([[0.0, 1, 2]])),
+        (np.full((3, 3), np.nan), np.array([[0, 1, 2]])),
+    ],
+)
+def test_checker_rejects_malformed_input(points, triangles):
+    with pytest.raises(ControlMeshError):
+        check_control_mesh(points, triangles)
+
+
+def test_template_indices_names_missing_fps():
+    with pytest.raises(ControlMeshError, match="2.1"):
+        template_indices(tuple(i for i in SKIN_IDS if i != "2.1"))
