@@ -113,10 +113,10 @@ def mask_weights(head: Part, expressions: dict[str, np.ndarray]) -> dict[str, np
 
     The artist's action units say which side of the mouth line and of each eye opening a vertex is on:
     `jaw` = how far `mouth-open` carries it down relative to 2.3, ramping from 0 at 10 % of 2.3's motion
-    (the upper lip sags a little with the jaw) to 1 at 50 %; likewise the upper lids from `eye-*-closure`
-    (3.1, 3.2) and the lower lids from `eye-*-slit` (3.3, 3.4, moving up). upper_lip = 1 - jaw and lower_lip = jaw (lower-lip triangles
-    move only what the jaw carries); upper_eyelid = 1 - lower lid (0 on the lower lids, 1 elsewhere),
-    lower_eyelid = 1 - upper lid.
+    (the upper lip sags a little with the jaw) to 1 at 50 %; likewise the upper lids from
+    `eye-*-closure` (3.1, 3.2) and the lower lids from `eye-*-slit` (3.3, 3.4, moving up).
+    upper_lip = 1 - jaw and lower_lip = jaw (lower-lip triangles move only what the jaw carries);
+    upper_eyelid = 1 - lower lid (0 on the lower lids, 1 elsewhere), lower_eyelid = 1 - upper lid.
     """
     side = {}
     for name, (fp_id, target, sign) in MASK_TARGETS.items():

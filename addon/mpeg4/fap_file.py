@@ -176,7 +176,7 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
         if not lines[-1]:
             lines.pop()
     if not lines:
-        raise _error(source, max(len(text.splitlines()), 1), "empty file: no header line")
+        raise _error(source, 1, "empty file: no header line")
     version, name, fps = _parse_header(lines[0], numbers[0], source)
     if len(lines) % 2 == 0:
         raise _error(source, numbers[-1], "truncated frame: mask line without a value line")
@@ -200,16 +200,17 @@ def _parse_header(text: str, line: int, source: str) -> tuple[str, str, float]:
     return version, name, fps
 
 
-def _parse_mask(text: str, line: int, source: str) -> np.ndarray:
+def _parse_mask(text: str) -> np.ndarray | str:
+    """The flags of a mask line, or what is wrong with it."""
     if _MASK_RE.fullmatch(text):
         flags = text.translate(_BLANKS)
         if len(flags) in _MASK_LENGTHS:
             return np.frombuffer(flags.encode("ascii"), np.uint8) == ord("1")
     tokens = _TOKEN_RE.findall(text)
     if len(tokens) not in _MASK_LENGTHS:
-        raise _error(source, line, f"mask line must have {N_FAPS} or {N_FAPS + 1} flags, found {len(tokens)}")
+        return f"mask line must have {N_FAPS} or {N_FAPS + 1} flags, found {len(tokens)}"
     bad = next(i for i, token in enumerate(tokens) if token not in ("0", "1"))
-    raise _error(source, line, f"mask flag {bad + 1} is {tokens[bad][:20]!r}, expected 0 or 1")
+    return f"mask flag {bad + 1} is {tokens[bad][:20]!r}, expected 0 or 1"
 
 
 def _parse_masks(texts: list[str], numbers, source: str) -> np.ndarray:
@@ -217,13 +218,13 @@ def _parse_masks(texts: list[str], numbers, source: str) -> np.ndarray:
     distinct = list(dict.fromkeys(texts))  # in order of first use
     masks = []
     for text in distinct:
-        line = numbers[texts.index(text)] if masks else numbers[0]
-        masks.append(_parse_mask(text, line, source))
-        if len(masks[-1]) != len(masks[0]):
-            raise _error(
-                source, line, f"mask has {len(masks[-1])} flags but the first mask (line {numbers[0]}) "
-                f"has {len(masks[0])}"
+        mask = _parse_mask(text)
+        if isinstance(mask, str) or len(mask) != len(masks[0] if masks else mask):
+            what = mask if isinstance(mask, str) else (
+                f"mask has {len(mask)} flags but the first mask (line {numbers[0]}) has {len(masks[0])}"
             )
+            raise _error(source, numbers[texts.index(text)], what)
+        masks.append(mask)
     index = {text: i for i, text in enumerate(distinct)}
     return np.array(masks, bool)[np.fromiter(map(index.__getitem__, texts), np.intp, len(texts))]
 

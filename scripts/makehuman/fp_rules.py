@@ -40,12 +40,13 @@ Rules, by group (FP ids of the face's left side; "ring" = a closed quad edge loo
 - Nose. 9.3 = the most forward skin vertex (the nose tip stands out further than lips and chin).
   9.15 = subnasale: on the midline profile between 9.3 and 8.1, the vertex furthest inside the chord
   9.3-8.1. 9.1 = the vertex `nose-left-dilatation` moves the most to the side (the outer point of
-  the nose wing, which stretch_l_nose moves). 9.5 = the lowest vertex that `nose-left-dilatation` moves by at least 20 % of that, lateral to half of 9.1.x
-  (the bottom of the wing, where it meets the lip). Nasion = the deepest (smallest z) vertex of the
-  midline profile going up from 9.3 to the height of 4.3. 9.12 = the vertex of that stretch nearest in y
-  to the middle of nasion and 9.3. 9.13 / 9.7 = among the skin vertices within 0.02 dm of the height of
-  9.12 / 3.11, with 0 < x < 0.6 * 3.11.x and in front of the pupil, the one whose normal points most to
-  the side: the edge of the nose's side wall.
+  the nose wing, which stretch_l_nose moves). 9.5 = the lowest vertex that `nose-left-dilatation`
+  moves by at least 20 % of that, lateral to half of 9.1.x (the bottom of the wing, where it meets
+  the lip). Nasion = the deepest (smallest z) vertex of the midline profile going up from 9.3 to the
+  height of 4.3. 9.12 = the vertex of that stretch nearest in y to the middle of nasion and 9.3.
+  9.13 / 9.7 = among the skin vertices within 0.02 dm of the height of 9.12 / 3.11, with
+  0 < x < 0.6 * 3.11.x and in front of the pupil, the one whose normal points most to the side: the
+  edge of the nose's side wall.
 - Teeth (midline vertices of the front of each teeth mesh, within 0.05 dm of its most forward z):
   9.8 / 9.10 = highest / lowest of the upper teeth, 9.11 / 9.9 = highest / lowest of the lower teeth.
 - Tongue. 6.1 = the most forward midline tongue vertex. 6.2 = the highest midline tongue vertex within

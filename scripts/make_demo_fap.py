@@ -1,0 +1,69 @@
+"""Author the bundled example stream `sample_blends/demo.fap` from low-level FAPs.
+
+    python scripts/make_demo_fap.py [--out sample_blends/demo.fap]
+
+Seven short scenes at 25 fps, each easing in and out (raised cosine): jaw, lips, lip corners (smile),
+cheeks, brows, eyelids (blinks), eyeballs (look around), head turns. Values are in FAPU/AU as the
+standard defines them, so the same stream plays on any face.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from addon.mpeg4.fap_file import FapStream, write_fap  # noqa: E402
+from addon.mpeg4.faps import N_FAPS  # noqa: E402
+
+FPS = 25
+# (duration in seconds, {FAP number: peak value}); a scene's FAPs rise and fall together
+SCENES = (
+    (2.0, {3: 420, 5: -60, 52: -60}),  # open and close the jaw
+    (2.0, {4: 120, 51: 120, 5: -150, 52: -150, 16: 250, 17: 250}),  # lips part and push forward
+    (2.0, {6: 180, 7: 180, 53: 180, 54: 180, 12: 160, 13: 160, 59: 160, 60: 160}),  # smile
+    (2.0, {39: 300, 40: 300, 41: 250, 42: 250}),  # puff and lift the cheeks
+    (2.0, {31: 250, 32: 250, 33: 300, 34: 300, 35: 200, 36: 200, 37: -120, 38: -120}),  # raise the brows
+    (1.5, {19: 1024, 20: 1024, 21: 300, 22: 300}),  # blink
+    (2.0, {23: 25000, 24: 25000, 25: -12000, 26: -12000}),  # look up and to the left
+    (3.0, {49: 30000, 48: 12000, 50: -8000}),  # turn, nod and tilt the head
+)
+
+
+def demo_stream() -> FapStream:
+    blocks = []
+    for seconds, peaks in SCENES:
+        n = int(round(seconds * FPS))
+        ease = 0.5 * (1.0 - np.cos(2.0 * np.pi * np.arange(n) / (n - 1)))
+        block = np.zeros((n, N_FAPS))
+        for number, peak in peaks.items():
+            block[:, number - 1] = np.round(peak * ease)
+        blocks.append(block)
+    values = np.vstack(blocks)
+    frames = len(values)
+    mask = np.zeros((frames, N_FAPS), dtype=bool)
+    used = sorted({number for _, peaks in SCENES for number in peaks})
+    mask[:, [n - 1 for n in used]] = True
+    return FapStream(version="2.1", name="mpeg4_face_demo", fps=float(FPS),
+                     frame_numbers=np.arange(frames, dtype=np.int64), mask=mask, values=values,
+                     viseme=np.zeros((frames, 4)), expression=np.zeros((frames, 6)))  # fmt: skip
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "sample_blends" / "demo.fap")
+    args = parser.parse_args(argv)
+    stream = demo_stream()
+    write_fap(stream, args.out)
+    used = (np.flatnonzero(stream.mask[0]) + 1).tolist()
+    print(f"{args.out}: {len(stream.frame_numbers)} frames at {FPS} fps, FAPs {used}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
