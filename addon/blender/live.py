@@ -22,6 +22,9 @@ from . import face_data
 log = logging.getLogger(__name__)
 
 MODES = {"PLANAR_BONES": "planar_bones", "SOFFD": "soffd"}
+# Empties at rest read back through their world matrices differ from the stored rest by float32
+# rounding (~1e-8 m); within this the face is written as its exact rest shape.
+REST_TOLERANCE = 1e-7
 
 
 @dataclass
@@ -104,7 +107,10 @@ def apply_face(face, force: bool = False) -> bool:
         mode = MODES[settings.mode]
         if not force and state.mode == mode and state.last is not None and np.array_equal(points, state.last):
             return True
-        evaluate(state.binding, points, mode=mode, out=state.out)
+        if np.allclose(points, state.binding.control_rest, rtol=0.0, atol=REST_TOLERANCE):
+            state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
+        else:
+            evaluate(state.binding, points, mode=mode, out=state.out)
         face_data.write_positions(face.data, state.out)
         _write_control(settings.control_object, points)
         state.last, state.mode = points, mode

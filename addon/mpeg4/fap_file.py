@@ -219,11 +219,10 @@ def _parse_masks(texts: list[str], numbers, source: str) -> np.ndarray:
     masks = []
     for text in distinct:
         mask = _parse_mask(text)
-        if isinstance(mask, str) or len(mask) != len(masks[0] if masks else mask):
-            what = mask if isinstance(mask, str) else (
-                f"mask has {len(mask)} flags but the first mask (line {numbers[0]}) has {len(masks[0])}"
-            )
-            raise _error(source, numbers[texts.index(text)], what)
+        if isinstance(mask, np.ndarray) and masks and len(mask) != len(masks[0]):
+            mask = f"mask has {len(mask)} flags but the first mask (line {numbers[0]}) has {len(masks[0])}"
+        if isinstance(mask, str):
+            raise _error(source, numbers[texts.index(text)], mask)
         masks.append(mask)
     index = {text: i for i, text in enumerate(distinct)}
     return np.array(masks, bool)[np.fromiter(map(index.__getitem__, texts), np.intp, len(texts))]

@@ -1,0 +1,181 @@
+"""Set-up, live deformation, FAP import/export and removal on the sample head, through bpy."""
+
+import bpy
+import numpy as np
+import pytest
+
+from addon.blender import face_data, fap_io
+from addon.deform.planar_bones import bind, evaluate
+from addon.mpeg4.decode import fap_to_fp, hold_missing
+from addon.mpeg4.fap_file import read_fap
+from addon.mpeg4.fapu import Fapu
+from addon.mpeg4.feature_points import fp_index
+
+from .helpers import DEMO_FAP, evaluated_positions, open_sample, positions, select, set_up_sample
+
+
+def core_result(head, stream_path, frame_index):
+    """The bpy-free pipeline for one frame: .fap -> FAP values -> FPs -> fresh bind -> evaluate."""
+    stream = read_fap(stream_path)
+    values = hold_missing(stream.mask, stream.values)
+    values[:, 47:50] = 0.0  # head rotation goes to the object transform
+    empties = face_data.fp_empties(head)
+    neutral = fap_io.neutral_positions(head, empties)
+    fapu = Fapu(*head.mpeg4_face.fapu)
+    points = fap_to_fp(neutral, values[[frame_index]], fapu, eye_pivots=fap_io.eye_pivots(head))[0]
+    control = head.mpeg4_face.control_object.data
+    ids = list(control[face_data.FP_IDS_PROP])
+    rest_control = neutral[[fp_index(i) for i in ids]]
+    tris = np.array([list(p.vertices) for p in control.polygons])
+    masks = {g.name: np.array([_weight(head, g.index, v) for v in head.data.vertices]) for g in head.vertex_groups}
+    tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
+    rest = face_data.stored_rest(head.data).astype(np.float64)
+    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks)
+    return evaluate(binding, points[[fp_index(i) for i in ids]])
+
+
+def _weight(ob, group, vertex):
+    for g in vertex.groups:
+        if g.group == group:
+            return g.weight
+    return 0.0
+
+
+def test_setup_builds_control_mesh_fapu_and_binding():
+    head = set_up_sample()
+    s = head.mpeg4_face
+    assert s.enabled and s.status == ""
+    assert face_data.BINDING_KEY_PROP in head.data
+    control = s.control_object
+    assert control is not None and len(control.data.polygons) > 50
+    assert s.left_eye.name == "Eye L" and s.lower_teeth.name == "Teeth Lower" and s.tongue.name == "Tongue"
+    es0 = s.fapu[1]
+    assert 0.055 < es0 < 0.075
+    # set-up alone does not move the face: the control mesh is at rest
+    np.testing.assert_array_equal(positions(head.data), face_data.stored_rest(head.data))
+
+
+def test_moving_an_empty_deforms_and_toggling_off_restores_bit_for_bit():
+    head = set_up_sample()
+    rest = positions(head.data).copy()
+    chin = face_data.fp_empties(head)["2.1"]
+    chin.location.z -= 0.01
+    bpy.context.view_layer.update()
+    moved = np.linalg.norm(positions(head.data) - rest, axis=1)
+    assert moved.max() > 0.004
+    head.mpeg4_face.enabled = False
+    np.testing.assert_array_equal(positions(head.data), rest)
+    head.mpeg4_face.enabled = True
+    assert np.linalg.norm(positions(head.data) - rest, axis=1).max() > 0.004
+
+
+def test_import_then_frames_match_the_core_and_survive_save_and_reload(tmp_path):
+    head = set_up_sample()
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    scene = bpy.context.scene
+    stream = read_fap(DEMO_FAP)
+    for index in (20, 75, 130, 300):  # jaw, smile, brows... (scene fps 24 vs stream 25: compare on keys)
+        frame = scene.frame_start + stream.frame_numbers[index] / stream.fps * scene.render.fps
+        scene.frame_set(int(np.floor(frame)), subframe=float(frame - np.floor(frame)))
+        expected = core_result(head, DEMO_FAP, index)
+        np.testing.assert_allclose(positions(head.data), expected, atol=1e-6)
+    before = positions(head.data).copy()
+    key = head.data[face_data.BINDING_KEY_PROP]
+    path = tmp_path / "saved.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    head = bpy.data.objects["Head"]
+    assert head.data[face_data.BINDING_KEY_PROP] == key  # the stored binding is used, not recomputed
+    scene = bpy.context.scene
+    scene.frame_set(scene.frame_current)
+    np.testing.assert_allclose(positions(head.data), before, atol=1e-6)
+
+
+def test_head_rotation_turns_the_face_object_and_eyes_follow():
+    head = set_up_sample()
+    bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP))
+    scene = bpy.context.scene
+    stream = read_fap(DEMO_FAP)
+    peak = int(np.argmax(stream.values[:, 48]))  # head_yaw peak
+    scene.frame_set(round(scene.frame_start + peak / stream.fps * scene.render.fps))
+    assert head.delta_rotation_euler.z == pytest.approx(stream.values[peak, 48] * 1e-5, abs=0.01)
+    look = int(np.argmax(stream.values[:, 22]))  # yaw_l_eyeball peak
+    scene.frame_set(round(scene.frame_start + look / stream.fps * scene.render.fps))
+    assert bpy.data.objects["Eye L"].delta_rotation_euler.z == pytest.approx(stream.values[look, 22] * 1e-5, abs=0.02)
+
+
+def test_malformed_fap_leaves_the_scene_unchanged(tmp_path):
+    head = set_up_sample()
+    bad = tmp_path / "bad.fap"
+    bad.write_text("2.1 bad 25 2\n" + "0 0 1" + " 0" * 65 + "\n0 100\n" + "0 0 1" + " 0" * 65 + "\n1 abc\n")
+    actions = len(bpy.data.actions)
+    before = {ob.name: tuple(ob.location) for ob in bpy.data.objects}
+    with pytest.raises(RuntimeError) as err:
+        bpy.ops.mpeg4.import_fap(filepath=str(bad))
+    assert "bad.fap" in str(err.value) and "line 5" in str(err.value)
+    assert len(bpy.data.actions) == actions
+    assert {ob.name: tuple(ob.location) for ob in bpy.data.objects} == before
+    assert head.mpeg4_face.enabled
+
+
+def test_deleting_an_fp_or_the_control_mesh_disables_with_a_status():
+    head = set_up_sample()
+    bpy.data.objects.remove(face_data.fp_empties(head)["8.3"])
+    bpy.context.scene.frame_set(2)
+    s = head.mpeg4_face
+    assert not s.enabled and "8.3" in s.status
+    np.testing.assert_array_equal(positions(head.data), face_data.stored_rest(head.data))
+
+    head = set_up_sample()
+    bpy.data.objects.remove(head.mpeg4_face.control_object)
+    bpy.context.scene.frame_set(3)
+    assert not head.mpeg4_face.enabled and "control mesh" in head.mpeg4_face.status
+
+
+def test_remove_restores_the_original_file_state_bit_for_bit():
+    head = open_sample()
+    original = positions(head.data).copy()
+    names = {ob.name for ob in bpy.data.objects}
+    select(head)
+    bpy.ops.mpeg4.setup_face()
+    face_data.fp_empties(head)["2.1"].location.z -= 0.01
+    bpy.context.view_layer.update()
+    assert not np.array_equal(positions(head.data), original)
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    np.testing.assert_array_equal(positions(head.data), original)
+    assert {ob.name for ob in bpy.data.objects} == names  # the sample's own empties and objects stay
+    assert face_data.BINDING_PROP not in head.data and face_data.REST_PROP not in head.data
+    assert bpy.data.objects["Eye L"].animation_data is None or not bpy.data.objects["Eye L"].animation_data.drivers
+
+
+def test_face_with_shape_keys_keeps_them_and_deforms():
+    head = open_sample()
+    select(head)
+    head.shape_key_add(name="Basis")
+    user_key = head.shape_key_add(name="User")
+    user_key.data[0].co.z += 0.001
+    user_key.value = 1.0
+    bpy.ops.mpeg4.setup_face()
+    rest = evaluated_positions(head)
+    face_data.fp_empties(head)["2.1"].location.z -= 0.01
+    bpy.context.view_layer.update()
+    deformed = evaluated_positions(head)
+    assert np.linalg.norm(deformed - rest, axis=1).max() > 0.004
+    bpy.ops.mpeg4.remove_face()
+    assert [k.name for k in head.data.shape_keys.key_blocks] == ["Basis", "User"]
+
+
+def test_fap_export_round_trip(tmp_path):
+    set_up_sample()
+    scene = bpy.context.scene
+    scene.render.fps = 25  # one key per scene frame
+    bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP))
+    stream = read_fap(DEMO_FAP)
+    out = tmp_path / "exported.fap"
+    assert bpy.ops.mpeg4.export_fap(filepath=str(out), frame_start=scene.frame_start,
+                                    frame_end=scene.frame_start + len(stream.frame_numbers) - 1) == {"FINISHED"}
+    again = read_fap(out)
+    sent = stream.mask[0]
+    recovered = again.mask[0] & sent
+    assert recovered[2] and recovered[48] and recovered[22]  # jaw, head yaw, eyeball yaw come back
+    np.testing.assert_allclose(again.values[:, recovered], stream.values[:, recovered], atol=1.0)
