@@ -39,9 +39,11 @@ from makehuman.source import (  # noqa: E402
 )
 from makehuman.targets import load_target  # noqa: E402
 
-from addon.mpeg4.control_mesh import control_fp_ids, template_indices  # noqa: E402
-from addon.mpeg4.fapu import compute_fapu  # noqa: E402
-from addon.mpeg4.feature_points import FEATURE_POINTS, FP_IDS  # noqa: E402
+import addon  # noqa: E402
+from addon.blender import setup  # noqa: E402
+from addon.mpeg4.feature_points import FEATURE_POINTS  # noqa: E402
+
+FAPU_NAMES = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
 HEAD_NAME = "Head"
 PART_NAMES = {
@@ -189,14 +191,10 @@ def build_face(positions: np.ndarray, expressions: dict[str, np.ndarray], head: 
         empty.empty_display_size = 0.002
         empty["mpeg4_fp"] = fp.id
 
-    ids = control_fp_ids(FP_IDS)
-    control = bpy.data.meshes.new(f"{HEAD_NAME} Control")
-    control.from_pydata([local_fps[fp_id].tolist() for fp_id in ids], [], template_indices(ids).tolist())
-    control.validate()
-    control_obj = _child(f"{HEAD_NAME} Control", control, head_obj, (0.0, 0.0, 0.0), scene.collection)
-    control_obj.display_type = "WIRE"
-
-    head_obj["mpeg4_fapu"] = compute_fapu(local_fps).as_dict()
+    # the shipped file is set up by the extension itself: control mesh, FAPU, rest positions, binding
+    head_obj.select_set(True)
+    bpy.context.view_layer.objects.active = head_obj
+    setup.set_up(head_obj)
 
     reference = _child(f"{HEAD_NAME} Reference", _mesh(f"{HEAD_NAME} Reference", head, head_local), head_obj,
                        (0.0, 0.0, 0.0), scene.collection)  # fmt: skip
@@ -236,6 +234,7 @@ def main() -> int:
         print(f"build_sample: {error}", file=sys.stderr)
         return 1
     head, parts = cut_head(mesh), cut_parts(mesh)
+    addon.register()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for face in FACES:
@@ -245,9 +244,9 @@ def main() -> int:
         bpy.ops.wm.read_homefile(use_empty=True)
         build_face(positions, expressions, head, parts)
         write_blend(out / face.filename)
-        fapu = bpy.data.objects[HEAD_NAME]["mpeg4_fapu"].to_dict()
+        fapu = bpy.data.objects[HEAD_NAME].mpeg4_face.fapu
         print(f"{face.filename}: {len(head.mh_index)} head vertices, FAPU (mm) "
-              + ", ".join(f"{k} {1000 * v:.1f}" for k, v in fapu.items()))  # fmt: skip
+              + ", ".join(f"{k} {1000 * v:.1f}" for k, v in zip(FAPU_NAMES, fapu, strict=True)))  # fmt: skip
     return 0
 
 

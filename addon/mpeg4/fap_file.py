@@ -172,9 +172,9 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
         numbers = [n for n, line in enumerate(lines, 1) if line and line[0] != "#"]
         lines = [lines[n - 1] for n in numbers]
     else:  # the usual file: no comment and no blank line except after the last line break
-        numbers = range(1, len(lines) + 1)
         if not lines[-1]:
             lines.pop()
+        numbers = range(1, len(lines) + 1)
     if not lines:
         raise _error(source, 1, "empty file: no header line")
     version, name, fps = _parse_header(lines[0], numbers[0], source)

