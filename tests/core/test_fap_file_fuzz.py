@@ -4,6 +4,7 @@
 module docstring of `addon.mpeg4.fap_file`: both must accept the same inputs and give the same arrays.
 """
 
+import itertools
 import math
 import re
 
@@ -16,8 +17,12 @@ from addon.mpeg4.fap_file import N_FAPS, FapFileError, FapStream, format_fap, pa
 NUMBER = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?", re.ASCII)
 DIGITS = re.compile(r"[0-9]+", re.ASCII)
 BLANKS = re.compile(r"[ \t]+")
-HIGH_LEVEL_FORMS = {(0, 0): [(0, 0)], (1, 0): [(4, 0), (1, 0)], (0, 1): [(0, 6), (0, 1)],
-                    (1, 1): [(4, 6), (4, 1), (1, 6), (1, 1)]}
+HIGH_LEVEL_FORMS = {
+    (0, 0): [(0, 0)],
+    (1, 0): [(4, 0), (1, 0)],
+    (0, 1): [(0, 6), (0, 1)],
+    (1, 1): [(4, 6), (4, 1), (1, 6), (1, 1)],
+}
 
 
 def reference_read(data):
@@ -26,11 +31,12 @@ def reference_read(data):
         if b"\0" in data:
             return None
         try:
-            data = data.decode("utf-8").removeprefix("\ufeff")
+            data = data.decode("utf-8")
         except UnicodeDecodeError:
             return None
     if "\0" in data:
         return None
+    data = data.removeprefix("\ufeff")
     lines = [line.strip(" \t") for line in data.replace("\r\n", "\n").replace("\r", "\n").split("\n")]
     lines = [line for line in lines if line and not line.startswith("#")]
     if not lines:
@@ -73,7 +79,7 @@ def reference_read(data):
         viseme = numbers[:n_viseme] + [0.0] * (4 - n_viseme)
         expression = numbers[n_viseme : n_viseme + n_expression] + [0.0] * (6 - n_expression)
         frames.append((int(tokens[0]), mask[:N_FAPS], values, viseme, expression))
-    if any(b[0] <= a[0] for a, b in zip(frames, frames[1:])):
+    if any(b[0] <= a[0] for a, b in itertools.pairwise(frames)):
         return None
     columns = list(zip(*frames, strict=True)) or [[]] * 5
     return (name, float(header[-2]), *(np.array(column) for column in columns))
@@ -121,16 +127,52 @@ VALID_FILES = [
     f"2.1 1-Welcome_1.fap 25 2\n{mask_text({1, 69}, 69)}\n0 3 7\n{mask_text({1, 2, 3}, 69)}\n4 1 2 -5\n",
     f"2.2 high 25 2\n{mask_text({1, 2, 5})}\n3 1 10 40 0 3 63 6 20 1 0 -2\n{mask_text({2})}\n9 6 1 0 0 0 0\n",
 ]
-JUNK_TOKENS = ["nan", "inf", "1e999", "x", "0.5", "-1", "2", "1,5", "#", "1e", ".", "+", "0", "1", "\t", "",
-               "\r", "\n", "9" * 30, "1" * 70, "\x0c", "\u00a0", "\xff", "٣"]
+JUNK_TOKENS = [
+    "nan",
+    "inf",
+    "1e999",
+    "x",
+    "0.5",
+    "-1",
+    "2",
+    "1,5",
+    "#",
+    "1e",
+    ".",
+    "+",
+    "0",
+    "1",
+    "\t",
+    "",
+    "\r",
+    "\n",
+    "9" * 30,
+    "1" * 70,
+    "\x0c",
+    "\u00a0",
+    "\xff",
+    "٣",
+]
 
 
 @st.composite
 def mutated_files(draw):
     data = draw(st.sampled_from(VALID_FILES))
     for _ in range(draw(st.integers(1, 3))):
-        op = draw(st.sampled_from(["delete token", "duplicate token", "replace token", "delete line",
-                                   "duplicate line", "swap lines", "truncate", "insert"]))
+        op = draw(
+            st.sampled_from(
+                [
+                    "delete token",
+                    "duplicate token",
+                    "replace token",
+                    "delete line",
+                    "duplicate line",
+                    "swap lines",
+                    "truncate",
+                    "insert",
+                ]
+            )
+        )
         tokens = re.split(r"([ \t\r\n]+)", data)  # tokens at even indices, separators at odd ones
         lines = data.split("\n")
         i = draw(st.integers(0, max(len(tokens) - 1, 0)))
@@ -207,5 +249,7 @@ def test_mutated_written_streams(seed, n_frames):
     check(bytes(data))
     for _ in range(3):
         at = int(rng.integers(0, len(data)))
-        data[at : at + int(rng.integers(0, 4))] = rng.choice(np.frombuffer(b"0123456789 .-+e\nx\t\r#", np.uint8), 2).tobytes()
+        data[at : at + int(rng.integers(0, 4))] = rng.choice(
+            np.frombuffer(b"0123456789 .-+e\nx\t\r#", np.uint8), 2
+        ).tobytes()
         check(bytes(data))
