@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# The main job: convert the bundled example FAP stream on the bundled sample head into out/
+# (Alembic, PC2 point cache, MP4 preview and PNG contact sheet).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup_env.sh
+.venv/bin/python scripts/convert.py --face sample_blends/makehuman_head.blend sample_blends/demo.fap -o out "$@"
