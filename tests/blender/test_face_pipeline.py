@@ -6,6 +6,7 @@ import pytest
 
 from addon.blender import face_data, fap_io
 from addon.deform.planar_bones import bind, evaluate
+from addon.geometry.face_region import face_region
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fapu import Fapu
@@ -30,7 +31,8 @@ def core_result(head, stream_path, frame_index):
     masks = {g.name: np.array([_weight(head, g.index, v) for v in head.data.vertices]) for g in head.vertex_groups}
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
     rest = face_data.stored_rest(head.data).astype(np.float64)
-    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks)
+    cover = face_region(rest, rest_control, tris, neutral[fp_index("7.1")])
+    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover)
     return evaluate(binding, points[[fp_index(i) for i in ids]])
 
 
