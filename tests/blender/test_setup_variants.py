@@ -1,0 +1,72 @@
+"""Set-up on other faces: an incomplete FP set, FPs placed by clicking, the second sample face."""
+
+import bpy
+import numpy as np
+import pytest
+
+from addon.blender import face_data
+from addon.mpeg4.decode import fap_to_fp
+from addon.mpeg4.fapu import Fapu
+from addon.mpeg4.feature_points import fp_index
+from addon.mpeg4.openings import spans_opening
+
+from .helpers import DEMO_FAP, ROOT, open_sample, positions, select
+
+
+def test_incomplete_fp_set_gets_a_delaunay_control_mesh_without_crossing_openings():
+    head = open_sample()
+    select(head)
+    bpy.ops.mpeg4.remove_face()
+    empties = face_data.fp_empties(head) or {ob["mpeg4_fp"]: ob for ob in bpy.data.collections["Head FPs"].objects}
+    for fp_id in ("4.5", "4.6", "5.3", "5.4", "9.6", "9.7", "2.13", "2.14"):
+        bpy.data.objects.remove(empties[fp_id])
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    control = head.mpeg4_face.control_object.data
+    ids = list(control[face_data.FP_IDS_PROP])
+    assert "4.5" not in ids and "2.1" in ids
+    tris = [[ids[k] for k in p.vertices] for p in control.polygons]
+    assert len(tris) > 40 and not any(spans_opening(t) for t in tris)
+    face_data.fp_empties(head)["2.1"].location.z -= 0.01
+    bpy.context.view_layer.update()
+    assert np.abs(positions(head.data) - face_data.stored_rest(head.data)).max() > 0.004
+
+
+def test_place_feature_point_creates_snapped_empties_and_setup_needs_them():
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.1, segments=32, ring_count=16)
+    face = bpy.context.active_object
+    face.name = "Ball"
+    with pytest.raises(RuntimeError, match="no feature point empties"):
+        bpy.ops.mpeg4.setup_face()
+    assert "Ball FPs" not in bpy.data.collections  # a failed set-up changes nothing
+    # place a handful of skin points, a little off the surface: they snap onto it
+    layout = {"2.1": (0, -0.09), "8.3": (0.03, -0.05), "8.4": (-0.03, -0.05), "9.3": (0, -0.01),
+              "4.1": (0.02, 0.04), "4.2": (-0.02, 0.04), "5.1": (0.06, -0.03), "5.2": (-0.06, -0.03)}  # fmt: skip
+    for fp_id, (x, z) in layout.items():
+        y = -np.sqrt(0.1**2 - x * x - z * z) - 0.005
+        assert bpy.ops.mpeg4.place_feature_points(fp_id=fp_id, location=(x, y, z)) == {"FINISHED"}
+    empties = face_data.fp_empties(face)
+    assert set(empties) == set(layout)
+    for ob in empties.values():
+        assert ob.parent == face and abs(ob.location.length - 0.1) < 2e-3  # on the (faceted) sphere
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}  # FAPU cannot be measured: a warning, not a failure
+    assert not any(face.mpeg4_face.fapu) and face.mpeg4_face.enabled
+    with pytest.raises(RuntimeError, match="no FAPU"):
+        bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP))
+
+
+def test_open_jaw_moves_each_faces_chin_by_its_own_mns0():
+    for name in ("makehuman_head.blend", "makehuman_head_b.blend"):
+        head = open_sample(ROOT / "sample_blends" / name)
+        select(head)
+        bpy.ops.mpeg4.setup_face()
+        fapu = Fapu(*head.mpeg4_face.fapu)
+        values = np.zeros((1, 68))
+        values[0, 2] = 512
+        empties = face_data.fp_empties(head)
+        neutral = face_data.neutral_array({k: np.array(ob["mpeg4_rest"]) for k, ob in empties.items()})
+        chin = fap_to_fp(neutral, values, fapu)[0, fp_index("2.1")]
+        face_data.fp_empties(head)["2.1"].location = chin
+        bpy.context.view_layer.update()
+        drop = face_data.stored_rest(head.data)[:, 2] - positions(head.data)[:, 2]
+        # the chin goes down by most of the FP's MNS0/2 (neighbouring triangles that stay blend in)
+        assert 0.6 * fapu.MNS0 / 2 < drop.max() < 1.1 * fapu.MNS0 / 2
