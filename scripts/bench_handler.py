@@ -82,7 +82,37 @@ def main(argv=None) -> int:
         handler, total = measure(head, args.frames)
         print(f"| {level} | {len(head.data.vertices)} | {setup:.2f} | {handler * 1e3:.2f} | {1 / handler:.0f} | "
               f"{total * 1e3:.2f} |", flush=True)  # fmt: skip
+    print()
+    print(import_export_timing())
     return 0
+
+
+def import_export_timing(frames: int = 10_000) -> str:
+    """Import and export of a long stream (the demo repeated) on the sample head."""
+    import tempfile
+
+    sys.path.insert(0, str(ROOT / "scripts"))
+    from make_demo_fap import demo_stream
+
+    from addon.mpeg4.fap_file import FapStream, write_fap
+
+    demo = demo_stream()
+    repeat = np.resize(np.arange(len(demo.values)), frames)
+    stream = FapStream("2.1", "long", demo.fps, np.arange(frames), demo.mask[repeat], demo.values[repeat],
+                       np.zeros((frames, 4)), np.zeros((frames, 6)))  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "long.fap"
+        write_fap(stream, path)
+        bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
+        bpy.context.view_layer.objects.active = bpy.data.objects["Head"]
+        bpy.context.scene.render.fps = 25
+        start = time.perf_counter()
+        bpy.ops.mpeg4.import_fap(filepath=str(path))
+        imported = time.perf_counter() - start
+        start = time.perf_counter()
+        bpy.ops.mpeg4.export_fap(filepath=str(Path(tmp) / "out.fap"), frame_start=1, frame_end=frames)
+        exported = time.perf_counter() - start
+    return f"{frames}-frame stream: import (keys 84 empties + head) {imported:.2f} s, export {exported:.2f} s"
 
 
 if __name__ == "__main__":

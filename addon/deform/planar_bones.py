@@ -94,7 +94,7 @@ class Binding:
     @property
     def n_static(self) -> int:
         """Vertices no triangle affects; `evaluate` returns them bit-identical to the rest pose."""
-        return len(self._evaluation["static"])
+        return self._evaluation["n_static"]
 
 
 def bind(
@@ -217,22 +217,22 @@ def evaluate(
     n = binding.n_vertices
     if out is not None and (out.shape != (n, 3) or out.dtype not in (np.float32, np.float64)):
         raise DeformError(f"out must be a float32 or float64 array of shape {(n, 3)}")
-    single = out is not None and out.dtype == np.float32
-    arrays = _evaluation_arrays_for(binding, np.float32 if single else np.float64)
+    arrays = _evaluation_arrays_for(binding, np.float32 if out is not None and out.dtype == np.float32 else None)
     basis = deformation_basis(control[binding.triangles])
-    basis_t = np.ascontiguousarray(basis.transpose(0, 2, 1), dtype=arrays["dtype"])  # (T, 3, 7)
+    basis_t = basis.transpose(0, 2, 1).astype(arrays["dtype"])  # (T, 3, 7)
 
     if mode == "planar_bones":
         coefficients = arrays["bones"]
-        if len(arrays["apex_scale"]):
+        if arrays["n_apex"]:
             # Eq. 13–14: d_j(S) = ‖a b'_j + b b'_{j−1}‖ from the deformed Gram term g' = b'_j · b'_{j−1}.
             edge_normals = basis[:, 4:7]
-            gram = np.einsum("tjk,tjk->tj", edge_normals, np.roll(edge_normals, 1, axis=1)).ravel()
-            squared = arrays["apex_squares"] + arrays["apex_cross"] * gram[arrays["apex_group"]]
-            d = np.sqrt(np.maximum(squared, 0.0))
-            ratio = np.divide(arrays["apex_scale"], d, out=np.zeros_like(d), where=d > 0.0)  # w · D / d
-            np.put(coefficients, arrays["apex_index_a"], ratio * arrays["apex_a"])
-            np.put(coefficients, arrays["apex_index_b"], ratio * arrays["apex_b"])
+            gram = np.einsum("tjk,tjk->tj", edge_normals, edge_normals[:, [2, 0, 1]]).ravel()
+            squared = arrays["apex_squares"] + arrays["apex_cross"] * gram.astype(arrays["dtype"])[arrays["apex_group"]]
+            d = np.sqrt(np.maximum(squared, 0.0, out=squared), out=squared)
+            ratio = arrays["apex_ratio"]  # w · D / d
+            ratio.fill(0.0)
+            np.divide(arrays["apex_scale"], d, out=ratio, where=d > 0.0)
+            np.multiply(arrays["apex_rows"], ratio, out=coefficients[4:7, -arrays["n_apex"] :])
     else:
         coefficients = arrays["soffd"]
         basis_t = basis_t[:, :, :4]
@@ -241,10 +241,8 @@ def evaluate(
         np.matmul(basis_t[t], coefficients[:, start:stop], out=images[:, start:stop])
 
     result = np.empty((n, 3)) if out is None else out
-    for axis in range(3):  # eq. 8
-        result[:, axis] = np.bincount(arrays["vertex"], images[axis], minlength=n)
-    static = arrays["static"]
-    result[static] = binding.rest_vertices[static]
+    for axis in range(3):  # eq. 8; static vertices get 0 from bincount and their rest position from `static`
+        np.add(np.bincount(arrays["vertex"], images[axis], minlength=n), arrays["static"][axis], out=result[:, axis])
     return result
 
 
@@ -315,30 +313,36 @@ _SAVED_ARRAYS = (
 def _evaluation_arrays(binding: Binding) -> dict:
     """Per-pair coefficients on the rows of `regions.deformation_basis`, pre-multiplied by the weight.
 
-    Coordinate-major (rows × pairs) so each triangle's pairs are one matrix product. The apex columns
-    b'_j, b'_{j−1} of eq. 13 hold a·w·D/d and b·w·D/d, which depend on the deformed triangle: `evaluate`
-    rewrites them each frame, so a binding must not be evaluated from two threads at once.
+    Pairs are reordered so that each triangle's pairs are contiguous, first the face and edge pairs of
+    every triangle, then the apex pairs: a frame is one small matrix product per run (coordinate-major,
+    rows × pairs) and one `bincount` per axis. The apex coefficients on b'_j, b'_{j−1} of eq. 13 are
+    a·w·D/d and b·w·D/d, which depend on the deformed triangle: `evaluate` rewrites that trailing block
+    each frame (one broadcast product, no scatter), so a binding must not be evaluated from two
+    threads at once.
     """
     n = len(binding.rest_vertices)
-    vertex = binding.pair_vertex.astype(np.intp)
-    triangle = binding.pair_triangle.astype(np.intp)
-    region = binding.pair_region.astype(np.intp)
-    weight = binding.pair_weight
-    p = len(vertex)
+    p = len(binding.pair_vertex)
     if not (
-        len(triangle) == len(region) == len(weight) == len(binding.pair_apex_distance) == p
+        len(binding.pair_triangle) == len(binding.pair_region) == len(binding.pair_weight) == p
+        and len(binding.pair_apex_distance) == p
         and binding.pair_face_local.shape == binding.pair_region_local.shape == (p, 3)
-        and np.all(np.diff(triangle) >= 0)
-        and (p == 0 or (vertex.min() >= 0 and vertex.max() < n))
+        and np.all(np.diff(binding.pair_triangle) >= 0)
+        and (p == 0 or (binding.pair_vertex.min() >= 0 and binding.pair_vertex.max() < n))
     ):
         raise DeformError("inconsistent binding arrays")
-    pairs = np.arange(p)
-    alpha, beta, height = binding.pair_face_local.T
+    region = binding.pair_region.astype(np.intp)
+    order = np.lexsort((binding.pair_triangle, region >= APEX))  # stable: vertices stay ascending per run
+    vertex = binding.pair_vertex.astype(np.intp)[order]
+    triangle = binding.pair_triangle.astype(np.intp)[order]
+    region = region[order]
+    weight = binding.pair_weight[order]
+    alpha, beta, height = binding.pair_face_local[order].T
+    x, y, h = binding.pair_region_local[order].T
     soffd = np.stack([1.0 - alpha - beta, alpha, beta, height]) * weight  # eq. 1 on [V_0, V_1, V_2, n]
 
     # Eq. 1 / 12 / 13 as coefficients on [V_0, V_1, V_2, n, b_0, b_1, b_2].
+    pairs = np.arange(p)
     j = (region - 1) % 3
-    x, y, h = binding.pair_region_local.T
     is_face = region == FACE
     is_edge = (region >= EDGE) & (region < APEX)
     is_apex = region >= APEX
@@ -352,51 +356,54 @@ def _evaluation_arrays(binding: Binding) -> dict:
     bones[apex_j, apex] = weight[apex]
     bones[3, ~is_face] = h[~is_face] * weight[~is_face]
 
+    a, b = x[apex], y[apex]  # in-plane coordinates on the rows b_j, b_{j−1} of C_j
+    apex_rows = np.zeros((3, len(apex)))  # the b'_0, b'_1, b'_2 coefficients of each apex pair, ÷ (w·D/d)
+    columns = np.arange(len(apex))
+    apex_rows[apex_j, columns] = a
+    apex_rows[(apex_j + 2) % 3, columns] = b
     affected = np.zeros(n, dtype=bool)
     affected[vertex] = True
-    a, b = x[apex], y[apex]  # in-plane coordinates on the rows b_j, b_{j−1} of C_j
+    static = np.where(affected[:, None], 0.0, binding.rest_vertices)
     return {
         "dtype": np.float64,
         "vertex": vertex,
-        "segments": _segments(triangle),
+        "segments": _segments(triangle, is_apex),
         "soffd": np.ascontiguousarray(soffd),
         "bones": bones,
         "images": np.empty((3, p)),
-        "apex_a": a,
-        "apex_b": b,
+        "n_apex": len(apex),
+        "apex_rows": apex_rows,
         "apex_squares": a * a + b * b,
         "apex_cross": 2.0 * a * b,
         "apex_group": triangle[apex] * 3 + apex_j,
-        "apex_scale": weight[apex] * binding.pair_apex_distance[apex],
-        "apex_index_a": (4 + apex_j) * p + apex,
-        "apex_index_b": (4 + (apex_j + 2) % 3) * p + apex,
-        "static": np.flatnonzero(~affected),
+        "apex_scale": weight[apex] * binding.pair_apex_distance[order][apex],
+        "apex_ratio": np.empty(len(apex)),
+        "static": np.ascontiguousarray(static.T),  # (3, N): rest position of unaffected vertices, else 0
+        "n_static": int(np.count_nonzero(~affected)),
     }
 
 
-def _evaluation_arrays_for(binding: Binding, dtype: type) -> dict:
-    """The float64 arrays, or a float32 copy of the per-pair coefficients made on first use."""
+_PER_PAIR = ("soffd", "bones", "images", "apex_rows", "apex_squares", "apex_cross", "apex_scale", "apex_ratio")
+
+
+def _evaluation_arrays_for(binding: Binding, dtype: type | None) -> dict:
+    """The float64 arrays, or a float32 copy of the per-pair arrays made on first use."""
     arrays = binding._evaluation
-    if dtype is np.float64:
+    if dtype is None:
         return arrays
     if "float32" not in arrays:
-        arrays["float32"] = dict(
-            arrays,
-            dtype=np.float32,
-            soffd=arrays["soffd"].astype(np.float32),
-            bones=arrays["bones"].astype(np.float32),
-            images=np.empty(arrays["images"].shape, np.float32),
-        )
+        arrays["float32"] = dict(arrays, dtype=np.float32, **{k: arrays[k].astype(np.float32) for k in _PER_PAIR})
     return arrays["float32"]
 
 
-def _segments(sorted_triangle: np.ndarray) -> list[tuple[int, int, int]]:
-    """(triangle, start, stop) of each run of equal triangle indices."""
-    if len(sorted_triangle) == 0:
+def _segments(triangle: np.ndarray, is_apex: np.ndarray) -> list[tuple[int, int, int]]:
+    """(triangle, start, stop) of each run of equal (apex flag, triangle)."""
+    if len(triangle) == 0:
         return []
-    starts = np.flatnonzero(np.r_[True, sorted_triangle[1:] != sorted_triangle[:-1]])
-    stops = np.r_[starts[1:], len(sorted_triangle)]
-    return [(int(sorted_triangle[s]), int(s), int(e)) for s, e in zip(starts, stops, strict=True)]
+    key = triangle * 2 + is_apex
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    stops = np.r_[starts[1:], len(key)]
+    return [(int(triangle[s]), int(s), int(e)) for s, e in zip(starts, stops, strict=True)]
 
 
 def _initial_radius(

@@ -182,3 +182,24 @@ def test_fap_export_round_trip(tmp_path):
     recovered = again.mask[0] & sent
     assert recovered[2] and recovered[48] and recovered[22]  # jaw, head yaw, eyeball yaw come back
     np.testing.assert_allclose(again.values[:, recovered], stream.values[:, recovered], atol=1.0)
+
+
+def test_two_faces_in_one_scene_keep_their_own_settings():
+    head = set_up_sample()
+    with bpy.data.libraries.load(str(DEMO_FAP.parent / "makehuman_head_b.blend")) as (src, dst):
+        dst.objects = [name for name in src.objects]
+        dst.collections = [name for name in src.collections]
+    scene = bpy.context.scene
+    for ob in dst.objects:
+        if ob.users_collection == ():
+            scene.collection.objects.link(ob)
+    other = next(ob for ob in dst.objects if ob.type == "MESH" and ob.mpeg4_face.control_object is not None)
+    assert other is not head and other.mpeg4_face.fp_collection is not None
+    other.mpeg4_face.mode = "SOFFD"
+    other.mpeg4_face.radius_fraction = 1.5
+    assert head.mpeg4_face.mode == "PLANAR_BONES" and head.mpeg4_face.radius_fraction == 1.0
+    rest_a, rest_b = positions(head.data).copy(), positions(other.data).copy()
+    face_data.fp_empties(other)["2.1"].location.z -= 0.01
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(positions(head.data), rest_a)
+    assert np.abs(positions(other.data) - rest_b).max() > 0.004
