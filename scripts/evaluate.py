@@ -19,7 +19,8 @@ the 95th percentile over all (target, vertex) errors. Targets that do not move t
 
 Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection radii so that "every
 vertex of the targeted face geometry" lies in a volume. `face` (default) takes as that geometry the
-vertices whose nearest control-mesh point is inside a triangle and at most `FACE_COVER_DISTANCE` away;
+vertices at most `FACE_COVER_DISTANCE` from the control mesh whose nearest point on it is not on its
+border (`planar_bones.cover_over_control_mesh`);
 `all` covers the whole head, which raises radii to ~0.2 m to reach scalp and neck and drags them
 along with the face (E > 2 on the development set); `none` keeps the plain radii.
 
@@ -47,7 +48,7 @@ from makehuman.targets import load_target, target_name  # noqa: E402
 from surface_deform import SurfaceDeform, control_object  # noqa: E402
 
 from addon.deform import METHODS  # noqa: E402
-from addon.deform.regions import FACE, locate, triangle_frames  # noqa: E402
+from addon.deform.planar_bones import cover_over_control_mesh  # noqa: E402
 from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices  # noqa: E402
 from addon.mpeg4.feature_points import FP_IDS  # noqa: E402
 
@@ -57,7 +58,7 @@ BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (a
 ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform")
 MASKED_METHODS = {"planar_bones", "soffd"}  # the Planar Bones paper's texture masks; the others take none
 COVERS = ("face", "none", "all")
-FACE_COVER_DISTANCE = 0.015  # metres: skin over the control mesh; the nose tip is ~12 mm in front of it
+FACE_COVER_DISTANCE = 0.015  # metres; the sample face's skin is at most 9 mm in front of its control mesh
 
 
 @dataclass(frozen=True)
@@ -82,21 +83,12 @@ class SampleFace:
             "triangle_masks": list(TRIANGLE_MASKS),
         }
         if cover != "all":
-            params["cover"] = face_cover(self) if cover == "face" else np.zeros(len(self.rest), bool)
+            params["cover"] = (
+                cover_over_control_mesh(self.rest, self.control_rest, self.triangles, FACE_COVER_DISTANCE)
+                if cover == "face"
+                else np.zeros(len(self.rest), bool)
+            )
         return params
-
-
-def face_cover(face: SampleFace) -> np.ndarray:
-    """(N,) True for the vertices over the control mesh: nearest control point inside a triangle, near it."""
-    frames = triangle_frames(face.control_rest[face.triangles])
-    nearest = np.full(len(face.rest), np.inf)
-    region = np.zeros(len(face.rest), np.int8)
-    for t in range(len(face.triangles)):
-        location = locate(frames, t, face.rest)
-        closer = location.distance < nearest
-        nearest[closer] = location.distance[closer]
-        region[closer] = location.region[closer]
-    return (region == FACE) & (nearest <= FACE_COVER_DISTANCE)
 
 
 def load_face(path: Path) -> SampleFace:

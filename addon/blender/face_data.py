@@ -37,9 +37,14 @@ def fp_collection_name(face: bpy.types.Object) -> str:
     return f"{face.name} FPs"
 
 
+def fp_collection(face: bpy.types.Object) -> bpy.types.Collection | None:
+    """The face's FP collection: the one set-up recorded, else the one named '<face> FPs'."""
+    return face.mpeg4_face.fp_collection or bpy.data.collections.get(fp_collection_name(face))
+
+
 def fp_empties(face: bpy.types.Object) -> dict[str, bpy.types.Object]:
     """FP id -> empty in the face's FP collection, by the empties' `mpeg4_fp` property."""
-    coll = face.mpeg4_face.fp_collection
+    coll = fp_collection(face)
     if coll is None:
         return {}
     found = {}

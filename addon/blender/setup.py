@@ -30,14 +30,10 @@ class SetupError(Exception):
     """Set-up cannot proceed; the message says why and what to do."""
 
 
-def find_fp_collection(face) -> bpy.types.Collection | None:
-    return face.mpeg4_face.fp_collection or bpy.data.collections.get(face_data.fp_collection_name(face))
-
-
 def ensure_fp_collection(face) -> bpy.types.Collection:
     """The face's FP collection, created (and linked to the scene) if it does not exist yet."""
     settings = face.mpeg4_face
-    coll = find_fp_collection(face)
+    coll = face_data.fp_collection(face)
     if coll is None:
         coll = bpy.data.collections.new(face_data.fp_collection_name(face))
         coll[face_data.CREATED_PROP] = True
@@ -210,7 +206,7 @@ def set_up(face) -> list[str]:
     if len(face.data.vertices) == 0:
         raise SetupError(f"{face.name} has no vertices")
     settings = face.mpeg4_face
-    coll = find_fp_collection(face)
+    coll = face_data.fp_collection(face)
     if coll is None or not _candidate_empties(coll):
         name = coll.name if coll else face_data.fp_collection_name(face)
         where = f"collection {name!r}"

@@ -193,6 +193,50 @@ def bind(
     )
 
 
+def cover_over_control_mesh(
+    rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, max_distance: float
+) -> np.ndarray:
+    """(N,) True for the vertices "of the targeted face geometry" (§3), as `bind`'s ``cover``.
+
+    A vertex counts when the control mesh is at most ``max_distance`` away and its nearest point on the
+    control mesh is not on the mesh's border (a triangle's inside, an edge two triangles share, or a
+    control point with no border edge). Covering every vertex of a whole head instead raises the radii
+    of the border triangles until they reach the scalp and neck, which then follow the face.
+    """
+    rest = check_points(rest_vertices, "rest_vertices")
+    control = check_points(control_rest, "control_rest")
+    tris = check_triangles(triangles, len(control))
+    reach = check_positive(max_distance, "max_distance")
+    frames = triangle_frames(control[tris])
+    centre, sphere_radius = _bounding_spheres(frames)
+    nearest = np.full(len(rest), np.inf)
+    nearest_triangle = np.zeros(len(rest), np.intp)
+    nearest_region = np.zeros(len(rest), np.intp)
+    for t in range(len(tris)):
+        near = np.flatnonzero(np.linalg.norm(rest - centre[t], axis=1) <= sphere_radius[t] + reach)
+        location = locate(frames, t, rest[near])
+        closer = location.distance < nearest[near]
+        chosen = near[closer]
+        nearest[chosen] = location.distance[closer]
+        nearest_triangle[chosen] = t
+        nearest_region[chosen] = location.region[closer]
+
+    edges = np.sort(np.stack([tris, np.roll(tris, -1, axis=1)], axis=-1), axis=-1)  # (T, 3, 2): edge j
+    unique_edges, edge_index, uses = np.unique(
+        edges.reshape(-1, 2), axis=0, return_inverse=True, return_counts=True
+    )
+    border_edge = (uses == 1)[edge_index.reshape(-1, 3)]  # (T, 3)
+    border_point = np.zeros(len(control), dtype=bool)
+    border_point[unique_edges[uses == 1].ravel()] = True
+    j = (nearest_region - 1) % 3
+    on_border = np.select(
+        [nearest_region == FACE, nearest_region < APEX],
+        [False, border_edge[nearest_triangle, j]],
+        border_point[tris[nearest_triangle, j]],
+    )
+    return (nearest <= reach) & ~on_border
+
+
 def evaluate(
     binding: Binding,
     control_positions: np.ndarray,
