@@ -1,15 +1,15 @@
 """Planar Bones against Blender's Surface Deform on the sample head: bind time and per-frame time.
 
     /work/venv/bin/python scripts/bench.py [--face sample_blends/makehuman_head.blend] [--frames 60]
-        [--levels 0 1 2] [--cover face outline all]
+        [--levels 0 1 2] [--cover face all]
 
 The head is subdivided (Catmull-Clark, a Subdivision Surface modifier applied to a copy) to each level;
 both deformers run in this one process on that mesh against the same control mesh (the template's FPs;
 Planar Bones with the lip and eyelid masks from the vertex groups, which the subdivision interpolates).
 Planar Bones is bound once per coverage choice (`bind(cover=...)`, see `scripts/evaluate.py`): `face`,
-the vertices over the control mesh (the most accurate choice there), `outline`, the face region the
-add-on binds with, and `all`, every vertex (the `bind` default), which raises border radii to reach
-scalp and neck and so binds ~5x more pairs. The control mesh follows a smooth FP animation of a few
+exactly what the add-on binds with (`addon.deform.face_binding`), and `all`, every vertex (the `bind`
+default), which raises border radii to reach scalp and neck and so binds ~5x more pairs. The control
+mesh follows a smooth FP animation of a few
 millimetres per point. At each level everything is bound first, then every frame runs each deformer in
 turn (so a load change on the machine hits all figures alike); each figure is the median over the
 frames, after two warm-up frames.
@@ -50,6 +50,7 @@ from evaluate import (  # noqa: E402
 )
 from surface_deform import SurfaceDeform, copy_object, write_positions  # noqa: E402
 
+from addon.deform.face_binding import FADE_BELOW  # noqa: E402
 from addon.deform.planar_bones import bind, evaluate  # noqa: E402
 from addon.mpeg4.control_mesh import TRIANGLE_MASKS  # noqa: E402
 
@@ -93,6 +94,7 @@ class PlanarBonesRun:
             vertex_masks=masks,
             triangle_masks=list(TRIANGLE_MASKS),
             cover=covered,
+            fade_below=FADE_BELOW if cover == "face" else 0.0,
         )
         self.bind_s = time.perf_counter() - start
         self.buffer = np.empty((len(rest), 3), np.float32)
@@ -173,7 +175,7 @@ def main() -> int:
     parser.add_argument("--face", default=str(DEFAULT_FACE))
     parser.add_argument("--frames", type=int, default=60, help="timed frames (at least 50)")
     parser.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--cover", nargs="+", default=["face", "outline", "all"], choices=COVERS)
+    parser.add_argument("--cover", nargs="+", default=["face", "all"], choices=COVERS)
     args = parser.parse_args()
     if args.frames < 50:
         parser.error("--frames must be at least 50")

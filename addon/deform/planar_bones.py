@@ -19,6 +19,15 @@ Choices where the paper leaves room (see also `regions.locate`):
   covering every vertex raises border radii to the head's size and drags the scalp along with the face
   (and binds ~5x more pairs), so `cover_over_control_mesh` gives the face part: vertices near the control
   mesh whose nearest point on it is not on its border.
+* Partial coverage: with normalised weights (eq. 8) a vertex at the far edge of the union of the
+  affection volumes takes the full motion of a triangle whose weight there is nearly 0, while its
+  neighbour outside stays put, so the surface tears where the covered region ends. The paper avoids
+  this by covering the whole face mesh; for a mesh the control mesh covers only in part (a whole
+  head), ``fade_below=τ`` divides the weights by max(Σw, τ) and gives the remainder to the rest
+  position: eq. 8 exactly wherever Σw ≥ τ (rigid motion reproduced exactly there), and a continuous
+  fade to rest where Σw falls from τ to 0 at the edge of the volumes. Raised radii then reach
+  π / arccos(2 τ^(1/n) − 1) times a covered vertex's distance, so that every ``cover`` vertex keeps
+  Σw ≥ τ (before masks).
 * Zero-area control triangles (collinear or coincident corners) have no plane, so they are excluded
   from influence and counted in `Binding.n_excluded`.
 * At evaluation a control triangle collapsed to a line has no normal: its normal and edge normals are
@@ -114,6 +123,7 @@ def bind(
     vertex_masks: Mapping[str, np.ndarray] | None = None,
     triangle_masks: Sequence[str | None] | None = None,
     cover: np.ndarray | None = None,
+    fade_below: float = 0.0,
 ) -> Binding:
     """Bind (N, 3) rest vertices to the control mesh (M, 3) points / (T, 3) triangles.
 
@@ -121,8 +131,10 @@ def bind(
     at the UVs); ``triangle_masks[t]`` names the mask that multiplies triangle t's weights (the paper's
     texture masks at the eye and mouth openings) or is None. ``cover`` (N,) bool marks the vertices that
     must lie in at least one affection volume (default: all); one that every nearby triangle's mask
-    excludes cannot be covered and stays at rest (counted in `Binding.n_static`). Raises `DeformError`
-    on bad input.
+    excludes cannot be covered and stays at rest (counted in `Binding.n_static`). ``fade_below``
+    (0 = the paper) normalises a vertex's weights by max(their sum, fade_below) and gives the remainder to
+    its rest position, for meshes the control mesh covers only in part (see the module notes). Raises
+    `DeformError` on bad input.
     """
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
@@ -131,6 +143,9 @@ def bind(
     exponent = check_positive(falloff_exponent, "falloff_exponent")
     mask_values = _triangle_mask_values(vertex_masks, triangle_masks, len(tris), len(rest))
     must_cover = _cover(cover, len(rest))
+    fade = float(fade_below)
+    if not 0.0 <= fade < 1.0:  # a single weight reaches 1 only on the triangle itself
+        raise DeformError(f"fade_below must be in [0, 1), got {fade_below!r}")
 
     frames = triangle_frames(control[tris])
     used = np.unique(tris)
@@ -168,11 +183,14 @@ def bind(
 
     active_ids = np.flatnonzero(active)
     pairs = {t: collect(t) for t in active_ids}
-    affected = np.zeros(len(rest), dtype=bool)
+    reached = np.zeros(len(rest))
     for p in pairs.values():
-        affected[p["vertex"]] = True
-    uncovered = np.flatnonzero(must_cover & ~affected)
-    raised_radius = _raised_radius(frames, rest, uncovered, radius, active_ids, mask_values, tolerance)
+        np.add.at(reached, p["vertex"], p["weight"])
+    uncovered = np.flatnonzero(must_cover & ((reached < fade) | (reached == 0.0)))
+    # radius / distance at which a single triangle's eq. 9 weight is fade_below (RAISE_MARGIN at least)
+    reach = np.pi / np.arccos(2.0 * fade ** (1.0 / exponent) - 1.0) if fade > 0.0 else 0.0
+    factor = max(1.0 + RAISE_MARGIN, reach)
+    raised_radius = _raised_radius(frames, rest, uncovered, radius, active_ids, mask_values, tolerance, factor)
     raised = np.flatnonzero(raised_radius > radius)
     radius = raised_radius
     for t in raised:
@@ -197,7 +215,8 @@ def bind(
         pair_vertex=vertex.astype(np.int32),
         pair_triangle=triangle.astype(np.int32),
         pair_region=stacked("region", (0,)).astype(np.int8),
-        pair_weight=weight / total[vertex],  # eq. 8 weights sum to 1 per vertex
+        # eq. 8 weights sum to 1 per vertex (less where the sum of raw weights is below fade_below)
+        pair_weight=weight / np.maximum(total, fade)[vertex],
         pair_face_local=stacked("face_local", (0, 3)),
         pair_region_local=stacked("region_local", (0, 3)),
         pair_apex_distance=stacked("apex_distance", (0,)),
@@ -441,6 +460,9 @@ def _evaluation_arrays(binding: Binding) -> dict:
 
     affected = np.zeros(n, dtype=bool)
     affected[vertex] = True
+    # 1 for unaffected vertices, 0 where the weights were normalised, in between when fading to rest
+    rest_weight = 1.0 - np.bincount(vertex, weight, minlength=n)
+    rest_weight[np.abs(rest_weight) < 1e-12] = 0.0
     return {
         "dtype": np.float64,
         "chunk_triangle": triangle[run_start][chunk_run],
@@ -455,7 +477,7 @@ def _evaluation_arrays(binding: Binding) -> dict:
         "apex_group": padded(triangle[apex] * 3 + apex_j, apex_slot, n_apex_chunks)[:, 0],
         "apex_scale": padded(apex_scale, apex_slot, n_apex_chunks)[:, 0],
         "apex_ratio": np.empty((n_apex_chunks, CHUNK)),
-        "static": np.where(affected, 0.0, binding.rest_vertices.T),  # (3, N) rest pose of unaffected vertices
+        "static": binding.rest_vertices.T * rest_weight,  # (3, N) the rest pose's share of each vertex
         "n_static": int(np.count_nonzero(~affected)),
     }
 
@@ -463,13 +485,12 @@ def _evaluation_arrays(binding: Binding) -> dict:
 _PER_PAIR = (  # the arrays `_evaluation_arrays_for` keeps a float32 copy of
     "soffd",
     "bones",
-    "images",
     "apex_rows",
     "apex_squares",
     "apex_cross",
     "apex_scale",
-    "apex_ratio",
 )
+_SCRATCH = ("images", "apex_ratio")  # per-frame work buffers: allocated, never copied
 
 
 def _evaluation_arrays_for(binding: Binding, dtype: type | None) -> dict:
@@ -479,6 +500,7 @@ def _evaluation_arrays_for(binding: Binding, dtype: type | None) -> dict:
         return arrays
     if "float32" not in arrays:
         single = {name: arrays[name].astype(np.float32) for name in _PER_PAIR}
+        single.update({name: np.empty(arrays[name].shape, dtype=np.float32) for name in _SCRATCH})
         arrays["float32"] = dict(arrays, dtype=np.float32, **single)
     return arrays["float32"]
 
@@ -529,8 +551,10 @@ def _raised_radius(
     active_ids: np.ndarray,
     mask_values: list[np.ndarray | None],
     tolerance: float,
+    factor: float,
 ) -> np.ndarray:
-    """Radii raised so each uncovered vertex lies inside its nearest allowed triangle's volume (§3)."""
+    """Radii raised so each uncovered vertex lies inside its nearest allowed triangle's volume (§3), at
+    `factor` times its distance."""
     raised = radius.copy()
     if len(uncovered) == 0 or len(active_ids) == 0:
         return raised
@@ -548,7 +572,7 @@ def _raised_radius(
         nearest[near[closer]] = t
         nearest_distance[near[closer]] = distance[closer]
     reachable = nearest >= 0
-    np.maximum.at(raised, nearest[reachable], nearest_distance[reachable] * (1.0 + RAISE_MARGIN) + tolerance)
+    np.maximum.at(raised, nearest[reachable], nearest_distance[reachable] * factor + tolerance)
     return raised
 
 

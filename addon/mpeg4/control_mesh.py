@@ -1,6 +1,8 @@
 """The control mesh template: a triangulation of the skin feature points (Planar Bones' control mesh).
 
-`CONTROL_TRIANGLES` are FP-id triples over the 57 skin FPs, wound so that normals face out of the face
+`CONTROL_TRIANGLES` are FP-id triples over the 57 skin FPs, the hairline points 11.1-11.3 that close the
+forehead (on a bald or short-haired head they lie on skin) and the points where the ears meet the head
+(10.1-10.4, 10.7, 10.8) that close the sides of the face, wound so that normals face out of the face
 (counter-clockwise seen from the front). No triangle bridges the mouth opening (the inner lip contour
 2.2-2.9 has upper-lip triangles above it and lower-lip triangles below it only) or an eye opening (the
 upper-lid triangles 3.11/3.1/3.13/3.7 and the lower-lid triangles 3.11/3.3/3.9/3.7 meet only at the eye
@@ -108,6 +110,27 @@ _TEMPLATE: tuple[tuple[tuple[str, str, str], str | None], ...] = (
     (("4.1", "4.2", "9.7"), None),
     (("4.2", "9.6", "9.7"), None),
     (("9.7", "9.6", "9.12"), None),
+    # the forehead, from the brows up to the hairline, so that raised brows stretch the forehead
+    # instead of creasing it where the brow triangles' affection volumes end
+    (("4.1", "11.1", "4.2"), None),
+    (("4.3", "11.1", "4.1"), None),
+    (("4.4", "4.2", "11.1"), None),
+    (("4.3", "11.3", "11.1"), None),
+    (("4.4", "11.1", "11.2"), None),
+    (("4.5", "11.3", "4.3"), None),
+    (("4.6", "4.4", "11.2"), None),
+    # the sides of the face, from the outline (hairline end, outer brow, cheek, jaw corner) back to where
+    # the ear meets the head, so that cheek and lip-corner motion fades over the cheek, not in a crease
+    (("11.3", "4.5", "10.1"), None),
+    (("4.5", "10.3", "10.1"), None),
+    (("4.5", "5.1", "10.3"), None),
+    (("5.1", "10.7", "10.3"), None),
+    (("5.1", "2.13", "10.7"), None),
+    (("4.6", "11.2", "10.2"), None),
+    (("4.6", "10.2", "10.4"), None),
+    (("4.6", "10.4", "5.2"), None),
+    (("5.2", "10.4", "10.8"), None),
+    (("5.2", "10.8", "2.14"), None),
 )
 
 CONTROL_TRIANGLES: tuple[tuple[str, str, str], ...] = tuple(triangle for triangle, _ in _TEMPLATE)

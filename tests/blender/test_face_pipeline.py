@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from addon.blender import face_data, fap_io
-from addon.deform.planar_bones import bind, evaluate
-from addon.geometry.face_region import face_region
+from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fapu import Fapu
@@ -31,8 +30,10 @@ def core_result(head, stream_path, frame_index):
     masks = {g.name: np.array([_weight(head, g.index, v) for v in head.data.vertices]) for g in head.vertex_groups}
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
     rest = face_data.stored_rest(head.data).astype(np.float64)
-    cover = face_region(rest, rest_control, tris, neutral[fp_index("7.1")])
-    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover)
+    # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below 0.05
+    cover = cover_over_control_mesh(rest, rest_control, tris, 0.25 * fapu.ES0)
+    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover,
+                   fade_below=0.05)  # fmt: skip
     return evaluate(binding, points[[fp_index(i) for i in ids]])
 
 

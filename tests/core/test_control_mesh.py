@@ -14,7 +14,10 @@ from addon.mpeg4.control_mesh import (
 )
 from addon.mpeg4.feature_points import FEATURE_POINTS, FP_IDS, feature_point
 
-SKIN_IDS = tuple(fp.id for fp in FEATURE_POINTS if fp.surface == "skin")
+HAIRLINE = ("11.1", "11.2", "11.3")  # the forehead's upper edge
+EAR_CONTACTS = ("10.1", "10.2", "10.3", "10.4", "10.7", "10.8")  # where the ears meet the head
+EDGE_OF_FACE = HAIRLINE + EAR_CONTACTS
+SKIN_IDS = tuple(fp.id for fp in FEATURE_POINTS if fp.surface == "skin" or fp.id in EDGE_OF_FACE)
 UPPER_LIP = {"8.1", "8.5", "8.6", "8.9", "8.10", "2.2", "2.6", "2.7"}
 LOWER_LIP = {"8.2", "8.7", "8.8", "2.3", "2.8", "2.9"}
 UPPER_LID = {"3.1", "3.2", "3.13", "3.14"}
@@ -23,7 +26,7 @@ LOWER_LID = {"3.3", "3.4", "3.9", "3.10"}
 
 def test_every_id_is_a_skin_fp_and_every_skin_fp_is_used():
     used = {fp_id for triangle in CONTROL_TRIANGLES for fp_id in triangle}
-    assert all(feature_point(fp_id).surface == "skin" for fp_id in used)
+    assert all(feature_point(fp_id).surface == "skin" or fp_id in EDGE_OF_FACE for fp_id in used)
     assert used == set(SKIN_IDS)
     assert control_fp_ids(FP_IDS) == SKIN_IDS
 

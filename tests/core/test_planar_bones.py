@@ -464,3 +464,52 @@ def test_load_rejects_other_format_version(sphere, tmp_path):
         load_binding(path)
     with pytest.raises(DeformError, match="cannot read"):
         load_binding(tmp_path / "missing.npz")
+
+
+def test_fade_below_has_no_tear_at_the_edge_of_the_affection_volumes():
+    # two triangles lifted by (0, 0, 1); points walk straight out from one edge to beyond every radius
+    control = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 2, 0]])
+    triangles = np.array([[0, 1, 2], [1, 3, 2]])
+    walk = np.stack([np.full(400, 0.3), -np.linspace(0.01, 4.0, 400), np.zeros(400)], axis=1)
+    moved = control + [0, 0, 1]
+    for fade in (0.0, 0.05, 0.5):
+        binding = bind(walk, control, triangles, cover=np.zeros(len(walk), bool), fade_below=fade)
+        lift = evaluate(binding, moved)[:, 2]
+        total = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(walk))
+        reached = total > 0
+        assert 0 < reached.sum() < len(walk) and np.all(lift[~reached] == 0.0)
+        if fade:
+            # a pure lift moves each vertex by Σw / max(Σw, τ) of the raw weights, 0 at the volumes' edge
+            raw = np.zeros(len(walk))
+            for t, r in enumerate(binding.affection_radius):
+                d = locate(triangle_frames(control[triangles[[t]]]), 0, walk).distance
+                raw += np.where(d < r, (0.5 * (1 + np.cos(np.pi * d / r))) ** 2, 0.0)  # eq. 9, n = 2
+            np.testing.assert_allclose(lift, raw / np.maximum(raw, fade), atol=1e-12)
+            np.testing.assert_allclose(total, lift, atol=1e-12)
+            assert np.max(np.abs(np.diff(lift))) < 0.3  # continuous: no step of the full motion
+        else:
+            np.testing.assert_allclose(lift[reached], 1.0, atol=1e-12)  # eq. 8 alone: full motion, then a jump
+            assert np.max(np.abs(np.diff(lift))) == pytest.approx(1.0)
+
+
+def test_fade_below_is_eq_8_where_the_weights_reach_it(sphere):
+    rest, control, triangles, _ = sphere
+    nothing = np.zeros(len(rest), bool)  # no raised radii: both bindings have the same volumes
+    plain = bind(rest, control, triangles, cover=nothing)
+    faded = bind(rest, control, triangles, fade_below=0.5, cover=nothing)
+    total = np.bincount(faded.pair_vertex, faded.pair_weight, minlength=len(rest))
+    full = np.isclose(total, 1.0, rtol=0, atol=1e-12)
+    assert full.sum() > len(rest) // 2
+    moved = control * 1.2 + [0.01, 0.02, 0.0]
+    np.testing.assert_allclose(evaluate(faded, moved)[full], evaluate(plain, moved)[full], atol=1e-12)
+
+
+def test_fade_below_raises_radii_until_covered_vertices_reach_it():
+    control = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+    far = np.array([[0.2, 0.2, 0.8], [0.2, 0.2, 3.0]])
+    binding = bind(far, control, np.array([[0, 1, 2]]), fade_below=0.05)
+    total = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=2)
+    np.testing.assert_allclose(total, 1.0)  # both reach Σw >= 0.05, so both take the full motion
+    assert binding.affection_radius[0] >= 3.0 * np.pi / np.arccos(2 * 0.05**0.5 - 1) * (1 - 1e-9)
+    with pytest.raises(DeformError, match="fade_below"):
+        bind(far, control, np.array([[0, 1, 2]]), fade_below=1.5)

@@ -1,9 +1,7 @@
-"""Openings, the fallback control mesh over present FPs, and the face region."""
+"""Openings and the fallback control mesh over the FPs present."""
 
 import numpy as np
 
-from addon.geometry.face_region import boundary_loops, face_region
-from addon.mpeg4.frame import BLENDER_FACE_AXES
 from addon.mpeg4.openings import spans_opening, triangle_mask, triangulate_present
 
 
@@ -41,15 +39,3 @@ def test_fallback_triangulation_keeps_closed_lips_apart_and_faces_out():
     centroids = pts[tris].mean(axis=1)
     assert np.all(np.einsum("ij,ij->i", normals, centroids) > 0)  # outward, away from the head's centre
     assert masks == [triangle_mask(t) for t in named]
-
-
-def test_face_region_is_inside_the_outline_and_on_the_face_side():
-    # a square control mesh on the face side, and probe points in front, beside and behind it
-    corners = [face_point(x, z) for x, z in ((-0.04, -0.04), (0.04, -0.04), (0.04, 0.04), (-0.04, 0.04))]
-    points = np.array([*corners, face_point(0, 0)])
-    tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
-    assert [sorted(loop) for loop in boundary_loops(tris)] == [[0, 1, 2, 3]]
-    probes = np.array([face_point(0, 0, 0.105), face_point(0.03, -0.03, 0.095), face_point(0.07, 0, 0.1),
-                       face_point(0, 0.07, 0.1), [0, 0.1, 0], [0, 0.1, 0.02]])  # fmt: skip
-    inside = face_region(probes, points, tris, centre=np.zeros(3), axes=BLENDER_FACE_AXES)
-    np.testing.assert_array_equal(inside, [True, True, False, False, False, False])
