@@ -83,10 +83,12 @@ def select_only(ob):
 
 
 def frame_face(scene, face, resolution: int):
-    """An orthographic camera straight in front of the face (-Y), framing its feature points."""
+    """An orthographic camera straight in front of the face (-Y), framing its skin feature points."""
     from addon.blender import face_data
+    from addon.mpeg4.feature_points import feature_point
 
-    points = np.array([ob.matrix_world.translation for ob in face_data.fp_empties(face).values()])
+    points = np.array([ob.matrix_world.translation for fp_id, ob in face_data.fp_empties(face).items()
+                       if feature_point(fp_id).surface in ("skin", "hair")])  # fmt: skip
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = 0.5 * (lo + hi)
     size = float(max(hi[0] - lo[0], hi[2] - lo[2])) * 1.4
@@ -131,7 +133,7 @@ def render_video(scene, path: Path):
     bpy.ops.render.render(animation=True)
 
 
-def contact_sheet(scene, path: Path, count: int, tile: int = 240):
+def contact_sheet(scene, path: Path, count: int, tile: int = 320):
     """Render `count` frames spread over the range and tile them into one PNG."""
     _image_settings(scene, video=False)
     frames = np.unique(np.linspace(scene.frame_start, scene.frame_end, count).round().astype(int))
