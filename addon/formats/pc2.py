@@ -33,6 +33,7 @@ def write_pc2(path: str, frames: np.ndarray, start: float, rate: float = 1.0) ->
         with os.fdopen(fd, "wb") as fh:
             fh.write(header.tobytes())
             fh.write(np.ascontiguousarray(frames).tobytes())
+        os.chmod(tmp, 0o644)  # mkstemp makes it private; a cache is an ordinary file
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
