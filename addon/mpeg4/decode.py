@@ -127,11 +127,7 @@ def fap_to_fp(
         k = fp_index(fp_id)
         pts[:, [k]] = _rotate(pts[:, [k]], tongue_body, rotation(2, sign * angle[:, 46]))
 
-    if eye_pivots is None:
-        back = EYEBALL_RADIUS_PER_ES0 * fapu.ES0 * np.array([0.0, 0.0, 1.0])
-        face_pivots = face_neutral[[fp_index("3.5"), fp_index("3.6")]] - back
-    else:
-        face_pivots = np.asarray(eye_pivots, dtype=np.float64) @ axes.T
+    face_pivots = eye_centres(face_neutral, fapu, eye_pivots, axes)
     for eye, (fp_id, yaw, pitch) in enumerate((("3.5", 22, 24), ("3.6", 23, 25))):
         k = fp_index(fp_id)
         pivot = face_pivots[eye] + disp[:, k]  # thrust_eyeball (27, 28) carries the whole eyeball
@@ -140,6 +136,15 @@ def fap_to_fp(
 
     pts = _rotate(pts, head_pivot(face_neutral)[None, None], head_rotation(angle[:, 47:50]))
     return pts @ axes
+
+
+def eye_centres(face_neutral: np.ndarray, fapu: Fapu, eye_pivots: np.ndarray | None, axes: np.ndarray) -> np.ndarray:
+    """(2, 3) left/right eyeball centres in the face frame: the given pivots (mesh coordinates), or by
+    default an eyeball radius straight behind each pupil."""
+    if eye_pivots is not None:
+        return np.asarray(eye_pivots, dtype=np.float64) @ axes.T
+    back = EYEBALL_RADIUS_PER_ES0 * fapu.ES0 * np.array([0.0, 0.0, 1.0])
+    return face_neutral[[fp_index("3.5"), fp_index("3.6")]] - back
 
 
 def head_rotation(angles: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .decode import EYEBALL_RADIUS_PER_ES0, fap_scale, translation_basis
+from .decode import eye_centres, fap_scale, translation_basis
 from .faps import FAPS, N_FAPS
 from .fapu import Fapu
 from .feature_points import FP_IDS, N_FEATURE_POINTS, fp_index
@@ -84,11 +84,7 @@ def fp_to_fap(
     if angles:
         values[:, 46] = np.mean(angles, axis=0) / scale[46]
 
-    if eye_pivots is None:
-        back = EYEBALL_RADIUS_PER_ES0 * fapu.ES0 * np.array([0.0, 0.0, 1.0])
-        face_pivots = face_neutral[[fp_index("3.5"), fp_index("3.6")]] - back
-    else:
-        face_pivots = np.asarray(eye_pivots, dtype=np.float64) @ axes.T
+    face_pivots = eye_centres(face_neutral, fapu, eye_pivots, axes)
     for eye, (fp_id, yaw, pitch) in enumerate((("3.5", 22, 24), ("3.6", 23, 25))):
         k = fp_index(fp_id)
         if known[k] and np.all(np.isfinite(face_pivots[eye])):
