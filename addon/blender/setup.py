@@ -17,7 +17,7 @@ import numpy as np
 from ..deform.face_binding import FADE_BELOW, bind_face
 from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
-from ..mpeg4.feature_points import feature_point
+from ..mpeg4.feature_points import FP_IDS, feature_point
 from ..mpeg4.openings import MASK_NAMES, triangulate_present
 from . import face_data, live, rig
 
@@ -48,20 +48,27 @@ def _candidate_empties(coll) -> list:
             if ob.type == "EMPTY" and (face_data.FP_PROP in ob or FP_NAME.match(ob.name))]  # fmt: skip
 
 
+def _needs_parenting(face, ob) -> bool:
+    return ob.parent != face or not _is_identity(ob.matrix_parent_inverse)
+
+
+def check_adoptable(face, coll) -> None:
+    """Refuse, before anything changes, empties that set-up could only adopt by moving their animation."""
+    for ob in _candidate_empties(coll):
+        if _needs_parenting(face, ob) and ob.animation_data and ob.animation_data.action:
+            raise SetupError(f"{ob.name} is animated but not parented to {face.name}: parent it to "
+                             "the face without inverse, then run Set Up again")  # fmt: skip
+
+
 def adopt_empties(face, coll) -> list[str]:
     """Tag empties named 'FP <id>' with their id and parent them to the face (keeping them in place)."""
     notes = []
     inv = face.matrix_world.inverted()
-    for ob in coll.all_objects:
-        if ob.type != "EMPTY":
-            continue
+    for ob in _candidate_empties(coll):
         match = FP_NAME.match(ob.name)
         if face_data.FP_PROP not in ob and match:
             ob[face_data.FP_PROP] = match.group(1)
-        if face_data.FP_PROP in ob and (ob.parent != face or not _is_identity(ob.matrix_parent_inverse)):
-            if ob.animation_data and ob.animation_data.action:
-                raise SetupError(f"{ob.name} is animated but not parented to {face.name}: parent it to "
-                                 "the face without inverse, then run Set Up again")  # fmt: skip
+        if _needs_parenting(face, ob):
             world = ob.matrix_world.copy()
             ob.parent = face
             ob.matrix_parent_inverse.identity()
@@ -207,6 +214,11 @@ def set_up(face) -> list[str]:
         where = f"collection {name!r}"
         raise SetupError(f"no feature point empties in {where}: place them with Place Feature Points "
                          "(or name empties 'FP 2.1', 'FP 9.3', ...)")  # fmt: skip
+    check_adoptable(face, coll)
+    # fail on an unusable FP set before anything changes (the real build below uses snapped positions)
+    placed = {ob.get(face_data.FP_PROP) or FP_NAME.match(ob.name).group(1): np.array(ob.location)
+              for ob in _candidate_empties(coll)}  # fmt: skip
+    build_control(face, {fp_id: p for fp_id, p in placed.items() if fp_id in FP_IDS})
     notes = []
     if settings.enabled:
         settings.enabled = False  # back to rest before anything is measured
@@ -234,8 +246,7 @@ def set_up(face) -> list[str]:
         notes.append(f"FAP import needs FAPU: {exc}")
 
     mesh = face.data
-    if face_data.REST_PROP not in mesh or len(face_data.stored_rest(mesh)) != len(mesh.vertices):
-        face_data.store_rest(mesh)
+    face_data.store_rest(mesh)  # the effect is off: this is the rest shape, with any edits the user made
     if settings.use_masks:
         _masks, missing = vertex_masks(face)
         if missing:
