@@ -65,6 +65,9 @@ class MPEG4_PT_face(bpy.types.Panel):
             sub.prop(settings, "radius_fraction")
             sub.prop(settings, "falloff_exponent")
             sub.prop(settings, "use_masks")
+            row = sub.row()
+            row.active = settings.use_masks
+            row.prop(settings, "mask_image")
 
             if any(settings.fapu):
                 grid = layout.grid_flow(columns=2, align=True)

@@ -56,6 +56,11 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         default=True,
         update=_rebind,
     )
+    mask_image: PointerProperty(
+        name="Mask Image", type=bpy.types.Image, update=_rebind,
+        description="Masks painted as a texture (R: upper lip, G: lower lip, B: upper eyelids, A: lower "
+        "eyelids), sampled at the face's UVs; when empty, the vertex groups of those names are used",
+    )  # fmt: skip
     fp_collection: PointerProperty(name="Feature Points", type=bpy.types.Collection)
     control_object: PointerProperty(name="Control Mesh", type=bpy.types.Object)
     left_eye: PointerProperty(name="Left Eyeball", type=bpy.types.Object,

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 from ..deform.face_binding import FADE_BELOW, bind_face
+from ..deform.masks import image_masks, vertex_uvs
 from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import FP_IDS, feature_point
@@ -161,7 +162,14 @@ def write_control_object(face, coll, ids, points, tris) -> bpy.types.Object:
 
 
 def vertex_masks(face) -> tuple[dict[str, np.ndarray], list[str]]:
-    """Per-vertex mask weights from the vertex groups named like the masks; names of missing groups."""
+    """Per-vertex mask weights by mask name, and the names no mask was found for.
+
+    From the face's mask image when it has one (one channel per mask, sampled at the UVs, paper 000
+    Figure 9), else from the vertex groups named like the masks.
+    """
+    image = face.mpeg4_face.mask_image
+    if image is not None:
+        return _image_masks(face, image), []
     groups = {name: face.vertex_groups.get(name) for name in MASK_NAMES}
     present = {g.index: name for name, g in groups.items() if g is not None}
     n = len(face.data.vertices)
@@ -173,6 +181,23 @@ def vertex_masks(face) -> tuple[dict[str, np.ndarray], list[str]]:
                 if name is not None:
                     masks[name][v.index] = g.weight
     return masks, [name for name, g in groups.items() if g is None]
+
+
+def _image_masks(face, image) -> dict[str, np.ndarray]:
+    mesh = face.data
+    if mesh.uv_layers.active is None:
+        raise SetupError(f"{face.name} has no UV map to sample the mask image {image.name!r} with")
+    width, height = image.size
+    if width == 0 or height == 0:
+        raise SetupError(f"the mask image {image.name!r} has no pixels (is its file missing?)")
+    pixels = np.empty(width * height * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    loop_vertex = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", loop_vertex)
+    loop_uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", loop_uv)
+    uv = vertex_uvs(loop_vertex, loop_uv, len(mesh.vertices))
+    return image_masks(pixels.reshape(height, width, image.channels), uv, MASK_NAMES)
 
 
 def rebind(face) -> None:

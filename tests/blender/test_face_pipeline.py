@@ -204,3 +204,18 @@ def test_two_faces_in_one_scene_keep_their_own_settings():
     bpy.context.view_layer.update()
     np.testing.assert_array_equal(positions(head.data), rest_a)
     assert np.abs(positions(other.data) - rest_b).max() > 0.004
+
+
+def test_changing_a_parameter_rebinds_and_the_mode_switches_the_formula():
+    head = set_up_sample()
+    key, pairs = head.data[face_data.BINDING_KEY_PROP], face_data.load_binding(head.data)[0].n_pairs
+    head.mpeg4_face.radius_fraction = 1.5
+    assert head.data[face_data.BINDING_KEY_PROP] != key
+    assert face_data.load_binding(head.data)[0].n_pairs > pairs  # larger affection volumes
+    corner = face_data.fp_empties(head)["8.3"]
+    corner.location.x += 0.01
+    bpy.context.view_layer.update()
+    planar = positions(head.data).copy()
+    head.mpeg4_face.mode = "SOFFD"
+    assert head.data[face_data.BINDING_KEY_PROP] != key  # the mode needs no new binding...
+    assert np.abs(positions(head.data) - planar).max() > 1e-5  # ...but deforms differently

@@ -72,3 +72,42 @@ def test_open_jaw_moves_each_faces_chin_by_its_own_mns0():
         at_chin = np.argmin(np.linalg.norm(rest - neutral[fp_index("2.1")], axis=1))
         # the skin at 2.1 goes down by most of the FP's MNS0/2 (neighbouring triangles that stay blend in)
         assert 0.6 * fapu.MNS0 / 2 < drop[at_chin] < 1.05 * fapu.MNS0 / 2
+
+
+def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
+    head = open_sample()
+    select(head)
+    by_groups = face_data.load_binding(head.data)[0]
+    # paint the four vertex-group masks into an image, texel by texel at each vertex's UV, and use it
+    mesh = head.data
+    loop_vertex = np.array([loop.vertex_index for loop in mesh.loops])
+    loop_uv = np.array([d.uv[:] for d in mesh.uv_layers.active.data])
+    from addon.deform.masks import vertex_uvs
+
+    uv = vertex_uvs(loop_vertex, loop_uv, len(mesh.vertices))
+    size = 1024
+    pixels = np.ones((size, size, 4), dtype=np.float32)
+    corner = np.floor(uv * size - 0.5).astype(int)  # the 2x2 texels a bilinear sample at uv reads
+    from addon.blender.setup import vertex_masks
+
+    groups, _missing = vertex_masks(head)
+    for channel, name in enumerate(("upper_lip", "lower_lip", "upper_eyelid", "lower_eyelid")):
+        for dx in (0, 1):
+            for dy in (0, 1):
+                x, y = np.clip(corner[:, 0] + dx, 0, size - 1), np.clip(corner[:, 1] + dy, 0, size - 1)
+                pixels[y, x, channel] = groups[name]
+    image = bpy.data.images.new("masks", size, size, alpha=True, float_buffer=True)
+    image.pixels.foreach_set(pixels.ravel())
+    key = head.data[face_data.BINDING_KEY_PROP]
+    head.mpeg4_face.mask_image = image  # rebinds
+    assert head.data[face_data.BINDING_KEY_PROP] != key
+    sampled, missing = vertex_masks(head)
+    assert not missing and set(sampled) == set(groups)
+    for name in groups:  # texels shared by neighbouring vertices blur a few weights; the rest match
+        assert np.mean(np.abs(sampled[name] - groups[name]) < 0.05) > 0.9
+    by_image = face_data.load_binding(head.data)[0]
+    assert by_image.n_pairs == pytest.approx(by_groups.n_pairs, rel=0.1)
+    chin = face_data.fp_empties(head)["2.1"]
+    chin.location.z -= 0.01
+    bpy.context.view_layer.update()
+    assert np.abs(positions(head.data) - face_data.stored_rest(head.data)).max() > 0.004
