@@ -166,7 +166,11 @@ def apply_scene(scene) -> None:
     try:
         for ob in scene.objects:
             if ob.type == "MESH" and ob.mpeg4_face.enabled:
-                apply_face(ob)
+                try:
+                    apply_face(ob)
+                except Exception as exc:  # a bug must not repeat on every frame: log it once, stop the face
+                    log.exception("live deformation of %s failed", ob.name)
+                    disable(ob, f"Deformation turned off after an internal error: {exc}")
     finally:
         _busy = False
 
