@@ -26,8 +26,10 @@ from ..mpeg4.feature_points import FP_IDS, fp_index
 FP_PROP = "mpeg4_fp"
 CREATED_PROP = "mpeg4_created"  # on objects set-up created (and remove may delete)
 FP_IDS_PROP = "mpeg4_fp_ids"
+# "the shape at set-up": on the face's and the control mesh's data the float32 vertex positions, on each
+# FP empty its face-local location (the neutral face)
 REST_PROP = "mpeg4_rest"
-EMPTY_REST_PROP = "mpeg4_rest"  # on each FP empty: its face-local location at set-up (the neutral face)
+EMPTY_REST_PROP = REST_PROP
 BINDING_PROP = "mpeg4_binding"
 BINDING_KEY_PROP = "mpeg4_binding_key"
 SHAPE_KEY_NAME = "MPEG-4 Planar Bones"

@@ -154,8 +154,8 @@ def settings_changed(face, rebind: bool) -> None:
         forget(face)
         face_data.restore_rest(face.data)
         control = face.mpeg4_face.control_object
-        if _linked(control) and "mpeg4_rest" in control.data:
-            _write_control(control, np.asarray(control.data["mpeg4_rest"]).reshape(-1, 3))
+        if _linked(control) and face_data.REST_PROP in control.data:
+            _write_control(control, np.asarray(control.data[face_data.REST_PROP]).reshape(-1, 3))
 
 
 def apply_scene(scene) -> None:

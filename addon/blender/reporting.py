@@ -34,11 +34,9 @@ class Mpeg4Operator:
     """Mix-in for operators: implement `run(context)` returning report lines; errors become reports."""
 
     def execute(self, context):
-        from .setup import SetupError
-
         try:
             notes = self.run(context) or []
-        except (*DOMAIN_ERRORS, SetupError) as exc:
+        except DOMAIN_ERRORS as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         except Exception as exc:

@@ -21,12 +21,13 @@ from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import FP_IDS, feature_point
 from ..mpeg4.openings import MASK_NAMES, triangulate_present
 from . import face_data, live, rig
+from .reporting import UserError
 
 FP_NAME = re.compile(r"^FP (\d+\.\d+)(\.\d+)?$")
 FOLLOWERS = ("left_eye", "right_eye", "lower_teeth", "tongue")
 
 
-class SetupError(Exception):
+class SetupError(UserError):
     """Set-up cannot proceed; the message says why and what to do."""
 
 
@@ -143,7 +144,7 @@ def write_control_object(face, coll, ids, points, tris) -> bpy.types.Object:
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(points.tolist(), [], tris.tolist())
     mesh[face_data.FP_IDS_PROP] = list(ids)
-    mesh["mpeg4_rest"] = points.astype(np.float32).ravel()
+    mesh[face_data.REST_PROP] = points.astype(np.float32).ravel()
     if control is None or face_data.CREATED_PROP not in control:
         control = bpy.data.objects.new(name, mesh)
         control[face_data.CREATED_PROP] = True
@@ -210,7 +211,7 @@ def rebind(face) -> None:
     rest = face_data.reference_positions(mesh)
     if rest is None or len(rest) != len(mesh.vertices):
         raise SetupError("the stored rest positions do not match the mesh: run Set Up Face")
-    points = np.asarray(control.data["mpeg4_rest"], dtype=np.float64).reshape(-1, 3)
+    points = np.asarray(control.data[face_data.REST_PROP], dtype=np.float64).reshape(-1, 3)
     tris = np.array([list(p.vertices) for p in control.data.polygons], dtype=np.int64).reshape(-1, 3)
     tri_masks = list(control.data.get("mpeg4_triangle_masks", [""] * len(tris)))
     masks, _missing = vertex_masks(face) if settings.use_masks else ({}, [])
