@@ -219,3 +219,18 @@ def test_changing_a_parameter_rebinds_and_the_mode_switches_the_formula():
     head.mpeg4_face.mode = "SOFFD"
     assert head.data[face_data.BINDING_KEY_PROP] != key  # the mode needs no new binding...
     assert np.abs(positions(head.data) - planar).max() > 1e-5  # ...but deforms differently
+
+
+INTEROP = DEMO_FAP.parents[2] / "shared" / "interop" / "fap"  # the real files, beside the checkout
+
+
+@pytest.mark.skipif(not INTEROP.is_dir(), reason="the shared interop files are not beside this checkout")
+def test_every_real_world_stream_imports_and_plays_without_nan():
+    head = set_up_sample()
+    scene = bpy.context.scene
+    for path in sorted(INTEROP.rglob("*.fap")):
+        assert bpy.ops.mpeg4.import_fap(filepath=str(path)) == {"FINISHED"}, path
+        for frame in (scene.frame_start, (scene.frame_start + scene.frame_end) // 2, scene.frame_end):
+            scene.frame_set(frame)
+            assert head.mpeg4_face.enabled, (path, head.mpeg4_face.status)
+            assert np.all(np.isfinite(positions(head.data))), path
