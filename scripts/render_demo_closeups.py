@@ -1,0 +1,74 @@
+"""Close-up Workbench renders of the demo stream on the sample head, for the README.
+
+    python scripts/render_demo_closeups.py [--out docs/demo_closeups.png]
+
+One row of the mouth (rest, jaw, pout, smile) and one of the upper face (rest, brows, blink, gaze),
+each tile 400 px, at the peak frame of each scene of `sample_blends/demo.fap`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
+
+import convert  # noqa: E402
+
+TILE = 400
+ROWS = (  # (FP the camera centres on, vertical offset in m, frames: rest and the peaks of the scenes)
+    ("8.1", -0.01, (0, 25, 75, 125)),
+    ("9.12", 0.02, (0, 225, 278, 316)),
+)
+
+
+def render_tile(scene, frame: int, path: Path) -> np.ndarray:
+    scene.frame_set(frame)
+    scene.render.filepath = str(path)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(path))
+    pixels = np.empty(TILE * TILE * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    return pixels.reshape(TILE, TILE, 4)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "demo_closeups.png")
+    args = parser.parse_args(argv)
+    convert._ensure_extension()
+    bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "makehuman_head.blend"))
+    scene, face = bpy.context.scene, bpy.data.objects["Head"]
+    convert.select_only(face)
+    scene.render.fps = 25
+    bpy.ops.mpeg4.import_fap(filepath=str(ROOT / "sample_blends" / "demo.fap"))
+    convert.frame_face(scene, face, TILE)
+    convert.set_engine(scene, "WORKBENCH")
+    convert._image_settings(scene, video=False)
+    camera = scene.camera
+    camera.data.ortho_scale = 0.11
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for fp_id, offset, frames in ROWS:
+            centre = bpy.data.objects[f"FP {fp_id}"].matrix_world.translation
+            camera.location.x, camera.location.z = centre.x, centre.z + offset
+            rows.append(np.concatenate([render_tile(scene, f, Path(tmp) / f"{f}.png") for f in frames], axis=1))
+    sheet = np.concatenate(rows[::-1], axis=0)  # image rows go bottom-up: the first row on top
+    out = bpy.data.images.new("closeups", sheet.shape[1], sheet.shape[0], alpha=True)
+    out.pixels.foreach_set(sheet.ravel())
+    out.filepath_raw = str(args.out)
+    out.file_format = "PNG"
+    out.save()
+    print(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
