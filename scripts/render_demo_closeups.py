@@ -20,11 +20,25 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
 
 import convert  # noqa: E402
+from make_demo_fap import FPS, SCENES  # noqa: E402
 
 TILE = 400
+
+
+def scene_peaks() -> list[int]:
+    """The middle (peak) frame of each scene of the demo stream."""
+    peaks, start = [], 0
+    for seconds, _ in SCENES:
+        n = int(round(seconds * FPS))
+        peaks.append(start + (n - 1) // 2)
+        start += n
+    return peaks
+
+
+PEAK = scene_peaks()  # jaw, pout, smile, cheeks, brows, blink, gaze, head
 ROWS = (  # (FP the camera centres on, vertical offset in m, frames: rest and the peaks of the scenes)
-    ("8.1", -0.01, (0, 25, 75, 125)),
-    ("9.12", 0.02, (0, 225, 278, 316)),
+    ("8.1", -0.01, (0, PEAK[0], PEAK[1], PEAK[2])),
+    ("9.12", 0.02, (0, PEAK[4], PEAK[5], PEAK[6])),
 )
 
 
