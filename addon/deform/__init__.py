@@ -7,8 +7,8 @@ geometry it is built on, `baselines` the RBF and feature-point weighted methods 
 an object with ``evaluate(control_positions, out=None) -> (N, 3)``, so benchmarks can loop by name.
 """
 
-from addon.deform.baselines import bind_fp_weighted, bind_rbf
-from addon.deform.planar_bones import DeformError, bind_planar_bones, bind_soffd
+from .baselines import bind_fp_weighted, bind_rbf
+from .planar_bones import DeformError, bind_planar_bones, bind_soffd
 
 METHODS = {
     "planar_bones": bind_planar_bones,

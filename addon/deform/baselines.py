@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from addon.deform.inputs import COINCIDENCE, DeformError, check_points, check_triangles
+from .inputs import COINCIDENCE, DeformError, check_points, check_triangles
 
 
 @dataclass(frozen=True, eq=False)

@@ -43,8 +43,8 @@ from typing import BinaryIO
 
 import numpy as np
 
-from addon.deform.inputs import COINCIDENCE, DeformError, check_points, check_positive, check_triangles
-from addon.deform.regions import (
+from .inputs import COINCIDENCE, DeformError, check_points, check_positive, check_triangles
+from .regions import (
     APEX,
     EDGE,
     FACE,

@@ -60,6 +60,17 @@ INSTALL = textwrap.dedent("""
     assert hasattr(bpy.types, "MPEG4_PT_face") and hasattr(bpy.types.Object, "mpeg4_face")
     ours = lambda: [h for h in bpy.app.handlers.frame_change_post if h.__module__.startswith(module)]
     assert len(ours()) == 1
+    # the installed package works on its own (no checkout on sys.path): set up the sample and deform it
+    assert "addon" not in sys.modules
+    bpy.ops.wm.open_mainfile(filepath=sys.argv[-2])
+    head = bpy.data.objects["Head"]
+    bpy.context.view_layer.objects.active = head
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    rest = [v.co.z for v in head.data.vertices]
+    bpy.data.objects["FP 2.1"].location.z -= 0.01
+    bpy.context.view_layer.update()
+    assert max(a - v.co.z for a, v in zip(rest, head.data.vertices)) > 0.004
+    assert "addon" not in sys.modules
     addon_utils.disable(module)
     assert not hasattr(bpy.types, "MPEG4_PT_face") and not hasattr(bpy.types, "MPEG4_OT_setup_face")
     assert not hasattr(bpy.types.Object, "mpeg4_face") and not ours()
@@ -69,6 +80,8 @@ INSTALL = textwrap.dedent("""
 
 def test_zip_installs_into_a_fresh_session_and_unregisters_cleanly(built_zip, tmp_path):
     env = {"BLENDER_USER_RESOURCES": str(tmp_path / "user"), "PATH": "/usr/bin:/bin"}
-    result = subprocess.run([sys.executable, "-c", INSTALL, str(built_zip)], capture_output=True, text=True,
-                            env=env, timeout=300)  # fmt: skip
+    sample = ROOT / "sample_blends" / "makehuman_head.blend"
+    # run where the checkout is not importable, so only the installed extension can answer
+    result = subprocess.run([sys.executable, "-c", INSTALL, str(sample), str(built_zip)], capture_output=True,
+                            text=True, env=env, timeout=300, cwd=tmp_path)  # fmt: skip
     assert "INSTALL-OK" in result.stdout, result.stdout[-3000:] + result.stderr[-3000:]
