@@ -139,18 +139,9 @@ def contact_sheet(scene, path: Path, count: int, tile: int = 320):
     frames = np.unique(np.linspace(scene.frame_start, scene.frame_end, count).round().astype(int))
     size = (scene.render.resolution_x, scene.render.resolution_y)
     scene.render.resolution_x = scene.render.resolution_y = tile
-    tiles = []
     scratch = path.with_suffix(".frame.png")
     try:
-        for frame in frames:
-            scene.frame_set(int(frame))
-            scene.render.filepath = str(scratch)
-            bpy.ops.render.render(write_still=True)
-            image = bpy.data.images.load(str(scratch))
-            pixels = np.empty(tile * tile * 4, dtype=np.float32)
-            image.pixels.foreach_get(pixels)
-            bpy.data.images.remove(image)
-            tiles.append(pixels.reshape(tile, tile, 4))
+        tiles = [render_frame(scene, int(frame), scratch) for frame in frames]
     finally:
         scratch.unlink(missing_ok=True)
         scene.render.resolution_x, scene.render.resolution_y = size
@@ -160,12 +151,30 @@ def contact_sheet(scene, path: Path, count: int, tile: int = 320):
     for i, t in enumerate(tiles):  # image rows go bottom-up: first frame at the top left
         r, c = divmod(i, columns)
         sheet[(rows - 1 - r) * tile : (rows - r) * tile, c * tile : (c + 1) * tile] = t
-    out = bpy.data.images.new("MPEG-4 contact sheet", columns * tile, rows * tile, alpha=True)
-    out.pixels.foreach_set(sheet.ravel())
-    out.filepath_raw = str(path)
-    out.file_format = "PNG"
-    out.save()
-    bpy.data.images.remove(out)
+    save_png(sheet, path)
+
+
+def render_frame(scene, frame: int, scratch: Path) -> np.ndarray:
+    """Render `frame` through a scratch PNG and return its (height, width, 4) float pixels (bottom row first)."""
+    scene.frame_set(frame)
+    scene.render.filepath = str(scratch)
+    bpy.ops.render.render(write_still=True)
+    image = bpy.data.images.load(str(scratch))
+    width, height = image.size
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    bpy.data.images.remove(image)
+    return pixels.reshape(height, width, 4)
+
+
+def save_png(pixels: np.ndarray, path: Path) -> None:
+    """Write (height, width, 4) float pixels (bottom row first, as Blender stores images) as a PNG."""
+    image = bpy.data.images.new(path.stem, pixels.shape[1], pixels.shape[0], alpha=True)
+    image.pixels.foreach_set(np.ascontiguousarray(pixels, dtype=np.float32).ravel())
+    image.filepath_raw = str(path)
+    image.file_format = "PNG"
+    image.save()
+    bpy.data.images.remove(image)
 
 
 def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args) -> list[Path]:

@@ -42,17 +42,6 @@ ROWS = (  # (FP the camera centres on, vertical offset in m, frames: rest and th
 )
 
 
-def render_tile(scene, frame: int, path: Path) -> np.ndarray:
-    scene.frame_set(frame)
-    scene.render.filepath = str(path)
-    bpy.ops.render.render(write_still=True)
-    image = bpy.data.images.load(str(path))
-    pixels = np.empty(TILE * TILE * 4, dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    bpy.data.images.remove(image)
-    return pixels.reshape(TILE, TILE, 4)
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "demo_closeups.png")
@@ -73,13 +62,9 @@ def main(argv=None) -> int:
         for fp_id, offset, frames in ROWS:
             centre = bpy.data.objects[f"FP {fp_id}"].matrix_world.translation
             camera.location.x, camera.location.z = centre.x, centre.z + offset
-            rows.append(np.concatenate([render_tile(scene, f, Path(tmp) / f"{f}.png") for f in frames], axis=1))
-    sheet = np.concatenate(rows[::-1], axis=0)  # image rows go bottom-up: the first row on top
-    out = bpy.data.images.new("closeups", sheet.shape[1], sheet.shape[0], alpha=True)
-    out.pixels.foreach_set(sheet.ravel())
-    out.filepath_raw = str(args.out)
-    out.file_format = "PNG"
-    out.save()
+            tiles = [convert.render_frame(scene, f, Path(tmp) / "tile.png") for f in frames]
+            rows.append(np.concatenate(tiles, axis=1))
+    convert.save_png(np.concatenate(rows[::-1], axis=0), args.out)  # image rows go bottom-up: first row on top
     print(args.out)
     return 0
 
