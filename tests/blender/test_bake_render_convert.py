@@ -61,13 +61,7 @@ def test_workbench_render_shows_the_deformed_face(tmp_path):
     convert._image_settings(scene, video=False)
 
     def render(frame):
-        scene.frame_set(frame)
-        scene.render.filepath = str(tmp_path / f"f{frame}.png")
-        bpy.ops.render.render(write_still=True)
-        image = bpy.data.images.load(scene.render.filepath)
-        pixels = np.array(image.pixels[:]).reshape(64, 64, 4)
-        bpy.data.images.remove(image)
-        return pixels
+        return convert.render_frame(scene, frame, tmp_path / f"f{frame}.png")
 
     rest, open_jaw = render(0), render(25)
     changed = np.abs(rest - open_jaw).max(axis=2) > 0.02
