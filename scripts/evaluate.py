@@ -47,6 +47,7 @@ from makehuman.head import to_blender  # noqa: E402
 from makehuman.targets import load_target, target_name  # noqa: E402
 from surface_deform import SurfaceDeform, control_object  # noqa: E402
 
+from addon.blender.face_data import group_weights  # noqa: E402
 from addon.deform import METHODS  # noqa: E402
 from addon.deform.face_binding import FADE_BELOW, face_cover  # noqa: E402
 from addon.mpeg4.control_mesh import (  # noqa: E402
@@ -132,12 +133,7 @@ def read_vertices(mesh: bpy.types.Mesh) -> np.ndarray:
 
 def vertex_masks(obj: bpy.types.Object) -> dict[str, np.ndarray]:
     """(N,) weights of the mask vertex groups (0 where a vertex is not in the group)."""
-    index = {obj.vertex_groups[name].index: name for name in MASK_NAMES if name in obj.vertex_groups}
-    masks = {name: np.zeros(len(obj.data.vertices)) for name in index.values()}
-    for vertex in obj.data.vertices:
-        for element in vertex.groups:
-            if element.group in index:
-                masks[index[element.group]][vertex.index] = element.weight
+    masks = group_weights(obj, MASK_NAMES)
     missing = sorted(set(MASK_NAMES) - masks.keys())
     if missing:
         raise SystemExit(f"{obj.name} lacks the mask vertex groups {', '.join(missing)}")

@@ -75,6 +75,19 @@ def neutral_array(positions: dict[str, np.ndarray]) -> np.ndarray:
     return out
 
 
+def group_weights(ob: bpy.types.Object, names) -> dict[str, np.ndarray]:
+    """(N,) weights of the vertex groups called `names` that `ob` has (0 where a vertex is not in one)."""
+    index = {g.index: g.name for g in ob.vertex_groups if g.name in names}
+    weights = {name: np.zeros(len(ob.data.vertices)) for name in index.values()}
+    if index:
+        for v in ob.data.vertices:
+            for g in v.groups:
+                name = index.get(g.group)
+                if name is not None:
+                    weights[name][v.index] = g.weight
+    return weights
+
+
 # ----------------------------------------------------------------------------- mesh positions
 
 

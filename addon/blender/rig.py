@@ -77,11 +77,6 @@ def follow_gaze(eye, pupil, pivot: np.ndarray) -> None:
     eye[DRIVER_TAG] = pupil.get("mpeg4_fp", pupil.name)
 
 
-def drivers_are_simple(ob) -> bool:
-    anim = ob.animation_data
-    return anim is None or all(fc.driver.is_simple_expression for fc in anim.drivers)
-
-
 def find_followers(face) -> dict[str, bpy.types.Object | None]:
     """Guess the eyeballs, lower teeth and tongue among the face's children by name and side."""
     found = {"left_eye": None, "right_eye": None, "lower_teeth": None, "tongue": None}

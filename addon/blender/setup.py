@@ -162,26 +162,23 @@ def write_control_object(face, coll, ids, points, tris) -> bpy.types.Object:
     return control
 
 
-def vertex_masks(face) -> tuple[dict[str, np.ndarray], list[str]]:
-    """Per-vertex mask weights by mask name, and the names no mask was found for.
+def missing_masks(face) -> list[str]:
+    """The mask names neither the face's mask image nor a vertex group provides."""
+    if face.mpeg4_face.mask_image is not None:
+        return []
+    return [name for name in MASK_NAMES if face.vertex_groups.get(name) is None]
+
+
+def vertex_masks(face) -> dict[str, np.ndarray]:
+    """Per-vertex mask weights by mask name.
 
     From the face's mask image when it has one (one channel per mask, sampled at the UVs, paper 000
     Figure 9), else from the vertex groups named like the masks.
     """
     image = face.mpeg4_face.mask_image
     if image is not None:
-        return _image_masks(face, image), []
-    groups = {name: face.vertex_groups.get(name) for name in MASK_NAMES}
-    present = {g.index: name for name, g in groups.items() if g is not None}
-    n = len(face.data.vertices)
-    masks = {name: np.zeros(n) for name in present.values()}
-    if present:
-        for v in face.data.vertices:
-            for g in v.groups:
-                name = present.get(g.group)
-                if name is not None:
-                    masks[name][v.index] = g.weight
-    return masks, [name for name, g in groups.items() if g is None]
+        return _image_masks(face, image)
+    return face_data.group_weights(face, MASK_NAMES)
 
 
 def _image_masks(face, image) -> dict[str, np.ndarray]:
@@ -214,7 +211,7 @@ def rebind(face) -> None:
     points = np.asarray(control.data[face_data.REST_PROP], dtype=np.float64).reshape(-1, 3)
     tris = np.array([list(p.vertices) for p in control.data.polygons], dtype=np.int64).reshape(-1, 3)
     tri_masks = list(control.data.get("mpeg4_triangle_masks", [""] * len(tris)))
-    masks, _missing = vertex_masks(face) if settings.use_masks else ({}, [])
+    masks = vertex_masks(face) if settings.use_masks else {}
     tri_masks = [m if m in masks else None for m in tri_masks]
     params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent,
               "es0": settings.fapu[1]}  # fmt: skip
@@ -274,7 +271,7 @@ def set_up(face) -> list[str]:
     mesh = face.data
     face_data.store_rest(mesh)  # the effect is off: this is the rest shape, with any edits the user made
     if settings.use_masks:
-        _masks, missing = vertex_masks(face)
+        missing = missing_masks(face)  # names only: the weights are read once, by rebind
         if missing:
             notes.append(f"no vertex groups {', '.join(missing)}: those openings are not masked")
     if face_data.BINDING_KEY_PROP in mesh:

@@ -23,9 +23,6 @@ OPENINGS = ((UPPER_LIP, LOWER_LIP), (UPPER_EYELID, LOWER_EYELID))
 MASK_SETS = {"upper_lip": UPPER_LIP, "lower_lip": LOWER_LIP,
              "upper_eyelid": UPPER_EYELID, "lower_eyelid": LOWER_EYELID}  # fmt: skip
 MASK_NAMES = tuple(MASK_SETS)
-# Points that take part in the control mesh: skin points, not eyes, teeth, tongue, spine, hair top or ears
-# behind the face (the ears and skull points lie off the face surface the control mesh approximates).
-CONTROL_SURFACES = ("skin",)
 
 
 def spans_opening(ids) -> bool:

@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import face_data, fap_io
+from addon.blender import face_data, fap_io, setup
 from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
@@ -27,7 +27,7 @@ def core_result(head, stream_path, frame_index):
     ids = list(control[face_data.FP_IDS_PROP])
     rest_control = neutral[[fp_index(i) for i in ids]]
     tris = np.array([list(p.vertices) for p in control.polygons])
-    masks = {g.name: np.array([_weight(head, g.index, v) for v in head.data.vertices]) for g in head.vertex_groups}
+    masks = setup.vertex_masks(head)
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
     rest = face_data.stored_rest(head.data).astype(np.float64)
     # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below 0.05
@@ -35,13 +35,6 @@ def core_result(head, stream_path, frame_index):
     binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover,
                    fade_below=0.05)  # fmt: skip
     return evaluate(binding, points[[fp_index(i) for i in ids]])
-
-
-def _weight(ob, group, vertex):
-    for g in vertex.groups:
-        if g.group == group:
-            return g.weight
-    return 0.0
 
 
 def test_setup_builds_control_mesh_fapu_and_binding():
@@ -52,6 +45,10 @@ def test_setup_builds_control_mesh_fapu_and_binding():
     control = s.control_object
     assert control is not None and len(control.data.polygons) > 50
     assert s.left_eye.name == "Eye L" and s.lower_teeth.name == "Teeth Lower" and s.tongue.name == "Tongue"
+    # the followers' drivers are simple expressions: they run even where Python scripts are not trusted
+    for ob in (s.left_eye, s.right_eye, s.lower_teeth, s.tongue):
+        drivers = ob.animation_data.drivers
+        assert len(drivers) >= 2 and all(fc.driver.is_simple_expression for fc in drivers)
     es0 = s.fapu[1]
     assert 0.055 < es0 < 0.075
     # set-up alone does not move the face: the control mesh is at rest
