@@ -155,18 +155,20 @@ def bench_level(face: SampleFace, level: int, covers: list[str], positions: np.n
     rows = []
     for run in runs:
         written, updated = np.array(times[run.cover]).T
-        rows.append({
-            "level": level,
-            "vertices": len(rest),
-            "cover": run.cover,
-            "pairs": run.binding.n_pairs,
-            "pb_bind_s": run.bind_s,
-            "sd_bind_s": surface.bind_s,
-            "sd_jittered": surface.deform.jittered,
-            "pb_ms": 1e3 * float(np.median(written)),
-            "pb_evaluated_ms": 1e3 * float(np.median(written + updated)),
-            "sd_ms": sd_ms,
-        })  # fmt: skip
+        rows.append(
+            {
+                "level": level,
+                "vertices": len(rest),
+                "cover": run.cover,
+                "pairs": run.binding.n_pairs,
+                "pb_bind_s": run.bind_s,
+                "sd_bind_s": surface.bind_s,
+                "sd_jittered": surface.deform.jittered,
+                "pb_ms": 1e3 * float(np.median(written)),
+                "pb_evaluated_ms": 1e3 * float(np.median(written + updated)),
+                "sd_ms": sd_ms,
+            }
+        )
     return rows
 
 
@@ -185,11 +187,15 @@ def main() -> int:
 
     print(f"`.venv/bin/python scripts/bench.py {' '.join(sys.argv[1:])}`".replace(" `", "`"))
     print()
-    print(f"Median over {args.frames} frames; control mesh {len(face.control_rest)} FPs, "
-          f"{len(face.triangles)} triangles; numpy {np.__version__}, Blender {bpy.app.version_string}.")  # fmt: skip
+    print(
+        f"Median over {args.frames} frames; control mesh {len(face.control_rest)} FPs, "
+        f"{len(face.triangles)} triangles; numpy {np.__version__}, Blender {bpy.app.version_string}."
+    )
     print()
-    print("| level | vertices | cover | PB pairs | PB bind (s) | SD bind (s) | PB frame (ms) "
-          "| PB frame + depsgraph (ms) | SD frame (ms) | PB/SD | (PB + depsgraph)/SD |")  # fmt: skip
+    print(
+        "| level | vertices | cover | PB pairs | PB bind (s) | SD bind (s) | PB frame (ms) "
+        "| PB frame + depsgraph (ms) | SD frame (ms) | PB/SD | (PB + depsgraph)/SD |"
+    )
     print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
         jitter = " (jittered)" if r["sd_jittered"] else ""

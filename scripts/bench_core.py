@@ -51,9 +51,7 @@ def bumpy_sphere(n: int) -> np.ndarray:
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
     azimuth = np.pi * (1.0 + 5.0**0.5) * k
-    unit = np.stack(
-        [np.sqrt(1.0 - z * z) * np.cos(azimuth), np.sqrt(1.0 - z * z) * np.sin(azimuth), z], axis=1
-    )
+    unit = np.stack([np.sqrt(1.0 - z * z) * np.cos(azimuth), np.sqrt(1.0 - z * z) * np.sin(azimuth), z], axis=1)
     bumps = 1.0 + 0.04 * np.sin(7.0 * unit[:, 0]) * np.cos(5.0 * unit[:, 1]) * np.sin(3.0 * unit[:, 2] + 1.0)
     return RADIUS * unit * bumps[:, None]
 

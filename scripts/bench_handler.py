@@ -80,8 +80,11 @@ def main(argv=None) -> int:
     for level in (0, 1, 2):
         head, setup = prepare(level)
         handler, total = measure(head, args.frames)
-        print(f"| {level} | {len(head.data.vertices)} | {setup:.2f} | {handler * 1e3:.2f} | {1 / handler:.0f} | "
-              f"{total * 1e3:.2f} |", flush=True)  # fmt: skip
+        print(
+            f"| {level} | {len(head.data.vertices)} | {setup:.2f} | {handler * 1e3:.2f} | {1 / handler:.0f} | "
+            f"{total * 1e3:.2f} |",
+            flush=True,
+        )
     print()
     print(import_export_timing())
     return 0
@@ -98,8 +101,16 @@ def import_export_timing(frames: int = 10_000) -> str:
 
     demo = demo_stream()
     repeat = np.resize(np.arange(len(demo.values)), frames)
-    stream = FapStream("2.1", "long", demo.fps, np.arange(frames), demo.mask[repeat], demo.values[repeat],
-                       np.zeros((frames, 4)), np.zeros((frames, 6)))  # fmt: skip
+    stream = FapStream(
+        "2.1",
+        "long",
+        demo.fps,
+        np.arange(frames),
+        demo.mask[repeat],
+        demo.values[repeat],
+        np.zeros((frames, 4)),
+        np.zeros((frames, 6)),
+    )
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "long.fap"
         write_fap(stream, path)

@@ -19,8 +19,17 @@ ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
 PACKAGE = ROOT / "addon"
 
-REQUIRED = ("schema_version", "id", "version", "name", "tagline", "maintainer", "type", "license",
-            "blender_version_min")  # fmt: skip
+REQUIRED = (
+    "schema_version",
+    "id",
+    "version",
+    "name",
+    "tagline",
+    "maintainer",
+    "type",
+    "license",
+    "blender_version_min",
+)
 SEMVER = re.compile(r"^\d+\.\d+\.\d+$")
 
 
@@ -35,8 +44,12 @@ def check_manifest(path: Path = MANIFEST) -> dict:
     except (OSError, tomllib.TOMLDecodeError) as exc:
         raise ManifestError(f"{path}: cannot read: {exc}") from None
     problems = [f"missing required field {key!r}" for key in REQUIRED if key not in data]
-    if "id" in data and not (data["id"].isidentifier() and "__" not in data["id"]
-                             and not data["id"].startswith("_") and not data["id"].endswith("_")):  # fmt: skip
+    if "id" in data and not (
+        data["id"].isidentifier()
+        and "__" not in data["id"]
+        and not data["id"].startswith("_")
+        and not data["id"].endswith("_")
+    ):
         problems.append(f"id {data['id']!r} must be a Python identifier without '__' or edge underscores")
     for key in ("version", "schema_version", "blender_version_min"):
         if key in data and not SEMVER.match(str(data[key])):
@@ -54,8 +67,11 @@ def check_manifest(path: Path = MANIFEST) -> dict:
 
 
 def package_files() -> list[Path]:
-    return sorted(p for p in PACKAGE.rglob("*")
-                  if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".pyc", ".pyo"))  # fmt: skip
+    return sorted(
+        p
+        for p in PACKAGE.rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".pyc", ".pyo")
+    )
 
 
 def build(out_dir: Path) -> Path:

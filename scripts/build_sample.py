@@ -104,10 +104,7 @@ def _mask_target_files() -> tuple[Path, ...]:
 
 def fp_positions(positions_dm: np.ndarray) -> dict[str, np.ndarray]:
     """FP id -> Blender-frame position (m, same frame as `to_blender`) on a mesh with these positions."""
-    return {
-        fp_id: to_blender(positions_dm[list(indices)].mean(axis=0))
-        for fp_id, (_, indices) in FP_TABLE.items()
-    }
+    return {fp_id: to_blender(positions_dm[list(indices)].mean(axis=0)) for fp_id, (_, indices) in FP_TABLE.items()}
 
 
 def mask_weights(head: Part, expressions: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -196,8 +193,13 @@ def build_face(positions: np.ndarray, expressions: dict[str, np.ndarray], head: 
     bpy.context.view_layer.objects.active = head_obj
     setup.set_up(head_obj)
 
-    reference = _child(f"{HEAD_NAME} Reference", _mesh(f"{HEAD_NAME} Reference", head, head_local), head_obj,
-                       (0.0, 0.0, 0.0), scene.collection)  # fmt: skip
+    reference = _child(
+        f"{HEAD_NAME} Reference",
+        _mesh(f"{HEAD_NAME} Reference", head, head_local),
+        head_obj,
+        (0.0, 0.0, 0.0),
+        scene.collection,
+    )
     reference.shape_key_add(name="Basis", from_mix=False)
     for name in EXPRESSION_UNIT_NAMES:
         key = reference.shape_key_add(name=name, from_mix=False)
@@ -228,8 +230,9 @@ def main() -> int:
         if derived != FP_TABLE:
             changed = sorted(fp_id for fp_id in FP_TABLE if derived.get(fp_id) != FP_TABLE[fp_id])
             raise SourceDataError(f"the FP rules no longer give the frozen table for {changed}")
-        expressions = {name: load_target(package / EXPRESSION_UNITS / f"{name}.target.gz", count)
-                       for name in EXPRESSION_UNIT_NAMES}  # fmt: skip
+        expressions = {
+            name: load_target(package / EXPRESSION_UNITS / f"{name}.target.gz", count) for name in EXPRESSION_UNIT_NAMES
+        }
     except SourceDataError as error:
         print(f"build_sample: {error}", file=sys.stderr)
         return 1
@@ -245,8 +248,10 @@ def main() -> int:
         build_face(positions, expressions, head, parts)
         write_blend(out / face.filename)
         fapu = bpy.data.objects[HEAD_NAME].mpeg4_face.fapu
-        print(f"{face.filename}: {len(head.mh_index)} head vertices, FAPU (mm) "
-              + ", ".join(f"{k} {1000 * v:.1f}" for k, v in zip(FAPU_NAMES, fapu, strict=True)))  # fmt: skip
+        print(
+            f"{face.filename}: {len(head.mh_index)} head vertices, FAPU (mm) "
+            + ", ".join(f"{k} {1000 * v:.1f}" for k, v in zip(FAPU_NAMES, fapu, strict=True))
+        )
     return 0
 
 

@@ -59,17 +59,18 @@ class ConvertError(Exception):
     pass
 
 
-
-
 def pick_face(name: str | None):
     if name:
         face = bpy.data.objects.get(name)
         if face is None or face.type != "MESH":
             raise ConvertError(f"no mesh object named {name!r} in the face file")
         return face
-    candidates = [ob for ob in bpy.data.objects if ob.type == "MESH"
-                  and (ob.mpeg4_face.control_object is not None
-                       or bpy.data.collections.get(f"{ob.name} FPs") is not None)]  # fmt: skip
+    candidates = [
+        ob
+        for ob in bpy.data.objects
+        if ob.type == "MESH"
+        and (ob.mpeg4_face.control_object is not None or bpy.data.collections.get(f"{ob.name} FPs") is not None)
+    ]
     if not candidates:
         raise ConvertError("the face file has no face with feature points (a mesh with a '<name> FPs' collection)")
     return candidates[0]
@@ -87,8 +88,13 @@ def frame_face(scene, face, resolution: int):
     from addon.blender import face_data
     from addon.mpeg4.feature_points import feature_point
 
-    points = np.array([ob.matrix_world.translation for fp_id, ob in face_data.fp_empties(face).items()
-                       if feature_point(fp_id).surface in ("skin", "hair")])  # fmt: skip
+    points = np.array(
+        [
+            ob.matrix_world.translation
+            for fp_id, ob in face_data.fp_empties(face).items()
+            if feature_point(fp_id).surface in ("skin", "hair")
+        ]
+    )
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre = 0.5 * (lo + hi)
     size = float(max(hi[0] - lo[0], hi[2] - lo[2])) * 1.4

@@ -49,9 +49,16 @@ def demo_stream() -> FapStream:
     mask = np.zeros((frames, N_FAPS), dtype=bool)
     used = sorted({number for _, peaks in SCENES for number in peaks})
     mask[:, [n - 1 for n in used]] = True
-    return FapStream(version="2.1", name="mpeg4_face_demo", fps=float(FPS),
-                     frame_numbers=np.arange(frames, dtype=np.int64), mask=mask, values=values,
-                     viseme=np.zeros((frames, 4)), expression=np.zeros((frames, 6)))  # fmt: skip
+    return FapStream(
+        version="2.1",
+        name="mpeg4_face_demo",
+        fps=float(FPS),
+        frame_numbers=np.arange(frames, dtype=np.int64),
+        mask=mask,
+        values=values,
+        viseme=np.zeros((frames, 4)),
+        expression=np.zeros((frames, 6)),
+    )
 
 
 def main(argv=None) -> int:

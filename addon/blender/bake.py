@@ -61,8 +61,9 @@ def bake_shape_keys(context, face, frames) -> list[str]:
         for i, frame in enumerate(frames):
             block = face.shape_key_add(name=f"MPEG-4 frame {frame}", from_mix=False)
             block.data.foreach_set("co", positions[i].ravel())
-            fcurve = animation.ensure_fcurve(mesh.shape_keys, f'key_blocks["{block.name}"].value', 0,
-                                             f"{face.name} MPEG-4 bake")  # fmt: skip
+            fcurve = animation.ensure_fcurve(
+                mesh.shape_keys, f'key_blocks["{block.name}"].value', 0, f"{face.name} MPEG-4 bake"
+            )
             keys = np.array([frame - 1, frame, frame + 1], dtype=np.float64)
             animation.set_keys(fcurve, keys, np.array([0.0, 1.0, 0.0]))
             step(i)

@@ -172,8 +172,9 @@ def restore_rest(mesh: bpy.types.Mesh) -> None:
 # ----------------------------------------------------------------------------- binding storage
 
 
-def binding_key(rest: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, params: dict,
-                masks: dict[str, np.ndarray]) -> str:  # fmt: skip
+def binding_key(
+    rest: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, params: dict, masks: dict[str, np.ndarray]
+) -> str:
     """A digest of everything a binding depends on, to tell whether a stored binding is still valid."""
     h = hashlib.blake2b(digest_size=16)
     for arr in (rest, control_rest, triangles, *(masks[k] for k in sorted(masks))):

@@ -31,15 +31,17 @@ HEAD_FAPS = slice(47, 50)
 def face_fapu(face) -> Fapu:
     values = tuple(face.mpeg4_face.fapu)
     if not all(v > 0 for v in values):
-        raise UserError(f"{face.name} has no FAPU yet: place the eye, nose and mouth feature points and run "
-                        "Set Up Face")  # fmt: skip
+        raise UserError(
+            f"{face.name} has no FAPU yet: place the eye, nose and mouth feature points and run Set Up Face"
+        )
     return Fapu(*values)
 
 
 def neutral_positions(face, empties) -> np.ndarray:
     """(84, 3) face-local rest positions of the FP empties (NaN where missing)."""
-    return face_data.neutral_array({fp_id: np.array(ob.get(REST_PROP, ob.location), dtype=np.float64)
-                                    for fp_id, ob in empties.items()})  # fmt: skip
+    return face_data.neutral_array(
+        {fp_id: np.array(ob.get(REST_PROP, ob.location), dtype=np.float64) for fp_id, ob in empties.items()}
+    )
 
 
 def eye_pivots(face) -> np.ndarray | None:
@@ -47,8 +49,9 @@ def eye_pivots(face) -> np.ndarray | None:
     if settings.left_eye is None or settings.right_eye is None:
         return None
     inv = face.matrix_world.inverted()
-    return np.array([inv @ settings.left_eye.matrix_world.translation,
-                     inv @ settings.right_eye.matrix_world.translation])  # fmt: skip
+    return np.array(
+        [inv @ settings.left_eye.matrix_world.translation, inv @ settings.right_eye.matrix_world.translation]
+    )
 
 
 def _require_setup(face):
@@ -68,8 +71,11 @@ def _head_delta(face, angles: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray
     """
     axes = BLENDER_FACE_AXES
     r_mesh = axes.T @ head_rotation(angles) @ axes
-    r_user = np.array(face.rotation_euler.to_matrix()) if face.rotation_mode != "QUATERNION" else \
-        np.array(face.rotation_quaternion.to_matrix())  # fmt: skip
+    r_user = (
+        np.array(face.rotation_euler.to_matrix())
+        if face.rotation_mode != "QUATERNION"
+        else np.array(face.rotation_quaternion.to_matrix())
+    )
     scale = float(np.mean(face.scale))
     r_delta = r_user @ r_mesh @ r_user.T
     dloc = scale * np.einsum("ij,fj->fi", r_user, pivot - np.einsum("fij,j->fi", r_mesh, pivot))
@@ -77,8 +83,9 @@ def _head_delta(face, angles: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray
     return euler, dloc
 
 
-def import_fap(context, face, path, *, start_frame: int, fill_partners: bool = False,
-               set_frame_range: bool = True) -> list[str]:  # fmt: skip
+def import_fap(
+    context, face, path, *, start_frame: int, fill_partners: bool = False, set_frame_range: bool = True
+) -> list[str]:
     empties = _require_setup(face)
     fapu = face_fapu(face)
     stream = read_fap(path)
@@ -113,10 +120,12 @@ def import_fap(context, face, path, *, start_frame: int, fill_partners: bool = F
             pivot = head_pivot(neutral)
             euler, dloc = _head_delta(face, head, pivot)
             for axis in range(3):
-                animation.set_keys(animation.ensure_fcurve(face, "delta_rotation_euler", axis, face.name),
-                                   frames, euler[:, axis])  # fmt: skip
-                animation.set_keys(animation.ensure_fcurve(face, "delta_location", axis, face.name),
-                                   frames, dloc[:, axis])  # fmt: skip
+                animation.set_keys(
+                    animation.ensure_fcurve(face, "delta_rotation_euler", axis, face.name), frames, euler[:, axis]
+                )
+                animation.set_keys(
+                    animation.ensure_fcurve(face, "delta_location", axis, face.name), frames, dloc[:, axis]
+                )
             notes.append("keyed head rotation on the face's delta transform")
         step(len(empties) + 1)
     if kept:
@@ -142,16 +151,16 @@ def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[st
     with progress(context, len(empties)) as step:
         for i, (fp_id, ob) in enumerate(empties.items()):
             for axis in range(3):
-                positions[:, fp_index(fp_id), axis] = animation.sample(ob, "location", axis, frames,
-                                                                       ob.location[axis])  # fmt: skip
+                positions[:, fp_index(fp_id), axis] = animation.sample(ob, "location", axis, frames, ob.location[axis])
             step(i)
     values = fp_to_fap(neutral, positions, fapu, eye_pivots=eye_pivots(face))
     mask = np.zeros((len(frames), N_FAPS), dtype=bool)
     mask[:, [n - 1 for n in recoverable_faps(set(empties))]] = True
 
     rest_rot = face.delta_rotation_euler
-    rot = np.stack([animation.sample(face, "delta_rotation_euler", axis, frames, rest_rot[axis])
-                    for axis in range(3)], axis=1)  # fmt: skip
+    rot = np.stack(
+        [animation.sample(face, "delta_rotation_euler", axis, frames, rest_rot[axis]) for axis in range(3)], axis=1
+    )
     if np.any(rot != 0.0):
         r_user = np.array(face.rotation_euler.to_matrix())
         r_delta = np.array([np.array(Euler(e.tolist(), "XYZ").to_matrix()) for e in rot])
@@ -161,9 +170,15 @@ def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[st
         mask[:, HEAD_FAPS] = True
 
     fps = scene.render.fps / scene.render.fps_base
-    stream = FapStream(version="2.1", name=os.path.splitext(os.path.basename(path))[0], fps=fps,
-                       frame_numbers=np.arange(len(frames), dtype=np.int64), mask=mask,
-                       values=np.where(mask, np.round(values), 0.0),
-                       viseme=np.zeros((len(frames), 4)), expression=np.zeros((len(frames), 6)))  # fmt: skip
+    stream = FapStream(
+        version="2.1",
+        name=os.path.splitext(os.path.basename(path))[0],
+        fps=fps,
+        frame_numbers=np.arange(len(frames), dtype=np.int64),
+        mask=mask,
+        values=np.where(mask, np.round(values), 0.0),
+        viseme=np.zeros((len(frames), 4)),
+        expression=np.zeros((len(frames), 6)),
+    )
     write_fap(stream, path)
     return [f"wrote {len(frames)} frames of {int(mask[0].sum())} FAPs to {os.path.basename(path)}"]

@@ -65,8 +65,9 @@ def _state(face) -> _State:
         raise LookupError("the face is not bound: run Set Up Face")
     binding, key = loaded
     if binding.n_vertices != len(mesh.vertices):
-        raise LookupError(f"the mesh has {len(mesh.vertices)} vertices but was bound with "
-                          f"{binding.n_vertices}: run Set Up again")  # fmt: skip
+        raise LookupError(
+            f"the mesh has {len(mesh.vertices)} vertices but was bound with {binding.n_vertices}: run Set Up again"
+        )
     control = face.mpeg4_face.control_object
     ids = list(control.data.get(face_data.FP_IDS_PROP, ()))
     state = _State(key, binding, ids, np.empty((binding.n_vertices, 3), dtype=np.float32))
@@ -79,8 +80,10 @@ def control_empties(face, state: _State) -> dict:
     objects = bpy.data.objects
     if state.names is not None:
         found = [objects.get(name) for name in state.names]
-        if all(ob is not None and ob.get(face_data.FP_PROP) == fp_id
-               for ob, fp_id in zip(found, state.control_ids, strict=True)):  # fmt: skip
+        if all(
+            ob is not None and ob.get(face_data.FP_PROP) == fp_id
+            for ob, fp_id in zip(found, state.control_ids, strict=True)
+        ):
             return dict(zip(state.control_ids, found, strict=True))
     empties = face_data.fp_empties(face)
     missing = [fp_id for fp_id in state.control_ids if fp_id not in empties]

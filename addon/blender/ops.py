@@ -151,19 +151,27 @@ class MPEG4_OT_import_fap(Mpeg4Operator, bpy.types.Operator, ImportHelper):
 
     filename_ext = ".fap"
     filter_glob: StringProperty(default="*.fap", options={"HIDDEN"})
-    at_current_frame: BoolProperty(name="Start at Current Frame", default=False,
-                                   description="Put the stream's time 0 at the current frame (else at the "
-                                   "scene's start frame)")  # fmt: skip
-    set_frame_range: BoolProperty(name="Extend Frame Range", default=True,
-                                  description="Extend the scene's end frame to the end of the stream")
+    at_current_frame: BoolProperty(
+        name="Start at Current Frame",
+        default=False,
+        description="Put the stream's time 0 at the current frame (else at the scene's start frame)",
+    )
+    set_frame_range: BoolProperty(
+        name="Extend Frame Range", default=True, description="Extend the scene's end frame to the end of the stream"
+    )
 
     def run(self, context):
         face = _face(context)
         scene = context.scene
         start = scene.frame_current if self.at_current_frame else scene.frame_start
-        return fap_io.import_fap(context, face, self.filepath, start_frame=start,
-                                 fill_partners=scene.mpeg4.fill_partners,
-                                 set_frame_range=self.set_frame_range)  # fmt: skip
+        return fap_io.import_fap(
+            context,
+            face,
+            self.filepath,
+            start_frame=start,
+            fill_partners=scene.mpeg4.fill_partners,
+            set_frame_range=self.set_frame_range,
+        )
 
 
 class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):

@@ -44,8 +44,10 @@ class MPEG4_PT_face(bpy.types.Panel):
         empties = face_data.fp_empties(face)
         bound = face_data.BINDING_KEY_PROP in face.data
         col = layout.column(align=True)
-        col.label(text=f"Feature points: {len(empties)} of {len(FP_IDS)} placed",
-                  icon="CHECKMARK" if len(empties) == len(FP_IDS) else "DOT")  # fmt: skip
+        col.label(
+            text=f"Feature points: {len(empties)} of {len(FP_IDS)} placed",
+            icon="CHECKMARK" if len(empties) == len(FP_IDS) else "DOT",
+        )
         if empties and len(empties) < len(FP_IDS):
             missing = [fp_id for fp_id in FP_IDS if fp_id not in empties]
             col.label(text="Missing: " + ", ".join(missing[:8]) + (" ..." if len(missing) > 8 else ""))

@@ -14,8 +14,11 @@ HANDLERS = (
 
 def _remove_handler(handlers, function):
     # compare by name: a reloaded module brings new function objects
-    for existing in [h for h in handlers if getattr(h, "__name__", None) == function.__name__
-                     and getattr(h, "__module__", None) == function.__module__]:  # fmt: skip
+    for existing in [
+        h
+        for h in handlers
+        if getattr(h, "__name__", None) == function.__name__ and getattr(h, "__module__", None) == function.__module__
+    ]:
         handlers.remove(existing)
 
 

@@ -46,8 +46,7 @@ def ensure_fp_collection(face) -> bpy.types.Collection:
 
 
 def _candidate_empties(coll) -> list:
-    return [ob for ob in coll.all_objects
-            if ob.type == "EMPTY" and (face_data.FP_PROP in ob or FP_NAME.match(ob.name))]  # fmt: skip
+    return [ob for ob in coll.all_objects if ob.type == "EMPTY" and (face_data.FP_PROP in ob or FP_NAME.match(ob.name))]
 
 
 def _needs_parenting(face, ob) -> bool:
@@ -58,8 +57,10 @@ def check_adoptable(face, coll) -> None:
     """Refuse, before anything changes, empties that set-up could only adopt by moving their animation."""
     for ob in _candidate_empties(coll):
         if _needs_parenting(face, ob) and ob.animation_data and ob.animation_data.action:
-            raise SetupError(f"{ob.name} is animated but not parented to {face.name}: parent it to "
-                             "the face without inverse, then run Set Up again")  # fmt: skip
+            raise SetupError(
+                f"{ob.name} is animated but not parented to {face.name}: parent it to "
+                "the face without inverse, then run Set Up again"
+            )
 
 
 def adopt_empties(face, coll) -> list[str]:
@@ -213,13 +214,22 @@ def rebind(face) -> None:
     tri_masks = list(control.data.get("mpeg4_triangle_masks", [""] * len(tris)))
     masks = vertex_masks(face) if settings.use_masks else {}
     tri_masks = [m if m in masks else None for m in tri_masks]
-    params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent,
-              "es0": settings.fapu[1]}  # fmt: skip
+    params = {
+        "radius_fraction": settings.radius_fraction,
+        "falloff_exponent": settings.falloff_exponent,
+        "es0": settings.fapu[1],
+    }
     key = face_data.binding_key(rest, points, tris, {**params, "fade_below": FADE_BELOW}, masks)
     if mesh.get(face_data.BINDING_KEY_PROP) == key:
         return
-    binding = bind_face(rest.astype(np.float64), points, tris, vertex_masks=masks or None,
-                        triangle_masks=tri_masks if masks else None, **params)  # fmt: skip
+    binding = bind_face(
+        rest.astype(np.float64),
+        points,
+        tris,
+        vertex_masks=masks or None,
+        triangle_masks=tri_masks if masks else None,
+        **params,
+    )
     face_data.store_binding(mesh, binding, key)
     live.forget(face)
 
@@ -235,12 +245,16 @@ def set_up(face) -> list[str]:
     if coll is None or not _candidate_empties(coll):
         name = coll.name if coll else face_data.fp_collection_name(face)
         where = f"collection {name!r}"
-        raise SetupError(f"no feature point empties in {where}: place them with Place Feature Points "
-                         "(or name empties 'FP 2.1', 'FP 9.3', ...)")  # fmt: skip
+        raise SetupError(
+            f"no feature point empties in {where}: place them with Place Feature Points "
+            "(or name empties 'FP 2.1', 'FP 9.3', ...)"
+        )
     check_adoptable(face, coll)
     # fail on an unusable FP set before anything changes (the real build below uses snapped positions)
-    placed = {ob.get(face_data.FP_PROP) or FP_NAME.match(ob.name).group(1): np.array(ob.location)
-              for ob in _candidate_empties(coll)}  # fmt: skip
+    placed = {
+        ob.get(face_data.FP_PROP) or FP_NAME.match(ob.name).group(1): np.array(ob.location)
+        for ob in _candidate_empties(coll)
+    }
     build_control(face, {fp_id: p for fp_id, p in placed.items() if fp_id in FP_IDS})
     notes = []
     if settings.enabled:

@@ -36,9 +36,7 @@ class RbfBinding:
         return evaluate_rbf(self, control_positions, out)
 
 
-def bind_rbf(
-    rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray | None = None
-) -> RbfBinding:
+def bind_rbf(rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray | None = None) -> RbfBinding:
     """Solve the multiquadric system once; coincident or coplanar control points raise `DeformError`."""
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
@@ -76,9 +74,7 @@ def bind_rbf(
     return RbfBinding(rest, control, index, basis @ inverse)
 
 
-def evaluate_rbf(
-    binding: RbfBinding, control_positions: np.ndarray, out: np.ndarray | None = None
-) -> np.ndarray:
+def evaluate_rbf(binding: RbfBinding, control_positions: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     displacement = _displacement(binding.control_rest, binding.control_index, control_positions)
     return _write(binding.rest_vertices + binding.vertex_weights @ displacement, out)
 
@@ -97,16 +93,12 @@ class FpWeightedBinding:
         return evaluate_fp_weighted(self, control_positions, out)
 
 
-def bind_fp_weighted(
-    rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray
-) -> FpWeightedBinding:
+def bind_fp_weighted(rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray) -> FpWeightedBinding:
     """Weights of each feature point on the vertices within its extent (see the module docstring)."""
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
     tris = check_triangles(triangles, len(control))
-    edges = np.unique(
-        np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0
-    )
+    edges = np.unique(np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0)
     edges = edges[edges[:, 0] != edges[:, 1]]
     vertices, points, weights = [], [], []
     for fp in np.unique(tris):
@@ -119,9 +111,7 @@ def bind_fp_weighted(
         relative = rest - control[fp]
         distance = np.linalg.norm(relative, axis=1)
         near = np.flatnonzero(distance < lengths.max())  # the extent never exceeds the farthest neighbour
-        cosine = (relative[near] @ (offsets / lengths[:, None]).T) / np.maximum(distance[near], 1e-300)[
-            :, None
-        ]
+        cosine = (relative[near] @ (offsets / lengths[:, None]).T) / np.maximum(distance[near], 1e-300)[:, None]
         order = np.argsort(-cosine, axis=1)[:, :2]
         if len(neighbours) == 1:
             order = np.zeros((len(near), 2), dtype=np.intp)
@@ -154,9 +144,7 @@ def bind_fp_weighted(
 def evaluate_fp_weighted(
     binding: FpWeightedBinding, control_positions: np.ndarray, out: np.ndarray | None = None
 ) -> np.ndarray:
-    displacement = _displacement(
-        binding.control_rest, np.arange(len(binding.control_rest)), control_positions
-    )
+    displacement = _displacement(binding.control_rest, np.arange(len(binding.control_rest)), control_positions)
     moved = displacement[binding.pair_point] * binding.pair_coefficient[:, None]
     n = len(binding.rest_vertices)
     result = binding.rest_vertices + np.stack(
@@ -174,9 +162,7 @@ def _control_index(control: np.ndarray, triangles: np.ndarray | None) -> np.ndar
 def _displacement(control_rest: np.ndarray, index: np.ndarray, control_positions: np.ndarray) -> np.ndarray:
     control = check_points(control_positions, "control_positions")
     if control.shape != control_rest.shape:
-        raise DeformError(
-            f"control_positions has shape {control.shape}, the binding expects {control_rest.shape}"
-        )
+        raise DeformError(f"control_positions has shape {control.shape}, the binding expects {control_rest.shape}")
     return control[index] - control_rest[index]
 
 

@@ -42,6 +42,14 @@ def bind_face(
     vertex_masks: Mapping[str, np.ndarray] | None = None,
     triangle_masks: Sequence[str | None] | None = None,
 ) -> Binding:
-    return bind(rest, control_rest, triangles, radius_fraction=radius_fraction, falloff_exponent=falloff_exponent,
-                vertex_masks=vertex_masks, triangle_masks=triangle_masks,
-                cover=face_cover(rest, control_rest, triangles, es0), fade_below=FADE_BELOW)  # fmt: skip
+    return bind(
+        rest,
+        control_rest,
+        triangles,
+        radius_fraction=radius_fraction,
+        falloff_exponent=falloff_exponent,
+        vertex_masks=vertex_masks,
+        triangle_masks=triangle_masks,
+        cover=face_cover(rest, control_rest, triangles, es0),
+        fade_below=FADE_BELOW,
+    )

@@ -257,9 +257,7 @@ def cover_over_control_mesh(
         nearest_region[chosen] = location.region[closer]
 
     edges = np.sort(np.stack([tris, np.roll(tris, -1, axis=1)], axis=-1), axis=-1)  # (T, 3, 2): edge j
-    unique_edges, edge_index, uses = np.unique(
-        edges.reshape(-1, 2), axis=0, return_inverse=True, return_counts=True
-    )
+    unique_edges, edge_index, uses = np.unique(edges.reshape(-1, 2), axis=0, return_inverse=True, return_counts=True)
     border_edge = (uses == 1)[edge_index.reshape(-1, 3)]  # (T, 3)
     border_point = np.zeros(len(control), dtype=bool)
     border_point[unique_edges[uses == 1].ravel()] = True

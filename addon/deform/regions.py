@@ -171,9 +171,7 @@ def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     region_local[is_apex, 0] = a[is_apex]
     region_local[is_apex, 1] = b[is_apex]
 
-    distance = np.select(
-        [is_edge, is_apex], [np.hypot(height, y_k), np.hypot(height, apex_distance)], np.abs(height)
-    )
+    distance = np.select([is_edge, is_apex], [np.hypot(height, y_k), np.hypot(height, apex_distance)], np.abs(height))
     return Location(region, distance, face_local, region_local, apex_distance)
 
 

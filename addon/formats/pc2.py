@@ -13,8 +13,9 @@ import tempfile
 import numpy as np
 
 SIGNATURE = b"POINTCACHE2\0"
-HEADER = np.dtype([("signature", "S12"), ("version", "<i4"), ("points", "<i4"), ("start", "<f4"),
-                   ("rate", "<f4"), ("samples", "<i4")])  # fmt: skip
+HEADER = np.dtype(
+    [("signature", "S12"), ("version", "<i4"), ("points", "<i4"), ("start", "<f4"), ("rate", "<f4"), ("samples", "<i4")]
+)
 
 
 class PointCacheError(ValueError):

@@ -21,8 +21,15 @@ def _circumcircle(p: np.ndarray, tri: tuple[int, int, int]) -> tuple[np.ndarray,
     if d == 0.0:
         return np.array([np.inf, np.inf]), np.inf
     sa, sb, sc = a @ a, b @ b, c @ c
-    centre = np.array([sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1]),
-                       sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0])]) / d  # fmt: skip
+    centre = (
+        np.array(
+            [
+                sa * (b[1] - c[1]) + sb * (c[1] - a[1]) + sc * (a[1] - b[1]),
+                sa * (c[0] - b[0]) + sb * (a[0] - c[0]) + sc * (b[0] - a[0]),
+            ]
+        )
+        / d
+    )
     return centre, float(np.sum((a - centre) ** 2))
 
 

@@ -168,9 +168,7 @@ def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
     if points.ndim != 2 or points.shape[1] != 3:
         raise ControlMeshError(f"points must have shape (M, 3), got {points.shape}")
     if triangles.ndim != 2 or triangles.shape[1] != 3 or not np.issubdtype(triangles.dtype, np.integer):
-        raise ControlMeshError(
-            f"triangles must be integers of shape (T, 3), got {triangles.dtype} {triangles.shape}"
-        )
+        raise ControlMeshError(f"triangles must be integers of shape (T, 3), got {triangles.dtype} {triangles.shape}")
     if not np.all(np.isfinite(points)):
         raise ControlMeshError("points contain NaN or infinity")
     if triangles.size and (triangles.min() < 0 or triangles.max() >= len(points)):
@@ -181,9 +179,7 @@ def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
     if unused:
         problems.append(f"points used by no triangle: {unused}")
     corners = points[triangles]
-    areas = 0.5 * np.linalg.norm(
-        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
-    )
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
     repeated_corner = (triangles[:, 0] == triangles[:, 1]) | (triangles[:, 1] == triangles[:, 2])
     repeated_corner |= triangles[:, 0] == triangles[:, 2]
     scale = np.ptp(points, axis=0).max() if len(points) else 0.0

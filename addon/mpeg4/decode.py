@@ -32,10 +32,9 @@ from .frame import BLENDER_FACE_AXES
 
 JAW_FAPS = (3, 14, 15)
 JAW_RIDERS: dict[str, float] = {
-    **{fp_id: 1.0 for fp_id in ("2.3", "2.8", "2.9", "2.10", "2.11", "2.12", "8.2", "8.7", "8.8",
-                                "9.9", "9.11", "6.1", "6.2", "6.3", "6.4")},
-    **{fp_id: 0.5 for fp_id in ("2.4", "2.5", "8.3", "8.4")},
-}  # fmt: skip
+    **dict.fromkeys("2.3 2.8 2.9 2.10 2.11 2.12 8.2 8.7 8.8 9.9 9.11 6.1 6.2 6.3 6.4".split(), 1.0),
+    **dict.fromkeys(("2.4", "2.5", "8.3", "8.4"), 0.5),
+}
 EYEBALL_RADIUS_PER_ES0 = 0.19  # default eye pivot: 12 mm behind a 63 mm-ES0 pupil, when no eyeball is given
 
 

@@ -62,8 +62,9 @@ def fp_to_fap(
 
     basis = translation_basis(fapu)
     rows = [k for k, fp_id in enumerate(FP_IDS) if known[k] and fp_id not in ROTATING_POINTS]
-    columns = [f.number - 1 for f in FAPS if f.axis is not None and f.number not in NOT_RECOVERED
-               and known[fp_index(f.fp)]]  # fmt: skip
+    columns = [
+        f.number - 1 for f in FAPS if f.axis is not None and f.number not in NOT_RECOVERED and known[fp_index(f.fp)]
+    ]
     sub = basis[np.ix_(columns, rows)].reshape(len(columns), -1)
     values = np.zeros((n_frames, N_FAPS))
     if columns:
@@ -79,8 +80,12 @@ def fp_to_fap(
         if known[k] and known[body]:
             rest = translated[:, k] - pts[:, body]
             now = pts[:, k] - pts[:, body]
-            angles.append(sign * np.arctan2(rest[:, 0] * now[:, 1] - rest[:, 1] * now[:, 0],
-                                            rest[:, 0] * now[:, 0] + rest[:, 1] * now[:, 1]))  # fmt: skip
+            angles.append(
+                sign
+                * np.arctan2(
+                    rest[:, 0] * now[:, 1] - rest[:, 1] * now[:, 0], rest[:, 0] * now[:, 0] + rest[:, 1] * now[:, 1]
+                )
+            )
     if angles:
         values[:, 46] = np.mean(angles, axis=0) / scale[46]
 

@@ -240,8 +240,8 @@ class ExpressionValue:
         return cls(Expression(s1), i1, Expression(s2), i2, bool(init_face), bool(definition))
 
     def fields(self) -> tuple[int, int, int, int, int, int]:
-        return (int(self.select1), self.intensity1, int(self.select2), self.intensity2,
-                int(self.init_face), int(self.definition))  # fmt: skip
+        fields = (self.select1, self.intensity1, self.select2, self.intensity2, self.init_face, self.definition)
+        return tuple(int(v) for v in fields)
 
 
 def viseme_weights(fields: np.ndarray) -> np.ndarray:

@@ -20,8 +20,7 @@ LOWER_LIP = frozenset({"2.3", "2.8", "2.9", "8.2", "8.7", "8.8"})
 UPPER_EYELID = frozenset({"3.1", "3.2", "3.13", "3.14"})
 LOWER_EYELID = frozenset({"3.3", "3.4", "3.9", "3.10"})
 OPENINGS = ((UPPER_LIP, LOWER_LIP), (UPPER_EYELID, LOWER_EYELID))
-MASK_SETS = {"upper_lip": UPPER_LIP, "lower_lip": LOWER_LIP,
-             "upper_eyelid": UPPER_EYELID, "lower_eyelid": LOWER_EYELID}  # fmt: skip
+MASK_SETS = {"upper_lip": UPPER_LIP, "lower_lip": LOWER_LIP, "upper_eyelid": UPPER_EYELID, "lower_eyelid": LOWER_EYELID}
 MASK_NAMES = tuple(MASK_SETS)
 
 

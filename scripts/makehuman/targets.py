@@ -18,9 +18,7 @@ def load_target(path: Path, vertex_count: int) -> np.ndarray:
             if not fields or fields[0].startswith("#"):
                 continue
             if len(fields) != 4:
-                raise SourceDataError(
-                    f"{path}:{line_number}: expected 'vertex dx dy dz', got {line.strip()!r}"
-                )
+                raise SourceDataError(f"{path}:{line_number}: expected 'vertex dx dy dz', got {line.strip()!r}")
             vertex = int(fields[0])
             if not 0 <= vertex < vertex_count:
                 raise SourceDataError(f"{path}:{line_number}: vertex {vertex} outside the base mesh")

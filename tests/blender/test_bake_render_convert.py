@@ -82,8 +82,20 @@ def test_convert_script_converts_good_streams_and_reports_bad_ones(tmp_path, mod
     bad.write_text("2.1 broken 25 1\n1 0 0\n")
     out = tmp_path / "out"
     face = ROOT / "sample_blends" / "makehuman_head.blend"
-    command = [sys.executable, str(ROOT / "scripts" / "convert.py"), "--face", str(face), str(short), str(bad),
-               "-o", str(out), "--resolution", "64", "--sheet", "4"]  # fmt: skip
+    command = [
+        sys.executable,
+        str(ROOT / "scripts" / "convert.py"),
+        "--face",
+        str(face),
+        str(short),
+        str(bad),
+        "-o",
+        str(out),
+        "--resolution",
+        "64",
+        "--sheet",
+        "4",
+    ]
     result = subprocess.run(command, capture_output=True, text=True, timeout=600)
     assert result.returncode == 1, result.stdout + result.stderr
     assert "[1/2]" in result.stdout and "short.fap: ok" in result.stdout
@@ -98,7 +110,8 @@ def test_convert_reads_arguments_after_the_double_dash(monkeypatch):
     sys.path.insert(0, str(ROOT / "scripts"))
     import convert
 
-    monkeypatch.setattr(sys, "argv", ["blender", "--background", "f.blend", "--python", "convert.py", "--", "a.fap",
-                                      "-o", "out"])  # fmt: skip
+    monkeypatch.setattr(
+        sys, "argv", ["blender", "--background", "f.blend", "--python", "convert.py", "--", "a.fap", "-o", "out"]
+    )
     args = convert.parse_args(convert.script_argv())
     assert [p.name for p in args.streams] == ["a.fap"] and args.out.name == "out" and args.face is None

@@ -32,8 +32,11 @@ def test_zip_holds_manifest_and_package_at_the_root(built_zip):
 
 
 def test_blenders_own_validator_accepts_the_zip(built_zip):
-    result = subprocess.run([sys.executable, str(BLENDER_EXT), "validate", str(built_zip), "--valid-tags", str(TAGS)],
-                            capture_output=True, text=True)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, str(BLENDER_EXT), "validate", str(built_zip), "--valid-tags", str(TAGS)],
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
 
 
@@ -82,6 +85,12 @@ def test_zip_installs_into_a_fresh_session_and_unregisters_cleanly(built_zip, tm
     env = {"BLENDER_USER_RESOURCES": str(tmp_path / "user"), "PATH": "/usr/bin:/bin"}
     sample = ROOT / "sample_blends" / "makehuman_head.blend"
     # run where the checkout is not importable, so only the installed extension can answer
-    result = subprocess.run([sys.executable, "-c", INSTALL, str(sample), str(built_zip)], capture_output=True,
-                            text=True, env=env, timeout=300, cwd=tmp_path)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "-c", INSTALL, str(sample), str(built_zip)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+        cwd=tmp_path,
+    )
     assert "INSTALL-OK" in result.stdout, result.stdout[-3000:] + result.stderr[-3000:]

@@ -32,8 +32,7 @@ def core_result(head, stream_path, frame_index):
     rest = face_data.stored_rest(head.data).astype(np.float64)
     # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below 0.05
     cover = cover_over_control_mesh(rest, rest_control, tris, 0.25 * fapu.ES0)
-    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover,
-                   fade_below=0.05)  # fmt: skip
+    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover, fade_below=0.05)
     return evaluate(binding, points[[fp_index(i) for i in ids]])
 
 
@@ -173,8 +172,9 @@ def test_fap_export_round_trip(tmp_path):
     bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP))
     stream = read_fap(DEMO_FAP)
     out = tmp_path / "exported.fap"
-    assert bpy.ops.mpeg4.export_fap(filepath=str(out), frame_start=scene.frame_start,
-                                    frame_end=scene.frame_start + len(stream.frame_numbers) - 1) == {"FINISHED"}
+    assert bpy.ops.mpeg4.export_fap(
+        filepath=str(out), frame_start=scene.frame_start, frame_end=scene.frame_start + len(stream.frame_numbers) - 1
+    ) == {"FINISHED"}
     again = read_fap(out)
     sent = stream.mask[0]
     recovered = again.mask[0] & sent

@@ -81,8 +81,13 @@ def test_left_and_right_fps_mirror_across_the_midline(head):
 
 def test_fapu_is_plausible_for_an_adult(head):
     fapu = dict(zip(("IRISD0", "ES0", "ENS0", "MNS0", "MW0"), head.mpeg4_face.fapu, strict=True))
-    ranges = {"ES0": (0.055, 0.075), "IRISD0": (0.006, 0.014), "ENS0": (0.035, 0.065),
-              "MNS0": (0.010, 0.030), "MW0": (0.040, 0.065)}  # fmt: skip
+    ranges = {
+        "ES0": (0.055, 0.075),
+        "IRISD0": (0.006, 0.014),
+        "ENS0": (0.035, 0.065),
+        "MNS0": (0.010, 0.030),
+        "MW0": (0.040, 0.065),
+    }
     assert set(fapu) == set(ranges)
     for name, (low, high) in ranges.items():
         assert low < fapu[name] < high, f"{name} = {fapu[name]}"

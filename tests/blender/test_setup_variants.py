@@ -39,8 +39,16 @@ def test_place_feature_point_creates_snapped_empties_and_setup_needs_them():
         bpy.ops.mpeg4.setup_face()
     assert "Ball FPs" not in bpy.data.collections  # a failed set-up changes nothing
     # place a handful of skin points, a little off the surface: they snap onto it
-    layout = {"2.1": (0, -0.09), "8.3": (0.03, -0.05), "8.4": (-0.03, -0.05), "9.3": (0, -0.01),
-              "4.1": (0.02, 0.04), "4.2": (-0.02, 0.04), "5.1": (0.06, -0.03), "5.2": (-0.06, -0.03)}  # fmt: skip
+    layout = {
+        "2.1": (0, -0.09),
+        "8.3": (0.03, -0.05),
+        "8.4": (-0.03, -0.05),
+        "9.3": (0, -0.01),
+        "4.1": (0.02, 0.04),
+        "4.2": (-0.02, 0.04),
+        "5.1": (0.06, -0.03),
+        "5.2": (-0.06, -0.03),
+    }
     for fp_id, (x, z) in layout.items():
         y = -np.sqrt(0.1**2 - x * x - z * z) - 0.005
         assert bpy.ops.mpeg4.place_feature_points(fp_id=fp_id, location=(x, y, z)) == {"FINISHED"}

@@ -58,9 +58,8 @@ def test_masks_are_valid_and_match_the_lip_and_eyelid_fps():
     for triangle, mask in zip(CONTROL_TRIANGLES, TRIANGLE_MASKS, strict=True):
         fps = set(triangle)
         assert mask is None or mask in MASK_NAMES
-        expected = [name for name, group in (("upper_lip", UPPER_LIP), ("lower_lip", LOWER_LIP),
-                                             ("upper_eyelid", UPPER_LID), ("lower_eyelid", LOWER_LID))
-                    if fps & group]  # fmt: skip
+        groups = {"upper_lip": UPPER_LIP, "lower_lip": LOWER_LIP, "upper_eyelid": UPPER_LID, "lower_eyelid": LOWER_LID}
+        expected = [name for name, group in groups.items() if fps & group]
         assert expected == ([mask] if mask else []), triangle
 
 

@@ -22,14 +22,46 @@ MODES = ("planar_bones", "soffd")
 def icosahedron(radius: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
     g = (1.0 + 5.0**0.5) / 2.0
     points = np.array(
-        [[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
-         [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], dtype=float
-    )  # fmt: skip
+        [
+            [-1, g, 0],
+            [1, g, 0],
+            [-1, -g, 0],
+            [1, -g, 0],
+            [0, -1, g],
+            [0, 1, g],
+            [0, -1, -g],
+            [0, 1, -g],
+            [g, 0, -1],
+            [g, 0, 1],
+            [-g, 0, -1],
+            [-g, 0, 1],
+        ],
+        dtype=float,
+    )
     triangles = np.array(
-        [[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2],
-         [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5],
-         [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]]
-    )  # fmt: skip
+        [
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
+        ]
+    )
     return radius * points / np.linalg.norm(points[0]), triangles
 
 
@@ -183,9 +215,7 @@ def test_hand_worked_edge_region(single_triangle):
     _, planar, soffd = single_triangle
     # Edge 0 = OP, e_0 = (2,0,0), b_0 = unit(e_0 × n) = (0,-1,0); S − O = (1,-0.5,0.2):
     # x = 1/2, y = 0.5, h = 0.2. Deformed: e_0' = (4,0,0), b_0' = (0,-1,0), n' = (0,0,1). Eq. 12:
-    expected = (
-        o + 0.5 * np.array([4.0, 0.0, 0.0]) + 0.5 * np.array([0.0, -1.0, 0.0]) + 0.2 * np.array([0, 0, 1])
-    )
+    expected = o + 0.5 * np.array([4.0, 0.0, 0.0]) + 0.5 * np.array([0.0, -1.0, 0.0]) + 0.2 * np.array([0, 0, 1])
     np.testing.assert_allclose(planar[1], [2.0, -0.5, 0.2], atol=1e-12)
     np.testing.assert_allclose(planar[1], expected, atol=1e-12)
     # SoFFD (eq. 1): (α, β, h) = (0.5, -0.5, 0.2) → 0.5 p − 0.5 q + 0.2 n' shears the point.

@@ -55,8 +55,18 @@ def test_surfaces():
 
 def test_68_faps_with_groups_units_and_points():
     assert [f.number for f in FAPS] == list(range(1, 69))
-    group_bounds = {1: (1, 2), 2: (3, 18), 3: (19, 30), 4: (31, 38), 5: (39, 42), 6: (43, 47),
-                    7: (48, 50), 8: (51, 60), 9: (61, 64), 10: (65, 68)}  # fmt: skip
+    group_bounds = {
+        1: (1, 2),
+        2: (3, 18),
+        3: (19, 30),
+        4: (31, 38),
+        5: (39, 42),
+        6: (43, 47),
+        7: (48, 50),
+        8: (51, 60),
+        9: (61, 64),
+        10: (65, 68),
+    }
     for g, (lo, hi) in group_bounds.items():
         assert {f.number for f in FAPS if f.group == g} == set(range(lo, hi + 1))
     assert fap("open_jaw").fapu == "MNS" and fap(3).fp == "2.1" and fap(3).axis == (0.0, -1.0, 0.0)
