@@ -14,13 +14,13 @@ import os
 import numpy as np
 from mathutils import Euler, Matrix
 
+from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import fap_to_fp, head_angles, head_pivot, head_rotation, hold_missing
 from ..mpeg4.encode import fp_to_fap, recoverable_faps
 from ..mpeg4.fap_file import FapStream, read_fap, write_fap
 from ..mpeg4.faps import N_FAPS
 from ..mpeg4.fapu import AU, Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
-from ..mpeg4.frame import BLENDER_FACE_AXES
 from . import animation, face_data
 from .reporting import UserError, progress
 

@@ -17,9 +17,9 @@ import numpy as np
 from ..deform.face_binding import FADE_BELOW, bind_face
 from ..deform.masks import image_masks, vertex_uvs
 from ..mpeg4 import control_mesh
+from ..mpeg4.control_mesh import MASK_NAMES, triangulate_present
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import FP_IDS, feature_point
-from ..mpeg4.openings import MASK_NAMES, triangulate_present
 from . import face_data, live, rig
 from .reporting import UserError
 

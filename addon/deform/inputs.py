@@ -2,10 +2,12 @@
 
 import numpy as np
 
+from ..errors import Mpeg4Error
+
 COINCIDENCE = 1e-9  # relative to the control mesh extent: closer control points are the same point
 
 
-class DeformError(ValueError):
+class DeformError(Mpeg4Error):
     """Bad input to a deformer: NaN coordinates, bad triangle indices, wrong shapes, bad masks."""
 
 

@@ -12,14 +12,16 @@ import tempfile
 
 import numpy as np
 
+from ..errors import Mpeg4Error
+
 SIGNATURE = b"POINTCACHE2\0"
 HEADER = np.dtype(
     [("signature", "S12"), ("version", "<i4"), ("points", "<i4"), ("start", "<f4"), ("rate", "<f4"), ("samples", "<i4")]
 )
 
 
-class PointCacheError(ValueError):
-    pass
+class PointCacheError(Mpeg4Error):
+    """A point cache that cannot be written or read."""
 
 
 def write_pc2(path: str, frames: np.ndarray, start: float, rate: float = 1.0) -> None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..mpeg4.frame import BLENDER_FACE_AXES
+from .face_axes import BLENDER_FACE_AXES
 
 
 def cylindrical_projection(

@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import Mpeg4Error
 
-class TriangulationError(ValueError):
-    pass
+
+class TriangulationError(Mpeg4Error):
+    """Points that cannot be triangulated (too few, all on a line)."""
 
 
 def _circumcircle(p: np.ndarray, tri: tuple[int, int, int]) -> tuple[np.ndarray, float]:

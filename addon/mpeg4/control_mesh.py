@@ -1,4 +1,4 @@
-"""The control mesh template: a triangulation of the skin feature points (Planar Bones' control mesh).
+"""The control mesh: the template triangulation of the skin feature points (Planar Bones' control mesh).
 
 `CONTROL_TRIANGLES` are FP-id triples over the 57 skin FPs, the hairline points 11.1-11.3 that close the
 forehead (on a bald or short-haired head they lie on skin) and the points where the ears meet the head
@@ -10,13 +10,32 @@ corners), so the openings are holes in the mesh. `TRIANGLE_MASKS[t]` names the v
 triangle t's influence: triangles touching an upper-lip FP (8.1, 8.5, 8.6, 8.9, 8.10, 2.2, 2.6, 2.7) use
 "upper_lip", the lower-lip ones (8.2, 8.7, 8.8, 2.3, 2.8, 2.9) "lower_lip", the eyelid ones
 "upper_eyelid" (3.1, 3.2, 3.13, 3.14) / "lower_eyelid" (3.3, 3.4, 3.9, 3.10); all others None.
+
+An incomplete FP set gets a Delaunay triangulation of the present points in a cylindrical projection
+instead (`triangulate_present`), with the same rules at the openings.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
-MASK_NAMES = ("upper_lip", "lower_lip", "upper_eyelid", "lower_eyelid")
+from ..errors import Mpeg4Error
+from ..geometry.cylindrical import cylindrical_projection
+from ..geometry.delaunay import delaunay
+from ..geometry.face_axes import BLENDER_FACE_AXES
+
+# The openings (mouth, eyes) in feature point terms. Motion must not cross them (paper 000, section 3):
+# no control triangle may join a point above an opening to one below it, and the triangles on each side
+# are limited by a mask so their affection volumes stop at the opening.
+UPPER_LIP = frozenset({"2.2", "2.6", "2.7", "8.1", "8.5", "8.6", "8.9", "8.10"})
+LOWER_LIP = frozenset({"2.3", "2.8", "2.9", "8.2", "8.7", "8.8"})
+UPPER_EYELID = frozenset({"3.1", "3.2", "3.13", "3.14"})
+LOWER_EYELID = frozenset({"3.3", "3.4", "3.9", "3.10"})
+OPENINGS = ((UPPER_LIP, LOWER_LIP), (UPPER_EYELID, LOWER_EYELID))
+MASK_SETS = {"upper_lip": UPPER_LIP, "lower_lip": LOWER_LIP, "upper_eyelid": UPPER_EYELID, "lower_eyelid": LOWER_EYELID}
+MASK_NAMES = tuple(MASK_SETS)
 
 _TEMPLATE: tuple[tuple[tuple[str, str, str], str | None], ...] = (
     (("4.1", "9.7", "3.11"), None),
@@ -137,7 +156,7 @@ CONTROL_TRIANGLES: tuple[tuple[str, str, str], ...] = tuple(triangle for triangl
 TRIANGLE_MASKS: tuple[str | None, ...] = tuple(mask for _, mask in _TEMPLATE)
 
 
-class ControlMeshError(ValueError):
+class ControlMeshError(Mpeg4Error):
     """Control-mesh input that cannot be checked (wrong shapes, indices out of range, NaN)."""
 
 
@@ -223,3 +242,43 @@ def _one_fan(triangles: np.ndarray, around: list[int], v: int) -> bool:
                 reached.add(u)
                 frontier.append(u)
     return len(reached) == len(around)
+
+
+def spans_opening(ids) -> bool:
+    """True when a triangle's FP ids lie on both sides of the mouth or of an eye."""
+    s = set(ids)
+    return any(s & upper and s & lower for upper, lower in OPENINGS)
+
+
+def triangle_mask(ids) -> str | None:
+    """The mask limiting a triangle that touches one side of an opening (None elsewhere)."""
+    s = set(ids)
+    for name, members in MASK_SETS.items():
+        if s & members:
+            return name
+    return None
+
+
+def triangulate_present(
+    positions: Mapping[str, np.ndarray], centre: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES
+) -> tuple[list[str], np.ndarray, list[str | None]]:
+    """Control mesh over whichever FPs are present: Delaunay in a cylindrical projection about `centre`.
+
+    Returns the FP ids (vertex order), (T, 3) triangles with outward normals, and each triangle's mask.
+    Triangles across the mouth or an eye are dropped. Points that coincide on the neutral face (closed
+    lips) are separated by a hair in the projection only, upper side up, so both stay in the mesh.
+    """
+    ids = sorted(positions, key=lambda s: tuple(int(p) for p in s.split(".")))
+    pts = np.array([positions[i] for i in ids], dtype=np.float64)
+    uv = cylindrical_projection(pts, centre, axes)
+    span = float(np.ptp(uv, axis=0).max()) or 1.0
+    key = np.round(uv / (1e-9 * span))
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    for k in np.flatnonzero(first[inverse.ravel()] != np.arange(len(ids))):
+        uv[k, 1] += (1e-6 if ids[k] in UPPER_LIP | UPPER_EYELID else -1e-6) * span
+    tris = delaunay(uv)
+    keep = [t for t in tris if not spans_opening(ids[k] for k in t)]
+    tris = np.array(keep, dtype=np.int64).reshape(-1, 3)
+    # the projection is seen from outside (angle grows toward the face's left), so counter-clockwise in
+    # (arc, height) is counter-clockwise seen from the front: normals face out of the head
+    return ids, tris, [triangle_mask(ids[k] for k in t) for t in tris]

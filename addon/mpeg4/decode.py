@@ -25,10 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.face_axes import BLENDER_FACE_AXES
 from .faps import FAPS, INNER_OUTER_LIP_PAIRS, LEFT_RIGHT_PAIRS, N_FAPS
 from .fapu import Fapu
 from .feature_points import N_FEATURE_POINTS, fp_index
-from .frame import BLENDER_FACE_AXES
 
 JAW_FAPS = (3, 14, 15)
 JAW_RIDERS: dict[str, float] = {

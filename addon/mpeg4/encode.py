@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.face_axes import BLENDER_FACE_AXES
 from .decode import eye_centres, fap_scale, translation_basis
 from .faps import FAPS, N_FAPS
 from .fapu import Fapu
 from .feature_points import FP_IDS, N_FEATURE_POINTS, fp_index
-from .frame import BLENDER_FACE_AXES
 
 ROTATING_POINTS = ("3.5", "3.6", "6.3", "6.4")
 NOT_RECOVERED = (1, 2, 27, 28, 29, 30, 48, 49, 50)

@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import Mpeg4Error
 from .faps import N_FAPS
 
 __all__ = ["N_FAPS", "FapFileError", "FapStream", "format_fap", "parse_fap", "read_fap", "write_fap"]
@@ -55,7 +56,7 @@ VISEME_FIELDS = 4
 EXPRESSION_FIELDS = 6
 
 
-class FapFileError(ValueError):
+class FapFileError(Mpeg4Error):
     """A `.fap` file (or a stream to be written) that cannot be read or written."""
 
 

@@ -14,12 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frame import BLENDER_FACE_AXES
+from ..errors import Mpeg4Error
+from ..geometry.face_axes import BLENDER_FACE_AXES
 
 AU = 1e-5  # radians per angular FAP unit
 
 
-class FapuError(ValueError):
+class FapuError(Mpeg4Error):
     """A FAPU cannot be computed from the given feature points."""
 
 

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from addon.blender import face_data
+from addon.mpeg4.control_mesh import spans_opening
 from addon.mpeg4.decode import fap_to_fp
 from addon.mpeg4.fapu import Fapu
 from addon.mpeg4.feature_points import fp_index
-from addon.mpeg4.openings import spans_opening
 
 from .helpers import DEMO_FAP, ROOT, open_sample, positions, select
 

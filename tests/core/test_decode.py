@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
+from addon.geometry.face_axes import BLENDER_FACE_AXES
 from addon.mpeg4.decode import JAW_RIDERS, fap_to_fp, hold_missing
 from addon.mpeg4.fapu import AU, Fapu
 from addon.mpeg4.feature_points import FP_IDS, fp_index
-from addon.mpeg4.frame import BLENDER_FACE_AXES
 
 FAPU = Fapu(IRISD0=0.012, ES0=0.064, ENS0=0.045, MNS0=0.030, MW0=0.052)
 RNG = np.random.default_rng(7)

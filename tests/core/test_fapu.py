@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from addon.geometry.face_axes import BLENDER_FACE_AXES
 from addon.mpeg4.fapu import AU, FapuError, compute_fapu
-from addon.mpeg4.frame import BLENDER_FACE_AXES
 
 
 def blender(x, y, z):

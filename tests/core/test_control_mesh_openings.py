@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from addon.mpeg4.openings import spans_opening, triangle_mask, triangulate_present
+from addon.mpeg4.control_mesh import spans_opening, triangle_mask, triangulate_present
 
 
 def face_point(x, z, radius=0.1):
