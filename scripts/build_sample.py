@@ -40,7 +40,7 @@ from makehuman.source import (  # noqa: E402
 from makehuman.targets import load_target  # noqa: E402
 
 import addon  # noqa: E402
-from addon.blender import setup  # noqa: E402
+from addon.blender import face_setup  # noqa: E402
 from addon.mpeg4.feature_points import FEATURE_POINTS  # noqa: E402
 
 FAPU_NAMES = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
@@ -191,7 +191,7 @@ def build_face(positions: np.ndarray, expressions: dict[str, np.ndarray], head: 
     # the shipped file is set up by the extension itself: control mesh, FAPU, rest positions, binding
     head_obj.select_set(True)
     bpy.context.view_layer.objects.active = head_obj
-    setup.set_up(head_obj)
+    face_setup.set_up(head_obj)
 
     reference = _child(
         f"{HEAD_NAME} Reference",

@@ -197,7 +197,7 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args) -> list
     scene.render.fps = max(1, round(stream.fps))
     scene.render.fps_base = scene.render.fps / stream.fps
     scene.frame_start = 0
-    bpy.ops.mpeg4.import_fap(filepath=str(stream_path), at_current_frame=False, set_frame_range=False)
+    bpy.ops.mpeg4.import_fap(filepath=str(stream_path), start_frame=0, set_frame_range=False)
     first, last = int(stream.frame_numbers[0]), int(stream.frame_numbers[-1])
     if args.frames:
         lo, _, hi = args.frames.partition(":")

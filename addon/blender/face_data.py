@@ -1,38 +1,40 @@
-"""Where a face's MPEG-4 data lives in Blender, and fast reads and writes of it.
+"""Where a face's MPEG-4 data lives in Blender, and how to find it.
 
-- FP empties: objects with the custom property `mpeg4_fp` = FP id, in the face's FP collection.
+- FP empties: objects with the custom property `mpeg4_fp` = FP id, in the face's FP collection,
+  children of the face with an identity parent inverse (so their location is face-local).
 - Control mesh: a mesh object whose vertices are the control FPs (ids in its data's `mpeg4_fp_ids`).
-- Rest positions: float32 copy of the face's vertex positions at set-up (`mpeg4_rest` on the mesh data),
-  so turning the effect off restores the mesh bit for bit.
-- Binding: the deformer's arrays as ID property arrays under `mpeg4_binding` on the mesh data, saved
-  with the .blend (reading them back is a buffer copy, no Python objects per value).
-
-A mesh with shape keys ignores writes to its positions, so there the deformed positions go into a
-shape key of our own (relative to the reference key, value 1) and the user's keys still add on top.
+- Rest shape (`rest_shape.py`) and binding (`binding_store.py`) live on the face's mesh data.
 Data is always looked up by name or pointer on each call: undo invalidates Python references.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
-
 import bpy
 import numpy as np
 
-from ..deform.planar_bones import Binding
 from ..mpeg4.feature_points import FP_IDS, fp_index
 
 FP_PROP = "mpeg4_fp"
-CREATED_PROP = "mpeg4_created"  # on objects set-up created (and remove may delete)
+CREATED_PROP = "mpeg4_created"  # on data set-up, import or bake created (and Remove deletes)
 FP_IDS_PROP = "mpeg4_fp_ids"
+TRIANGLE_MASKS_PROP = "mpeg4_triangle_masks"
 # "the shape at set-up": on the face's and the control mesh's data the float32 vertex positions, on each
 # FP empty its face-local location (the neutral face)
 REST_PROP = "mpeg4_rest"
 EMPTY_REST_PROP = REST_PROP
-BINDING_PROP = "mpeg4_binding"
-BINDING_KEY_PROP = "mpeg4_binding_key"
-SHAPE_KEY_NAME = "MPEG-4 Planar Bones"
+
+
+def active_face(context):
+    """The face the user means: the active mesh, or the face of an active FP empty or control mesh."""
+    ob = context.active_object
+    if ob is None:
+        return None
+    if ob.type == "MESH" and (ob.mpeg4_face.control_object is not None or ob.mpeg4_face.fp_collection):
+        return ob
+    parent = ob.parent
+    if parent is not None and parent.type == "MESH" and parent.mpeg4_face.control_object is not None:
+        return parent
+    return ob if ob.type == "MESH" else None
 
 
 def fp_collection_name(face: bpy.types.Object) -> str:
@@ -57,14 +59,40 @@ def fp_empties(face: bpy.types.Object) -> dict[str, bpy.types.Object]:
     return found
 
 
+def _is_plain_child(face: bpy.types.Object, ob: bpy.types.Object) -> bool:
+    """A child of the face whose location is its face-local position (no parent inverse, constraints or
+    rotation of a parent in between)."""
+    return (
+        ob.parent == face
+        and ob.parent_type == "OBJECT"
+        and not ob.constraints
+        and is_identity(ob.matrix_parent_inverse)
+    )
+
+
+def is_identity(matrix) -> bool:
+    return np.array_equal(np.array(matrix), np.eye(4))
+
+
 def local_positions(face: bpy.types.Object, objects: dict[str, bpy.types.Object]) -> dict[str, np.ndarray]:
-    """World positions of `objects` expressed in the face's local (mesh) coordinates, float64."""
+    """Positions of `objects` in the face's local (mesh) coordinates, float64.
+
+    A plain child's location is read directly: going through the float32 world matrices would lose
+    about 1e-7 of the distance to the origin (0.1 mm at 1 km), and a face far from the origin would drift.
+    """
     if not objects:
         return {}
-    world = np.array([ob.matrix_world.translation for ob in objects.values()], dtype=np.float64)
-    inv = np.array(face.matrix_world.inverted(), dtype=np.float64)
-    local = world @ inv[:3, :3].T + inv[:3, 3]
-    return dict(zip(objects, local, strict=True))
+    inv = None
+    local = {}
+    for fp_id, ob in objects.items():
+        if _is_plain_child(face, ob):
+            local[fp_id] = np.array(ob.location, dtype=np.float64)
+            continue
+        if inv is None:
+            inv = np.array(face.matrix_world.inverted(), dtype=np.float64)
+        world = np.array(ob.matrix_world.translation, dtype=np.float64)
+        local[fp_id] = inv[:3, :3] @ world + inv[:3, 3]
+    return local
 
 
 def neutral_array(positions: dict[str, np.ndarray]) -> np.ndarray:
@@ -86,143 +114,3 @@ def group_weights(ob: bpy.types.Object, names) -> dict[str, np.ndarray]:
                 if name is not None:
                     weights[name][v.index] = g.weight
     return weights
-
-
-# ----------------------------------------------------------------------------- mesh positions
-
-
-def read_positions(mesh: bpy.types.Mesh) -> np.ndarray:
-    """(N, 3) float32 positions of the base mesh (the `position` attribute)."""
-    out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.attributes["position"].data.foreach_get("vector", out)
-    return out.reshape(-1, 3)
-
-
-def reference_positions(mesh: bpy.types.Mesh) -> np.ndarray:
-    """Where the deformer starts from: the reference shape key if there are keys, else the rest copy."""
-    key = mesh.shape_keys
-    if key is not None:
-        out = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        key.reference_key.data.foreach_get("co", out)
-        return out.reshape(-1, 3)
-    return stored_rest(mesh)
-
-
-def stored_rest(mesh: bpy.types.Mesh) -> np.ndarray | None:
-    rest = mesh.get(REST_PROP)
-    if rest is None:
-        return None
-    return np.array(rest, dtype=np.float32).reshape(-1, 3)
-
-
-def store_rest(mesh: bpy.types.Mesh) -> np.ndarray:
-    rest = read_positions(mesh) if mesh.shape_keys is None else reference_positions(mesh)
-    mesh[REST_PROP] = rest.ravel()
-    return rest
-
-
-def deform_target(mesh: bpy.types.Mesh):
-    """Our shape key on a mesh with shape keys (created on first use), else None (write positions)."""
-    key = mesh.shape_keys
-    if key is None:
-        return None
-    block = key.key_blocks.get(SHAPE_KEY_NAME)
-    if block is None:
-        # creating a key from the reference copies it, so the mesh looks the same until we write
-        block = bpy.data.objects[_owner_name(mesh)].shape_key_add(name=SHAPE_KEY_NAME, from_mix=False)
-        block.relative_key = key.reference_key
-        block.value = 1.0
-    return block
-
-
-def _owner_name(mesh: bpy.types.Mesh) -> str:
-    for ob in bpy.data.objects:
-        if ob.data == mesh:
-            return ob.name
-    raise LookupError(f"no object uses mesh {mesh.name!r}")
-
-
-def write_positions(mesh: bpy.types.Mesh, positions: np.ndarray) -> None:
-    """Write (N, 3) positions the fast way: float32 into `position`, or into our shape key."""
-    flat = np.ascontiguousarray(positions, dtype=np.float32).ravel()
-    block = deform_target(mesh)
-    if block is None:
-        mesh.attributes["position"].data.foreach_set("vector", flat)
-    else:
-        block.data.foreach_set("co", flat)
-    mesh.update()
-
-
-def restore_rest(mesh: bpy.types.Mesh) -> None:
-    """Put the mesh back exactly as it was at set-up."""
-    key = mesh.shape_keys
-    if key is not None:
-        block = key.key_blocks.get(SHAPE_KEY_NAME)
-        if block is not None:
-            ref = reference_positions(mesh)
-            block.data.foreach_set("co", ref.ravel())
-            mesh.update()
-        return
-    rest = stored_rest(mesh)
-    if rest is not None and len(rest) == len(mesh.vertices):
-        mesh.attributes["position"].data.foreach_set("vector", rest.ravel())
-        mesh.update()
-
-
-# ----------------------------------------------------------------------------- binding storage
-
-
-def binding_key(
-    rest: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, params: dict, masks: dict[str, np.ndarray]
-) -> str:
-    """A digest of everything a binding depends on, to tell whether a stored binding is still valid."""
-    h = hashlib.blake2b(digest_size=16)
-    for arr in (rest, control_rest, triangles, *(masks[k] for k in sorted(masks))):
-        h.update(np.ascontiguousarray(arr).tobytes())
-    h.update(repr(sorted(params.items())).encode())
-    h.update(repr(sorted(masks)).encode())
-    return h.hexdigest()
-
-
-def store_binding(mesh: bpy.types.Mesh, binding: Binding, key: str) -> None:
-    group = {}
-    for field in dataclasses.fields(binding):
-        if not field.init:
-            continue
-        value = getattr(binding, field.name)
-        if isinstance(value, np.ndarray):
-            # ID property arrays hold int32, float32 and float64
-            stored = value.astype(np.int32) if value.dtype.kind in "iub" else value
-            group[field.name] = np.ascontiguousarray(stored).ravel()
-            group[field.name + ".shape"] = list(value.shape) or [0]
-            group[field.name + ".dtype"] = value.dtype.str
-        else:
-            group[field.name] = value
-    mesh[BINDING_PROP] = group
-    mesh[BINDING_KEY_PROP] = key
-
-
-def load_binding(mesh: bpy.types.Mesh) -> tuple[Binding, str] | None:
-    group = mesh.get(BINDING_PROP)
-    key = mesh.get(BINDING_KEY_PROP)
-    if group is None or key is None:
-        return None
-    values = {}
-    for field in dataclasses.fields(Binding):
-        if not field.init:
-            continue
-        if field.name not in group:
-            return None
-        if field.name + ".shape" in group:
-            shape = tuple(group[field.name + ".shape"])
-            arr = np.array(group[field.name], dtype=np.dtype(group[field.name + ".dtype"]))
-            values[field.name] = arr.reshape(shape if shape != (0,) or arr.size else (0,))
-        else:
-            values[field.name] = group[field.name]
-    return Binding(**values), str(key)
-
-
-def clear_binding(mesh: bpy.types.Mesh) -> None:
-    for prop in (BINDING_PROP, BINDING_KEY_PROP, REST_PROP):
-        if prop in mesh:
-            del mesh[prop]

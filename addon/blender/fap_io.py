@@ -1,37 +1,50 @@
 """FAP streams in and out of a set-up face.
 
-Import: .fap -> held FAP values (decode.hold_missing) -> FP positions (decode.fap_to_fp, head rotation
-left out) -> keys on the FP empties; head pitch/yaw/roll -> keys on the face's delta rotation and
-location, turning the head about 7.1 while leaving the user's own transform alone. Export is the
-inverse (encode.fp_to_fap, decode.head_angles). The stream is read and checked before anything in the
-scene changes, so a bad file leaves the scene as it was.
+Import: .fap -> held FAP values (decode.hold_missing) -> gain and clamp -> FP positions
+(decode.fap_to_fp, head rotation left out) -> keys on the FP empties; head pitch/yaw/roll -> keys on the
+face's delta transform (head_motion), turning the head about 7.1 while leaving the user's own transform
+alone. All keys of one stream go into one action named after the file (animation.StreamActions).
+Everything is read, decoded and checked (times, sizes, values) before anything in the scene changes, so
+a bad file leaves the scene as it was. Export is the inverse (encode.fp_to_fap, head_motion.from_delta).
 """
 
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import numpy as np
-from mathutils import Euler, Matrix
 
-from ..geometry.face_axes import BLENDER_FACE_AXES
-from ..mpeg4.decode import fap_to_fp, head_angles, head_pivot, head_rotation, hold_missing
+from ..errors import Mpeg4Error
+from ..mpeg4.decode import fap_to_fp, head_pivot, hold_missing
 from ..mpeg4.encode import fp_to_fap, recoverable_faps
 from ..mpeg4.fap_file import FapStream, read_fap, write_fap
 from ..mpeg4.faps import N_FAPS
 from ..mpeg4.fapu import AU, Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
-from . import animation, face_data
-from .reporting import UserError, progress
+from ..mpeg4.stream_timing import check_values, gain_and_clamp, scene_frames
+from . import animation, binding_store, face_data, head_motion
+from .reporting import Warn, progress
 
 REST_PROP = face_data.EMPTY_REST_PROP
 HEAD_FAPS = slice(47, 50)
 
 
+@dataclass(frozen=True)
+class ImportOptions:
+    start_frame: int
+    use_stream_fps: bool = True  # resample the stream's time to the scene's fps (else one frame per frame)
+    gain: float = 1.0
+    clamp: float | None = None  # largest |FAP value| after the gain, in FAP units
+    add: bool = False  # add to the existing motion (NLA strip) instead of replacing it
+    fill_partners: bool = False
+    set_frame_range: bool = True
+
+
 def face_fapu(face) -> Fapu:
     values = tuple(face.mpeg4_face.fapu)
     if not all(v > 0 for v in values):
-        raise UserError(
+        raise Mpeg4Error(
             f"{face.name} has no FAPU yet: place the eye, nose and mouth feature points and run Set Up Face"
         )
     return Fapu(*values)
@@ -54,96 +67,112 @@ def eye_pivots(face) -> np.ndarray | None:
     )
 
 
-def _require_setup(face):
-    if face_data.BINDING_KEY_PROP not in face.data:
-        raise UserError(f"{face.name} is not set up: run Set Up Face first")
+def require_setup(face):
+    if not binding_store.is_bound(face):
+        raise Mpeg4Error(f"{face.name} is not set up: run Set Up Face first")
     empties = face_data.fp_empties(face)
     if not empties:
-        raise UserError(f"{face.name} has no feature point empties")
+        raise Mpeg4Error(f"{face.name} has no feature point empties")
     return empties
 
 
-def _head_delta(face, angles: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per frame delta rotation (Euler XYZ) and delta location turning the face about `pivot` (local).
-
-    With matrix_basis = T(loc + dloc) R_d R_u S (uniform scale s), turning local points about p by R_h
-    needs R_d = R_u R_h R_u^-1 and dloc = R_u s (p - R_h p).
-    """
-    axes = BLENDER_FACE_AXES
-    r_mesh = axes.T @ head_rotation(angles) @ axes
-    r_user = (
-        np.array(face.rotation_euler.to_matrix())
-        if face.rotation_mode != "QUATERNION"
-        else np.array(face.rotation_quaternion.to_matrix())
-    )
-    scale = float(np.mean(face.scale))
-    r_delta = r_user @ r_mesh @ r_user.T
-    dloc = scale * np.einsum("ij,fj->fi", r_user, pivot - np.einsum("fij,j->fi", r_mesh, pivot))
-    euler = np.array([Matrix(r.tolist()).to_euler("XYZ") for r in r_delta])
-    return euler, dloc
+def _check_reach(face, points: np.ndarray, neutral: np.ndarray, source: str) -> None:
+    """Refuse a stream that would throw feature points implausibly far (a file with absurd values)."""
+    size = float(max(face.dimensions) / max(max(face.scale), 1e-9)) or 1.0
+    moved = np.linalg.norm(points - neutral[None], axis=2)
+    worst = np.nanmax(moved) if np.isfinite(moved).any() else 0.0
+    if not np.all(np.isfinite(points[:, np.isfinite(neutral[:, 0])])) or worst > 10.0 * size:
+        frame, k = np.unravel_index(np.nanargmax(np.where(np.isfinite(moved), moved, np.inf)), moved.shape)
+        raise Mpeg4Error(
+            f"{source}: frame {frame} moves FP {FP_IDS[k]} {worst:.3g} model units, more than ten "
+            "times the face's size: lower the Gain or set Clamp"
+        )
 
 
-def import_fap(
-    context, face, path, *, start_frame: int, fill_partners: bool = False, set_frame_range: bool = True
-) -> list[str]:
-    empties = _require_setup(face)
+def import_fap(context, face, path, options: ImportOptions) -> list[str]:
+    empties = require_setup(face)
     fapu = face_fapu(face)
+    source = os.path.basename(path)
     stream = read_fap(path)
     if len(stream.frame_numbers) == 0:
-        raise UserError(f"{os.path.basename(path)}: the stream has no frames")
-
+        raise Mpeg4Error(f"{source}: the stream has no frames")
     scene = context.scene
-    values = hold_missing(stream.mask, stream.values, fill_partners)
+    scene_fps = scene.render.fps / scene.render.fps_base
+    frames = scene_frames(
+        stream.frame_numbers,
+        stream.fps,
+        scene_fps,
+        options.start_frame,
+        use_stream_fps=options.use_stream_fps,
+        source=source,
+    )
+    values = hold_missing(stream.mask, stream.values, options.fill_partners)
+    values = gain_and_clamp(values, stream.mask, options.gain, options.clamp)
+    check_values(values, stream.mask, source=source)
+    has_head = bool(stream.mask[:, HEAD_FAPS].any())
+    if has_head:
+        head_motion.check_rotation_mode(face)
     head = values[:, HEAD_FAPS] * AU
     values[:, HEAD_FAPS] = 0.0
     neutral = neutral_positions(face, empties)
     points = fap_to_fp(neutral, values, fapu, eye_pivots=eye_pivots(face))
-    scene_fps = scene.render.fps / scene.render.fps_base
-    frames = start_frame + stream.frame_numbers / stream.fps * scene_fps
+    _check_reach(face, points, neutral, source)
+    if has_head:
+        rotation, dloc = head_motion.to_delta(face, head, head_pivot(neutral))
 
-    name = stream.name or os.path.splitext(os.path.basename(path))[0]
-    kept = 0
+    # everything is checked: from here on the scene changes
+    name = os.path.splitext(source)[0]
+    streams = animation.StreamActions(name, source)
+    finishers = []
     with progress(context, len(empties) + 1) as step:
         for i, (fp_id, ob) in enumerate(empties.items()):
-            anim = ob.animation_data
-            if anim is not None and anim.action is not None:
-                anim.action.use_fake_user = True  # the previous animation stays in the file
-                anim.action = None
-                kept += 1
             k = fp_index(fp_id)
+            offset = neutral[k] if options.add else np.zeros(3)
+            fcurve = _curves(ob, streams, options, frames, finishers)
             for axis in range(3):
-                fcurve = animation.ensure_fcurve(ob, "location", axis, f"FAP {name} {ob.name}")
-                animation.set_keys(fcurve, frames, points[:, k, axis])
+                animation.set_keys(fcurve("location", axis), frames, points[:, k, axis] - offset[axis])
             step(i)
-        notes = [f"keyed {len(empties)} feature points over {len(frames)} frames of {name!r}"]
-        if stream.mask[:, HEAD_FAPS].any():
-            pivot = head_pivot(neutral)
-            euler, dloc = _head_delta(face, head, pivot)
+        if has_head:
+            head_motion.remember_rest(face)
+            fcurve = _curves(face, streams, options, frames, finishers)
+            path, size = head_motion.rotation_path(face)
+            base = np.array([1.0, 0.0, 0.0, 0.0]) if size == 4 else np.zeros(3)
+            for axis in range(size):
+                offset = base[axis] if options.add else 0.0
+                animation.set_keys(fcurve(path, axis), frames, rotation[:, axis] - offset)
             for axis in range(3):
-                animation.set_keys(
-                    animation.ensure_fcurve(face, "delta_rotation_euler", axis, face.name), frames, euler[:, axis]
-                )
-                animation.set_keys(
-                    animation.ensure_fcurve(face, "delta_location", axis, face.name), frames, dloc[:, axis]
-                )
-            notes.append("keyed head rotation on the face's delta transform")
+                animation.set_keys(fcurve("delta_location", axis), frames, dloc[:, axis])
+        elif not options.add:
+            animation.clear_stream_motion(face)  # a new stream without head motion replaces the old head motion
+            head_motion.restore_rest(face)
+        for finish in finishers:
+            finish()
         step(len(empties) + 1)
-    if kept:
-        notes.append(f"kept {kept} earlier feature point actions (fake user)")
+    notes = [f"keyed {len(empties)} feature points over {len(frames)} frames of {source} (action {name!r})"]
+    if has_head:
+        notes.append("keyed head rotation on the face's delta transform")
     if stream.mask[:, :2].any():
-        notes.append("the stream's visemes/expressions (FAP 1, 2) need a face's viseme table and are not applied")
+        notes.append(Warn("the stream's visemes/expressions (FAP 1, 2) are not applied yet"))
     last = int(np.ceil(frames[-1]))
-    if set_frame_range and last > scene.frame_end:
+    if options.set_frame_range and last > scene.frame_end:
         scene.frame_end = last
         notes.append(f"scene end frame set to {last}")
     return notes
 
 
+def _curves(ob, streams, options: ImportOptions, frames, finishers):
+    if options.add:
+        fcurve, finish = animation.add_motion(ob, streams, frames[0])
+        finishers.append(finish)
+        return fcurve
+    return animation.replace_motion(ob, streams)
+
+
 def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[str]:
-    empties = _require_setup(face)
+    empties = require_setup(face)
     fapu = face_fapu(face)
     if frame_end < frame_start:
-        raise UserError(f"frame range {frame_start}..{frame_end} is empty")
+        raise Mpeg4Error(f"frame range {frame_start}..{frame_end} is empty")
     scene = context.scene
     frames = np.arange(frame_start, frame_end + 1, dtype=np.float64)
     neutral = neutral_positions(face, empties)
@@ -157,16 +186,12 @@ def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[st
     mask = np.zeros((len(frames), N_FAPS), dtype=bool)
     mask[:, [n - 1 for n in recoverable_faps(set(empties))]] = True
 
-    rest_rot = face.delta_rotation_euler
-    rot = np.stack(
-        [animation.sample(face, "delta_rotation_euler", axis, frames, rest_rot[axis]) for axis in range(3)], axis=1
-    )
-    if np.any(rot != 0.0):
-        r_user = np.array(face.rotation_euler.to_matrix())
-        r_delta = np.array([np.array(Euler(e.tolist(), "XYZ").to_matrix()) for e in rot])
-        r_mesh = r_user.T @ r_delta @ r_user
-        axes = BLENDER_FACE_AXES
-        values[:, HEAD_FAPS] = head_angles(axes @ r_mesh @ axes.T) / AU
+    path_name, size = head_motion.rotation_path(face)
+    rest = getattr(face, path_name)
+    rotation = np.stack([animation.sample(face, path_name, axis, frames, rest[axis]) for axis in range(size)], axis=1)
+    identity = np.array([1.0, 0.0, 0.0, 0.0]) if size == 4 else np.zeros(3)
+    if np.any(rotation != identity):
+        values[:, HEAD_FAPS] = head_motion.from_delta(face, rotation) / AU
         mask[:, HEAD_FAPS] = True
 
     fps = scene.render.fps / scene.render.fps_base

@@ -1,11 +1,15 @@
 """The live, modifier-like effect: each enabled face follows its FP empties on every frame and edit.
 
-Handlers (registered in registration.py) call `apply_scene`. Per face the loaded binding is cached by
-the face's session_uid and the stored binding key, so a frame costs: read the control empties, one
-`evaluate`, one float32 write. Nothing is written when the control positions did not change, which
-also keeps the depsgraph handler from feeding itself. Problems (a deleted empty or control mesh, a
-mesh whose vertex count changed) turn the effect off and leave a message in the face's `status`,
-which the panel shows; a handler never raises.
+Handlers (registered in registration.py) call `apply_scene`. Per face a small playback state is kept
+by the face's session_uid (the binding comes from binding_store's cache), so a frame costs: read the
+control empties, one `evaluate`, one float32 write. Nothing is written when the control positions did
+not change, which also keeps the depsgraph handler from feeding itself.
+
+The pose written into the mesh must never become its shape. In Edit Mode the effect pauses and the
+edit mesh shows the rest shape; a shape key added while posed gets the rest positions back; a mesh whose
+vertex count changed while posed (an applied modifier) is kept as it is and the effect turns off with a
+message. Problems turn the effect off and leave a message in the face's `status`, which the panel shows;
+a handler never raises.
 """
 
 from __future__ import annotations
@@ -17,14 +21,13 @@ import bpy
 import numpy as np
 
 from ..deform.planar_bones import Binding, evaluate
-from . import face_data
+from ..errors import Mpeg4Error
+from . import binding_store, face_data, fp_empties, rest_shape
 
 log = logging.getLogger(__name__)
 
 MODES = {"PLANAR_BONES": "planar_bones", "SOFFD": "soffd"}
-# Empties at rest read back through their world matrices differ from the stored rest by float32
-# rounding (~1e-8 m); within this the face is written as its exact rest shape.
-REST_TOLERANCE = 1e-7
+PAUSED_IN_EDIT_MODE = "Paused in Edit Mode (the rest shape is shown)"
 
 
 @dataclass
@@ -33,12 +36,14 @@ class _State:
     binding: Binding
     control_ids: list[str]
     out: np.ndarray
+    on_shape_key: bool  # the mesh had shape keys when this state was made
     names: list[str] | None = None  # object names of the control empties, looked up by name each frame
     last: np.ndarray | None = None
     mode: str = ""
 
 
 _states: dict[int, _State] = {}
+_editing: set[int] = set()  # faces paused in Edit Mode, by session_uid
 _busy = False
 
 
@@ -46,8 +51,12 @@ def forget(face: bpy.types.Object | None = None) -> None:
     """Drop cached state (all faces, or one)."""
     if face is None:
         _states.clear()
+        _editing.clear()
+        binding_store.forget()
     else:
         _states.pop(face.session_uid, None)
+        if face.type == "MESH":
+            binding_store.forget(face.data)
 
 
 def _linked(ob) -> bool:
@@ -56,21 +65,19 @@ def _linked(ob) -> bool:
 
 def _state(face) -> _State:
     mesh = face.data
-    key = mesh.get(face_data.BINDING_KEY_PROP)
+    key = binding_store.stored_key(mesh)
     state = _states.get(face.session_uid)
     if state is not None and state.key == key and state.binding.n_vertices == len(mesh.vertices):
         return state
-    loaded = face_data.load_binding(mesh)
-    if loaded is None:
+    binding = binding_store.load(mesh)
+    if binding is None:
         raise LookupError("the face is not bound: run Set Up Face")
-    binding, key = loaded
     if binding.n_vertices != len(mesh.vertices):
-        raise LookupError(
-            f"the mesh has {len(mesh.vertices)} vertices but was bound with {binding.n_vertices}: run Set Up again"
-        )
+        raise LookupError(f"the mesh has {len(mesh.vertices)} vertices but was bound with {binding.n_vertices}")
     control = face.mpeg4_face.control_object
     ids = list(control.data.get(face_data.FP_IDS_PROP, ()))
-    state = _State(key, binding, ids, np.empty((binding.n_vertices, 3), dtype=np.float32))
+    out = np.empty((binding.n_vertices, 3), dtype=np.float32)
+    state = _State(key, binding, ids, out, mesh.shape_keys is not None)
     _states[face.session_uid] = state
     return state
 
@@ -99,25 +106,101 @@ def control_positions(face, state: _State) -> np.ndarray:
     return np.array(list(face_data.local_positions(face, control_empties(face, state)).values()))
 
 
+def _posed_changed_mesh(face, state: _State | None) -> bool:
+    """Guard the rest shape against edits made while the face was posed; True when the effect must stop."""
+    mesh = face.data
+    if state is None or state.last is None:
+        return False
+    if len(mesh.vertices) != state.binding.n_vertices:
+        disable(
+            face,
+            f"Deformation turned off: {face.name}'s mesh changed from {state.binding.n_vertices} to "
+            f"{len(mesh.vertices)} vertices. The mesh is kept as it is (Ctrl+Z brings the old one back); run "
+            "Set Up Face to bind it",
+            keep_mesh=True,
+        )
+        return True
+    if mesh.shape_keys is not None and not state.on_shape_key:
+        # a key added while posed copied the pose: give every vertex still at the pose its rest position back
+        rest = state.binding.rest_vertices.astype(np.float32)
+        for block in mesh.shape_keys.key_blocks:
+            co = rest_shape.read_key(block)
+            at_pose = np.all(co == state.out, axis=1)
+            co[at_pose] = rest[at_pose]
+            block.data.foreach_set("co", co.ravel())
+        mesh.attributes["position"].data.foreach_set("vector", rest.ravel())
+        mesh.update()
+        forget(face)
+    return False
+
+
+def _pause_for_edit_mode(face) -> None:
+    """Entering Edit Mode: show (and so edit) the rest shape, not the pose."""
+    import bmesh
+
+    _editing.add(face.session_uid)
+    state = _states.get(face.session_uid)
+    mesh = face.data
+    face.mpeg4_face.status = PAUSED_IN_EDIT_MODE
+    if state is None or state.last is None or state.on_shape_key:
+        return
+    bm = bmesh.from_edit_mesh(mesh)
+    if len(bm.verts) != state.binding.n_vertices:
+        return
+    rest = state.binding.rest_vertices.astype(np.float32)
+    for vert, pose, back in zip(bm.verts, state.out, rest, strict=True):
+        if tuple(vert.co) == tuple(pose):  # not yet edited
+            vert.co = back
+    bmesh.update_edit_mesh(mesh, loop_triangles=False, destructive=False)
+    state.last = None
+
+
+def _resume_after_edit_mode(face) -> bool:
+    """Back from Edit Mode: go on if the mesh is the bound rest shape, else keep the edit and stop."""
+    _editing.discard(face.session_uid)
+    mesh = face.data
+    binding = binding_store.load(mesh)
+    now = rest_shape.current_rest(mesh)
+    if face.mpeg4_face.status == PAUSED_IN_EDIT_MODE:
+        face.mpeg4_face.status = ""
+    if binding is not None and now.shape == binding.rest_vertices.shape:
+        if np.array_equal(now, binding.rest_vertices.astype(np.float32)):
+            return True
+    disable(
+        face,
+        f"Deformation turned off: {face.name} was edited in Edit Mode. Run Set Up Face to bind the new shape",
+        keep_mesh=True,
+    )
+    return False
+
+
 def apply_face(face, force: bool = False) -> bool:
     """Deform `face` from its empties; returns False (and disables the effect) on a problem."""
     settings = face.mpeg4_face
+    if face.mode == "EDIT":
+        if face.session_uid not in _editing:
+            _pause_for_edit_mode(face)
+        return True
+    if face.session_uid in _editing and not _resume_after_edit_mode(face):
+        return False
     try:
         if not _linked(settings.control_object):
             raise LookupError("the control mesh was deleted")
+        if _posed_changed_mesh(face, _states.get(face.session_uid)):
+            return False
         state = _state(face)
         points = control_positions(face, state)
         mode = MODES[settings.mode]
         if not force and state.mode == mode and state.last is not None and np.array_equal(points, state.last):
             return True
-        if np.allclose(points, state.binding.control_rest, rtol=0.0, atol=REST_TOLERANCE):
+        if np.array_equal(points, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
         else:
             evaluate(state.binding, points, mode=mode, out=state.out)
-        face_data.write_positions(face.data, state.out)
+        rest_shape.write_positions(face.data, state.out)
         _write_control(settings.control_object, points)
         state.last, state.mode = points, mode
-    except (LookupError, ValueError) as exc:
+    except (LookupError, Mpeg4Error) as exc:
         disable(face, f"Deformation turned off: {exc}")
         return False
     if settings.status:
@@ -132,33 +215,39 @@ def _write_control(control, points: np.ndarray) -> None:
         mesh.update()
 
 
-def disable(face, message: str) -> None:
+def _restore_control(face) -> None:
+    control = face.mpeg4_face.control_object
+    if _linked(control) and face_data.REST_PROP in control.data:
+        _write_control(control, np.asarray(control.data[face_data.REST_PROP]).reshape(-1, 3))
+
+
+def pause(face) -> None:
+    """Show the rest shape without touching the Deform setting (set-up does this before measuring)."""
+    forget(face)
+    rest_shape.restore_rest(face.data)
+    _restore_control(face)
+
+
+def disable(face, message: str, keep_mesh: bool = False) -> None:
+    """Turn the effect off with a message; the mesh goes back to rest unless `keep_mesh` (a user's edit)."""
     log.warning("%s: %s", face.name, message)
     forget(face)
     settings = face.mpeg4_face
     settings.status = message
-    if settings.enabled:
+    if keep_mesh:
+        settings["enabled"] = False  # the ID property, so the update does not write the old rest over the edit
+    elif settings.enabled:
         settings.enabled = False  # its update restores the rest mesh
 
 
 def settings_changed(face, rebind: bool) -> None:
     """Property update: rebind if a binding parameter changed, then apply or restore."""
-    if rebind and face.data.get(face_data.BINDING_PROP) is not None:
-        from . import setup
-
-        try:
-            setup.rebind(face)
-        except (LookupError, ValueError) as exc:
-            disable(face, f"Rebinding failed: {exc}")
-            return
+    if rebind and binding_store.is_bound(face):
+        binding_store.rebind(face)
     if face.mpeg4_face.enabled:
         apply_face(face, force=True)
     else:
-        forget(face)
-        face_data.restore_rest(face.data)
-        control = face.mpeg4_face.control_object
-        if _linked(control) and face_data.REST_PROP in control.data:
-            _write_control(control, np.asarray(control.data[face_data.REST_PROP]).reshape(-1, 3))
+        pause(face)
 
 
 def apply_scene(scene) -> None:
@@ -178,6 +267,20 @@ def apply_scene(scene) -> None:
         _busy = False
 
 
+def _mirror_edit(scene, depsgraph) -> None:
+    """X-Mirror: the partner of an FP empty the user is moving follows it across the face's mid-plane."""
+    active = bpy.context.view_layer.objects.active if bpy.context.view_layer else None
+    if active is None or active.type != "EMPTY" or active.animation_data is not None:
+        return
+    face = active.parent
+    if face is None or face.type != "MESH" or not face.mpeg4_face.use_x_mirror:
+        return
+    if getattr(bpy.context.screen, "is_animation_playing", False):
+        return
+    if any(u.is_updated_transform and u.id.original == active for u in depsgraph.updates):
+        fp_empties.mirror_move(face, active)
+
+
 @bpy.app.handlers.persistent
 def on_frame_change(scene, depsgraph=None):
     apply_scene(scene)
@@ -185,8 +288,11 @@ def on_frame_change(scene, depsgraph=None):
 
 @bpy.app.handlers.persistent
 def on_depsgraph_update(scene, depsgraph):
-    # only transforms of objects can move an empty; skip pure data/selection updates cheaply
-    if any(update.is_updated_transform for update in depsgraph.updates):
+    if _busy:
+        return
+    # transforms move empties; geometry updates (Edit Mode, a new shape key) are checked against the pose
+    if any(u.is_updated_transform or u.is_updated_geometry for u in depsgraph.updates):
+        _mirror_edit(scene, depsgraph)
         apply_scene(scene)
 
 

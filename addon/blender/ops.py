@@ -1,69 +1,74 @@
-"""Operators. Each is thin: it gathers its inputs and calls a service (setup, fap_io, bake)."""
+"""Operators. Each is thin: it says when it can run (`unavailable`), gathers its inputs and calls a service."""
+
+import os
 
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatVectorProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 from bpy_extras import view3d_utils
 from bpy_extras.io_utils import ExportHelper, ImportHelper
-from mathutils import Vector
 
+from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
-from . import bake, face_data, fap_io, setup
-from .panel import active_face
-from .reporting import Mpeg4Operator, UserError
+from . import bake, binding_store, face_data, face_setup, fap_io, fp_empties
+from .reporting import Mpeg4Operator, report_outside_operator
 
 
 def _face(context):
-    face = active_face(context)
+    face = face_data.active_face(context)
     if face is None:
-        raise UserError("select the face mesh (or one of its feature point empties) first")
+        raise Mpeg4Error("select the face mesh (or one of its feature point empties) first")
     return face
 
 
+def _no_face(context) -> str | None:
+    face = face_data.active_face(context)
+    if face is None:
+        return "Select the face mesh (or one of its feature point empties) first"
+    if face.mode != "OBJECT":
+        return f"{face.name} is in {face.mode.title().replace('_', ' ')} Mode: go back to Object Mode"
+    return None
+
+
+def _not_set_up(context) -> str | None:
+    reason = _no_face(context)
+    if reason is None and not binding_store.is_bound(face_data.active_face(context)):
+        return f"{face_data.active_face(context).name} is not set up: run Set Up Face first"
+    return reason
+
+
 class MPEG4_OT_setup_face(Mpeg4Operator, bpy.types.Operator):
-    """Build the control mesh from the feature point empties, compute FAPU, bind and turn deformation on"""
+    """Make the selected face follow its feature point empties: builds the control mesh, measures the face and
+    turns the deformation on (run it again after editing the mesh or moving the points at rest)"""
 
     bl_idname = "mpeg4.setup_face"
     bl_label = "Set Up Face"
     bl_options = {"REGISTER", "UNDO"}
 
+    @classmethod
+    def unavailable(cls, context):
+        return _no_face(context)
+
     def run(self, context):
-        return setup.set_up(_face(context))
+        return face_setup.set_up(_face(context))
 
 
 class MPEG4_OT_remove_face(Mpeg4Operator, bpy.types.Operator):
-    """Take the set-up away: the mesh goes back to its rest shape and what set-up made is deleted"""
+    """Take the set-up away: the face, its feature points and its animation go back to how they were before"""
 
     bl_idname = "mpeg4.remove_face"
     bl_label = "Remove Set-Up"
     bl_options = {"REGISTER", "UNDO"}
 
+    @classmethod
+    def unavailable(cls, context):
+        return _not_set_up(context)
+
     def run(self, context):
-        return setup.remove(_face(context))
+        return face_setup.remove(_face(context))
 
 
 def _fp_items(_self, _context):
     return [(fp_id, fp_id, feature_point(fp_id).description) for fp_id in FP_IDS]
-
-
-def place_feature_point(face, fp_id: str, world_location) -> bpy.types.Object:
-    """Create (or move) the empty of `fp_id` at a world location; skin points snap onto the face."""
-    coll = setup.ensure_fp_collection(face)
-    empty = face_data.fp_empties(face).get(fp_id)
-    if empty is None:
-        empty = bpy.data.objects.new(f"FP {fp_id}", None)
-        empty[face_data.FP_PROP] = fp_id
-        empty[face_data.CREATED_PROP] = True
-        empty.empty_display_type = "SPHERE"
-        empty.empty_display_size = 0.002 * max(face.dimensions.length, 1e-3) / max(face.scale.length, 1e-9)
-        coll.objects.link(empty)
-        empty.parent = face
-    local = face.matrix_world.inverted() @ Vector(world_location)
-    if feature_point(fp_id).surface == "skin":
-        ok, on_surface, _n, _i = face.closest_point_on_mesh(local)
-        if ok:
-            local = on_surface
-    empty.location = local
-    return empty
 
 
 class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
@@ -74,18 +79,22 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     fp_id: EnumProperty(name="Feature Point", items=_fp_items)
-    location: FloatVectorProperty(name="Location", subtype="TRANSLATION", description="World position")
+    location: bpy.props.FloatVectorProperty(name="Location", subtype="TRANSLATION", description="World position")
+
+    @classmethod
+    def unavailable(cls, context):
+        return _no_face(context)
 
     def run(self, context):
         face = _face(context)
-        place_feature_point(face, self.fp_id, self.location)
-        return [f"placed FP {self.fp_id}"]
+        placed = fp_empties.place(face, self.fp_id, self.location, mirror=face.mpeg4_face.use_x_mirror)
+        return [f"placed {', '.join(ob.name for ob in placed)}"]
 
     # interactive: click on the face for each missing point in turn
     def invoke(self, context, event):
-        face = active_face(context)
-        if face is None or context.area is None or context.area.type != "VIEW_3D":
-            self.report({"ERROR"}, "select the face mesh in a 3D viewport first")
+        face = face_data.active_face(context)
+        if context.area is None or context.area.type != "VIEW_3D":
+            self.report({"ERROR"}, "Place Feature Points works in a 3D viewport")
             return {"CANCELLED"}
         self._face_name = face.name
         self._queue = [fp_id for fp_id in FP_IDS if fp_id not in face_data.fp_empties(face)]
@@ -110,6 +119,14 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
         return {"FINISHED"}
 
     def modal(self, context, event):
+        try:
+            return self._step(context, event)
+        except Exception as exc:
+            context.area.header_text_set(None)
+            report_outside_operator(bpy.data.objects.get(self._face_name), exc)
+            return {"CANCELLED"}
+
+    def _step(self, context, event):
         if event.type in {"ESC", "RET"} and event.value == "PRESS":
             return self._finish(context)
         if event.type == "S" and event.value == "PRESS":
@@ -118,13 +135,16 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
             return {"RUNNING_MODAL"}
         if event.type == "LEFTMOUSE" and event.value == "PRESS":
             face = bpy.data.objects.get(self._face_name)
-            hit = self._ray_cast(context, event)
             if face is None:
                 return self._finish(context)
+            hit = self._ray_cast(context, event)
             if hit is not None:
                 fp_id = self._queue.pop(0)
-                place_feature_point(face, fp_id, hit)
-                self._placed += 1
+                placed = fp_empties.place(face, fp_id, hit, mirror=face.mpeg4_face.use_x_mirror)
+                for ob in placed[1:]:
+                    if ob.get(face_data.FP_PROP) in self._queue:
+                        self._queue.remove(ob[face_data.FP_PROP])
+                self._placed += len(placed)
                 bpy.ops.ed.undo_push(message=f"Place FP {fp_id}")
                 if not self._queue:
                     return self._finish(context)
@@ -143,39 +163,88 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
 
 
 class MPEG4_OT_import_fap(Mpeg4Operator, bpy.types.Operator, ImportHelper):
-    """Import an MPEG-4 FAP stream: key the feature point empties (and head rotation) of the active face"""
+    """Import an MPEG-4 FAP stream onto the active face: keys its feature points (and head turns) in one action
+    named after the file"""
 
     bl_idname = "mpeg4.import_fap"
     bl_label = "Import FAP Stream"
-    bl_options = {"REGISTER", "UNDO"}
+    bl_options = {"REGISTER", "UNDO", "PRESET"}
 
     filename_ext = ".fap"
     filter_glob: StringProperty(default="*.fap", options={"HIDDEN"})
-    at_current_frame: BoolProperty(
-        name="Start at Current Frame",
-        default=False,
-        description="Put the stream's time 0 at the current frame (else at the scene's start frame)",
+    directory: StringProperty(subtype="DIR_PATH", options={"SKIP_SAVE", "HIDDEN"})
+    files: CollectionProperty(type=bpy.types.OperatorFileListElement, options={"SKIP_SAVE", "HIDDEN"})
+    timing: EnumProperty(
+        name="Timing",
+        items=(
+            ("STREAM", "Stream's Frame Rate", "Keep the stream's timing: its frames are resampled to the scene's fps"),
+            ("SCENE", "One Frame per Frame", "Each frame of the stream becomes one scene frame"),
+        ),
+        default="STREAM",
+    )
+    start_frame: IntProperty(name="Start Frame", default=1, description="The scene frame where the stream starts")
+    gain: FloatProperty(
+        name="Gain", default=1.0, min=0.0, soft_max=2.0, description="Scale the stream's motion (1: as recorded)"
+    )
+    clamp: FloatProperty(
+        name="Clamp",
+        default=0.0,
+        min=0.0,
+        soft_max=2000.0,
+        description="Limit each FAP value to this many FAP units after the gain (0: no limit)",
+    )
+    mode: EnumProperty(
+        name="Motion",
+        items=(
+            (
+                "REPLACE",
+                "Replace",
+                "The stream replaces the feature points' motion (your own animation is kept in "
+                "the file and comes back on Remove)",
+            ),
+            ("ADD", "Add", "The stream is added on top of the existing motion, as an NLA strip"),
+        ),
+        default="REPLACE",
     )
     set_frame_range: BoolProperty(
         name="Extend Frame Range", default=True, description="Extend the scene's end frame to the end of the stream"
     )
 
+    @classmethod
+    def unavailable(cls, context):
+        return _not_set_up(context)
+
+    def invoke(self, context, event):
+        if not self.properties.is_property_set("start_frame"):
+            self.start_frame = context.scene.frame_start
+        if self.filepath or self.files:  # dropped on the viewport: ask only for the options
+            return context.window_manager.invoke_props_dialog(self)
+        return ImportHelper.invoke(self, context, event)
+
+    def _paths(self) -> list[str]:
+        if self.files and self.directory:
+            return [os.path.join(self.directory, f.name) for f in self.files if f.name]
+        return [self.filepath]
+
     def run(self, context):
         face = _face(context)
-        scene = context.scene
-        start = scene.frame_current if self.at_current_frame else scene.frame_start
-        return fap_io.import_fap(
-            context,
-            face,
-            self.filepath,
-            start_frame=start,
-            fill_partners=scene.mpeg4.fill_partners,
+        paths = self._paths()
+        if len(paths) != 1:
+            raise Mpeg4Error(f"import one .fap stream at a time ({len(paths)} were given)")
+        options = fap_io.ImportOptions(
+            start_frame=self.start_frame,
+            use_stream_fps=self.timing == "STREAM",
+            gain=self.gain,
+            clamp=self.clamp or None,
+            add=self.mode == "ADD",
+            fill_partners=context.scene.mpeg4.fill_partners,
             set_frame_range=self.set_frame_range,
         )
+        return fap_io.import_fap(context, face, paths[0], options)
 
 
 class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):
-    """Write the posed or animated feature point empties as an MPEG-4 FAP stream"""
+    """Write the posed or animated feature points of the active face as an MPEG-4 FAP stream"""
 
     bl_idname = "mpeg4.export_fap"
     bl_label = "Export FAP Stream"
@@ -186,6 +255,10 @@ class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):
     frame_start: IntProperty(name="Start", default=-1, description="First frame (-1: the scene's)")
     frame_end: IntProperty(name="End", default=-1, description="Last frame (-1: the scene's)")
 
+    @classmethod
+    def unavailable(cls, context):
+        return _not_set_up(context)
+
     def run(self, context):
         scene = context.scene
         start = scene.frame_start if self.frame_start < 0 else self.frame_start
@@ -194,7 +267,7 @@ class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):
 
 
 class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
-    """Bake the deformation over the scene's frame range so it plays without this extension"""
+    """Bake the deformation over the scene's frame range so the animation plays without this extension"""
 
     bl_idname = "mpeg4.bake"
     bl_label = "Bake"
@@ -204,10 +277,17 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
         name="Target",
         items=(
             ("SHAPE_KEYS", "Shape Keys", "One shape key per frame, keyed on and off"),
-            ("POINT_CACHE", "Point Cache", "A .pc2 file next to the .blend read by a Mesh Cache modifier"),
+            ("POINT_CACHE", "Point Cache", "A .pc2 file next to the .blend, read by a Mesh Cache modifier"),
         ),
     )
     filepath: StringProperty(name="Cache File", subtype="FILE_PATH", default="")
+
+    @classmethod
+    def unavailable(cls, context):
+        reason = _not_set_up(context)
+        if reason is None and not face_data.active_face(context).mpeg4_face.enabled:
+            return "Turn Deform on before baking"
+        return reason
 
     def run(self, context):
         face = _face(context)
@@ -216,14 +296,6 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
         if self.target == "SHAPE_KEYS":
             return bake.bake_shape_keys(context, face, frames)
         return bake.bake_point_cache(context, face, frames, self.filepath or None)
-
-
-def menu_import(self, _context):
-    self.layout.operator(MPEG4_OT_import_fap.bl_idname, text="MPEG-4 FAP (.fap)")
-
-
-def menu_export(self, _context):
-    self.layout.operator(MPEG4_OT_export_fap.bl_idname, text="MPEG-4 FAP (.fap)")
 
 
 CLASSES = (

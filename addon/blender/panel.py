@@ -3,22 +3,9 @@
 import bpy
 
 from ..mpeg4.feature_points import FP_IDS
-from . import face_data
+from . import binding_store, face_data
 
 FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
-
-
-def active_face(context):
-    ob = context.active_object
-    if ob is None:
-        return None
-    if ob.type == "MESH" and (ob.mpeg4_face.control_object is not None or ob.mpeg4_face.fp_collection):
-        return ob
-    # an FP empty or the control mesh selected: show its face
-    parent = ob.parent
-    if parent is not None and parent.type == "MESH" and parent.mpeg4_face.control_object is not None:
-        return parent
-    return ob if ob.type == "MESH" else None
 
 
 class MPEG4_PT_face(bpy.types.Panel):
@@ -30,7 +17,7 @@ class MPEG4_PT_face(bpy.types.Panel):
 
     def draw(self, context):
         layout = self.layout
-        face = active_face(context)
+        face = face_data.active_face(context)
         if face is None:
             layout.label(text="Select a face mesh", icon="INFO")
             return
@@ -42,7 +29,7 @@ class MPEG4_PT_face(bpy.types.Panel):
             box.label(text=settings.status, icon="ERROR")
 
         empties = face_data.fp_empties(face)
-        bound = face_data.BINDING_KEY_PROP in face.data
+        bound = binding_store.is_bound(face)
         col = layout.column(align=True)
         col.label(
             text=f"Feature points: {len(empties)} of {len(FP_IDS)} placed",
@@ -54,6 +41,7 @@ class MPEG4_PT_face(bpy.types.Panel):
         col.label(text="Bound" if bound else "Not bound", icon="LINKED" if bound else "UNLINKED")
         row = layout.row(align=True)
         row.operator("mpeg4.place_feature_points", icon="EMPTY_AXIS")
+        row.prop(settings, "use_x_mirror", text="", icon="MOD_MIRROR")
         row.operator("mpeg4.setup_face", icon="MOD_MESHDEFORM")
         if bound:
             layout.operator("mpeg4.remove_face", icon="X")

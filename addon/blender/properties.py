@@ -10,39 +10,45 @@ from bpy.props import (
     StringProperty,
 )
 
+from . import live
+from .reporting import property_callback
 
+
+@property_callback
 def _rebind(self, context):
-    from . import live
-
     live.settings_changed(self.id_data, rebind=True)
 
 
+@property_callback
 def _reapply(self, context):
-    from . import live
-
     live.settings_changed(self.id_data, rebind=False)
 
 
 class MPEG4_PG_face(bpy.types.PropertyGroup):
     enabled: BoolProperty(
         name="Deform",
-        description="Deform this face from its feature point empties (off restores the rest mesh exactly)",
+        description="Deform this face from its feature point empties. Off shows the face exactly as it was set up",
         default=False,
         update=_reapply,
     )
     mode: EnumProperty(
         name="Mode",
         items=(
-            ("PLANAR_BONES", "Planar Bones", "Per-region frames (face, edge, apex): no over-warping"),
-            ("SOFFD", "SoFFD", "Plain surface-oriented free-form deformation (baseline)"),
+            (
+                "PLANAR_BONES",
+                "Planar Bones",
+                "Each control triangle moves the skin near it like a bone, without "
+                "over-stretching where triangles meet",
+            ),
+            ("SOFFD", "SoFFD", "Plain surface-oriented free-form deformation, for comparison"),
         ),
         default="PLANAR_BONES",
         update=_reapply,
     )
     radius_fraction: FloatProperty(
         name="Radius",
-        description="Affection radius of each control triangle as a fraction of the distance to its nearest "
-        "other feature point (raised where needed so the whole face is covered)",
+        description="How far each control triangle reaches into the skin, relative to the distance to the "
+        "nearest other feature point (raised where needed so the whole face moves)",
         default=1.0,
         min=0.05,
         soft_max=4.0,
@@ -50,7 +56,8 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
     )
     falloff_exponent: FloatProperty(
         name="Falloff",
-        description="Exponent n of the cosine falloff (eq. 9)",
+        description="How quickly a triangle's pull fades with distance: higher values keep motion closer "
+        "to the feature points",
         default=2.0,
         min=0.1,
         soft_max=8.0,
@@ -58,8 +65,8 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
     )
     use_masks: BoolProperty(
         name="Masks",
-        description="Stop motion crossing the mouth and eye openings with the upper_lip, lower_lip, "
-        "upper_eyelid and lower_eyelid vertex groups",
+        description="Keep the upper and lower lips (and eyelids) from dragging each other along, using the "
+        "upper_lip, lower_lip, upper_eyelid and lower_eyelid vertex groups",
         default=True,
         update=_rebind,
     )
@@ -67,29 +74,40 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         name="Mask Image",
         type=bpy.types.Image,
         update=_rebind,
-        description="Masks painted as a texture (R: upper lip, G: lower lip, B: upper eyelids, A: lower "
-        "eyelids), sampled at the face's UVs; when empty, the vertex groups of those names are used",
+        description="Lip and eyelid masks painted as a texture (red: upper lip, green: lower lip, blue: upper "
+        "eyelids, alpha: lower eyelids), read at the face's UVs. Empty: use the vertex groups",
+    )
+    use_x_mirror: BoolProperty(
+        name="X-Mirror",
+        description="Moving or placing a left feature point moves or places its right partner too (mirrored "
+        "across the face's X axis), and the other way round",
+        default=False,
     )
     fp_collection: PointerProperty(name="Feature Points", type=bpy.types.Collection)
     control_object: PointerProperty(name="Control Mesh", type=bpy.types.Object)
     left_eye: PointerProperty(
-        name="Left Eyeball", type=bpy.types.Object, description="Turns with FP 3.5 (FAPs 23, 25) about its origin"
+        name="Left Eyeball",
+        type=bpy.types.Object,
+        description="Turns to look where feature point 3.5 (left pupil) goes",
     )
     right_eye: PointerProperty(
-        name="Right Eyeball", type=bpy.types.Object, description="Turns with FP 3.6 (FAPs 24, 26) about its origin"
+        name="Right Eyeball",
+        type=bpy.types.Object,
+        description="Turns to look where feature point 3.6 (right pupil) goes",
     )
     lower_teeth: PointerProperty(
-        name="Lower Teeth", type=bpy.types.Object, description="Moves with FP 9.11, i.e. with the jaw"
+        name="Lower Teeth", type=bpy.types.Object, description="Moves with the jaw (feature point 9.11)"
     )
-    tongue: PointerProperty(name="Tongue", type=bpy.types.Object, description="Moves with FP 6.2")
+    tongue: PointerProperty(name="Tongue", type=bpy.types.Object, description="Moves with feature point 6.2")
     fapu: FloatVectorProperty(
-        name="FAPU0",
-        description="IRISD0, ES0, ENS0, MNS0, MW0 of the neutral face (model units)",
+        name="FAPU",
+        description="The face's measures that FAP values are relative to: iris diameter, eye separation, eye-nose "
+        "and mouth-nose distances, mouth width (model units)",
         size=5,
         subtype="NONE",
         default=(0.0,) * 5,
     )
-    status: StringProperty(name="Status", description="Last problem the live deformation met", default="")
+    status: StringProperty(name="Status", description="The last problem the live deformation met", default="")
 
 
 class MPEG4_PG_scene(bpy.types.PropertyGroup):

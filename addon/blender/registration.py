@@ -2,9 +2,9 @@
 
 import bpy
 
-from . import live, ops, panel, properties
+from . import live, menus, ops, panel, properties
 
-CLASSES = (*properties.CLASSES, *ops.CLASSES, *panel.CLASSES)
+CLASSES = (*properties.CLASSES, *ops.CLASSES, *menus.CLASSES, *panel.CLASSES)
 HANDLERS = (
     (bpy.app.handlers.frame_change_post, live.on_frame_change),
     (bpy.app.handlers.depsgraph_update_post, live.on_depsgraph_update),
@@ -14,11 +14,12 @@ HANDLERS = (
 
 def _remove_handler(handlers, function):
     # compare by name: a reloaded module brings new function objects
-    for existing in [
+    same = [
         h
         for h in handlers
-        if getattr(h, "__name__", None) == function.__name__ and getattr(h, "__module__", None) == function.__module__
-    ]:
+        if (getattr(h, "__name__", None), getattr(h, "__module__", None)) == (function.__name__, function.__module__)
+    ]
+    for existing in same:
         handlers.remove(existing)
 
 
@@ -26,8 +27,8 @@ def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
     properties.register_properties()
-    bpy.types.TOPBAR_MT_file_import.append(ops.menu_import)
-    bpy.types.TOPBAR_MT_file_export.append(ops.menu_export)
+    for menu, entry in menus.MENU_ENTRIES:
+        menu.append(entry)
     for handlers, function in HANDLERS:
         _remove_handler(handlers, function)
         handlers.append(function)
@@ -36,8 +37,8 @@ def register():
 def unregister():
     for handlers, function in reversed(HANDLERS):
         _remove_handler(handlers, function)
-    bpy.types.TOPBAR_MT_file_export.remove(ops.menu_export)
-    bpy.types.TOPBAR_MT_file_import.remove(ops.menu_import)
+    for menu, entry in reversed(menus.MENU_ENTRIES):
+        menu.remove(entry)
     properties.unregister_properties()
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

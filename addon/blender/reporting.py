@@ -1,42 +1,47 @@
 """The one place where errors become reports, and a progress indicator that always ends.
 
-Domain errors (a bad .fap file, missing feature points, a failed bind) carry a message written for the
-user; operators catch them here and return CANCELLED with that message. Anything else is a bug: it is
-logged with its traceback and reported as an internal error (or re-raised when `RAISE_UNEXPECTED` is
-set, which the tests do).
+An `Mpeg4Error` (a bad .fap file, missing feature points, a failed bind) carries a message written for
+the user: operators report it and return CANCELLED; property callbacks, handlers and modal steps,
+which have no operator to report through, put it in the face's status line (shown in the panel) and
+the console. Anything else is a bug: it is logged with its traceback and reported as an internal error
+(or re-raised when `RAISE_UNEXPECTED` is set, which the tests do).
 """
 
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import traceback
 
 import bpy
 
-from ..deform.planar_bones import DeformError
-from ..geometry.delaunay import TriangulationError
-from ..mpeg4.fap_file import FapFileError
-from ..mpeg4.fapu import FapuError
+from ..errors import Mpeg4Error
 
 log = logging.getLogger(__name__)
 RAISE_UNEXPECTED = False
 
 
-class UserError(Exception):
-    """A problem the user can fix; the message says how."""
-
-
-DOMAIN_ERRORS = (UserError, FapFileError, FapuError, DeformError, TriangulationError)
-
-
 class Mpeg4Operator:
-    """Mix-in for operators: implement `run(context)` returning report lines; errors become reports."""
+    """Mix-in for operators: implement `run(context)` returning report lines (`Warn` lines for warnings),
+    and `unavailable(context)` returning why the operator cannot run now (None when it can)."""
+
+    @classmethod
+    def unavailable(cls, context) -> str | None:
+        return None
+
+    @classmethod
+    def poll(cls, context):
+        reason = cls.unavailable(context)
+        if reason is not None:
+            cls.poll_message_set(reason)
+            return False
+        return True
 
     def execute(self, context):
         try:
             notes = self.run(context) or []
-        except DOMAIN_ERRORS as exc:
+        except Mpeg4Error as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         except Exception as exc:
@@ -46,8 +51,47 @@ class Mpeg4Operator:
             self.report({"ERROR"}, f"Internal error in {self.bl_label}: {exc} (details in the console)")
             return {"CANCELLED"}
         for note in notes:
-            self.report({"INFO"}, note)
+            level = "WARNING" if isinstance(note, Warn) else "INFO"
+            self.report({level}, str(note))
         return {"FINISHED"}
+
+
+class Warn(str):
+    """A report line the user should act on: reported as WARNING, not INFO."""
+
+
+def report_outside_operator(face, exc: BaseException) -> None:
+    """Report an error met in a property callback, handler or modal step (no operator to report through)."""
+    if isinstance(exc, Mpeg4Error):
+        message = str(exc)
+        log.warning("%s: %s", getattr(face, "name", "?"), message)
+    else:
+        if RAISE_UNEXPECTED:
+            raise exc
+        message = f"Internal error: {exc} (details in the console)"
+        log.error("%s", "".join(traceback.format_exception(exc)))
+    if face is not None:
+        face.mpeg4_face.status = message
+    wm = bpy.context.window_manager
+    if wm is not None and wm.windows:
+
+        def draw(menu, _context):
+            menu.layout.label(text=message)
+
+        wm.popup_menu(draw, title="MPEG-4 Face", icon="ERROR")
+
+
+def property_callback(function):
+    """Decorate an RNA update callback `(settings, context)` so errors become a report, not a traceback."""
+
+    @functools.wraps(function)
+    def guarded(settings, context):
+        try:
+            function(settings, context)
+        except Exception as exc:
+            report_outside_operator(settings.id_data, exc)
+
+    return guarded
 
 
 @contextlib.contextmanager

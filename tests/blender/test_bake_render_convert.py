@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import face_data
+from addon.blender import rest_shape
 from addon.formats.pc2 import read_pc2
 
 from .helpers import DEMO_FAP, ROOT, evaluated_positions, positions, set_up_sample
@@ -31,7 +31,7 @@ def test_point_cache_bake_plays_the_same_without_the_live_effect(tmp_path):
     cache = tmp_path / "head.pc2"
     assert bpy.ops.mpeg4.bake(target="POINT_CACHE", filepath=str(cache)) == {"FINISHED"}
     assert not head.mpeg4_face.enabled
-    np.testing.assert_array_equal(positions(head.data), face_data.stored_rest(head.data))  # base mesh at rest
+    np.testing.assert_array_equal(positions(head.data), rest_shape.stored_rest(head.data))  # base mesh at rest
     data, start, rate = read_pc2(str(cache))
     assert data.shape == (7, len(head.data.vertices), 3) and start == 20 and rate == 1
     assert head.modifiers[0].type == "MESH_CACHE"

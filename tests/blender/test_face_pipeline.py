@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import face_data, fap_io, setup
+from addon.blender import binding_store, face_data, fap_io, rest_shape
 from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
@@ -27,9 +27,9 @@ def core_result(head, stream_path, frame_index):
     ids = list(control[face_data.FP_IDS_PROP])
     rest_control = neutral[[fp_index(i) for i in ids]]
     tris = np.array([list(p.vertices) for p in control.polygons])
-    masks = setup.vertex_masks(head)
+    masks = binding_store.vertex_masks(head)
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
-    rest = face_data.stored_rest(head.data).astype(np.float64)
+    rest = rest_shape.stored_rest(head.data).astype(np.float64)
     # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below 0.05
     cover = cover_over_control_mesh(rest, rest_control, tris, 0.25 * fapu.ES0)
     binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover, fade_below=0.05)
@@ -40,7 +40,7 @@ def test_setup_builds_control_mesh_fapu_and_binding():
     head = set_up_sample()
     s = head.mpeg4_face
     assert s.enabled and s.status == ""
-    assert face_data.BINDING_KEY_PROP in head.data
+    assert binding_store.BINDING_KEY_PROP in head.data
     control = s.control_object
     assert control is not None and len(control.data.polygons) > 50
     assert s.left_eye.name == "Eye L" and s.lower_teeth.name == "Teeth Lower" and s.tongue.name == "Tongue"
@@ -51,7 +51,7 @@ def test_setup_builds_control_mesh_fapu_and_binding():
     es0 = s.fapu[1]
     assert 0.055 < es0 < 0.075
     # set-up alone does not move the face: the control mesh is at rest
-    np.testing.assert_array_equal(positions(head.data), face_data.stored_rest(head.data))
+    np.testing.assert_array_equal(positions(head.data), rest_shape.stored_rest(head.data))
 
 
 def test_moving_an_empty_deforms_and_toggling_off_restores_bit_for_bit():
@@ -79,12 +79,12 @@ def test_import_then_frames_match_the_core_and_survive_save_and_reload(tmp_path)
         expected = core_result(head, DEMO_FAP, index)
         np.testing.assert_allclose(positions(head.data), expected, atol=1e-6)
     before = positions(head.data).copy()
-    key = head.data[face_data.BINDING_KEY_PROP]
+    key = head.data[binding_store.BINDING_KEY_PROP]
     path = tmp_path / "saved.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     bpy.ops.wm.open_mainfile(filepath=str(path))
     head = bpy.data.objects["Head"]
-    assert head.data[face_data.BINDING_KEY_PROP] == key  # the stored binding is used, not recomputed
+    assert head.data[binding_store.BINDING_KEY_PROP] == key  # the stored binding is used, not recomputed
     scene = bpy.context.scene
     scene.frame_set(scene.frame_current)
     np.testing.assert_allclose(positions(head.data), before, atol=1e-6)
@@ -123,7 +123,7 @@ def test_deleting_an_fp_or_the_control_mesh_disables_with_a_status():
     bpy.context.scene.frame_set(2)
     s = head.mpeg4_face
     assert not s.enabled and "8.3" in s.status
-    np.testing.assert_array_equal(positions(head.data), face_data.stored_rest(head.data))
+    np.testing.assert_array_equal(positions(head.data), rest_shape.stored_rest(head.data))
 
     head = set_up_sample()
     bpy.data.objects.remove(head.mpeg4_face.control_object)
@@ -144,7 +144,7 @@ def test_remove_restores_the_original_file_state_bit_for_bit():
     np.testing.assert_array_equal(positions(head.data), original)
     # the sample's own empties and parts stay; the control mesh set-up made is gone
     assert {ob.name for ob in bpy.data.objects} == names - {"Head Control"}
-    assert face_data.BINDING_PROP not in head.data and face_data.REST_PROP not in head.data
+    assert binding_store.BINDING_PROP not in head.data and face_data.REST_PROP not in head.data
     assert bpy.data.objects["Eye L"].animation_data is None or not bpy.data.objects["Eye L"].animation_data.drivers
 
 
@@ -205,16 +205,16 @@ def test_two_faces_in_one_scene_keep_their_own_settings():
 
 def test_changing_a_parameter_rebinds_and_the_mode_switches_the_formula():
     head = set_up_sample()
-    key, pairs = head.data[face_data.BINDING_KEY_PROP], face_data.load_binding(head.data)[0].n_pairs
+    key, pairs = head.data[binding_store.BINDING_KEY_PROP], binding_store.load(head.data).n_pairs
     head.mpeg4_face.radius_fraction = 1.5
-    assert head.data[face_data.BINDING_KEY_PROP] != key
-    assert face_data.load_binding(head.data)[0].n_pairs > pairs  # larger affection volumes
+    assert head.data[binding_store.BINDING_KEY_PROP] != key
+    assert binding_store.load(head.data).n_pairs > pairs  # larger affection volumes
     corner = face_data.fp_empties(head)["8.3"]
     corner.location.x += 0.01
     bpy.context.view_layer.update()
     planar = positions(head.data).copy()
     head.mpeg4_face.mode = "SOFFD"
-    assert head.data[face_data.BINDING_KEY_PROP] != key  # the mode needs no new binding...
+    assert head.data[binding_store.BINDING_KEY_PROP] != key  # the mode needs no new binding...
     assert np.abs(positions(head.data) - planar).max() > 1e-5  # ...but deforms differently
 
 

@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import face_data
+from addon.blender import binding_store, face_data, rest_shape
 from addon.mpeg4.control_mesh import spans_opening
 from addon.mpeg4.decode import fap_to_fp
 from addon.mpeg4.fapu import Fapu
@@ -28,7 +28,7 @@ def test_incomplete_fp_set_gets_a_delaunay_control_mesh_without_crossing_opening
     assert len(tris) > 40 and not any(spans_opening(t) for t in tris)
     face_data.fp_empties(head)["2.1"].location.z -= 0.01
     bpy.context.view_layer.update()
-    assert np.abs(positions(head.data) - face_data.stored_rest(head.data)).max() > 0.004
+    assert np.abs(positions(head.data) - rest_shape.stored_rest(head.data)).max() > 0.004
 
 
 def test_place_feature_point_creates_snapped_empties_and_setup_needs_them():
@@ -75,7 +75,7 @@ def test_open_jaw_moves_each_faces_chin_by_its_own_mns0():
         chin = fap_to_fp(neutral, values, fapu)[0, fp_index("2.1")]
         face_data.fp_empties(head)["2.1"].location = chin
         bpy.context.view_layer.update()
-        rest = face_data.stored_rest(head.data)
+        rest = rest_shape.stored_rest(head.data)
         drop = rest[:, 2] - positions(head.data)[:, 2]
         at_chin = np.argmin(np.linalg.norm(rest - neutral[fp_index("2.1")], axis=1))
         # the skin at 2.1 goes down by most of the FP's MNS0/2 (neighbouring triangles that stay blend in)
@@ -85,7 +85,7 @@ def test_open_jaw_moves_each_faces_chin_by_its_own_mns0():
 def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
     head = open_sample()
     select(head)
-    by_groups = face_data.load_binding(head.data)[0]
+    by_groups = binding_store.load(head.data)
     # paint the four vertex-group masks into an image, texel by texel at each vertex's UV, and use it
     mesh = head.data
     loop_vertex = np.array([loop.vertex_index for loop in mesh.loops])
@@ -96,7 +96,7 @@ def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
     size = 1024
     pixels = np.ones((size, size, 4), dtype=np.float32)
     corner = np.floor(uv * size - 0.5).astype(int)  # the 2x2 texels a bilinear sample at uv reads
-    from addon.blender.setup import missing_masks, vertex_masks
+    from addon.blender.binding_store import missing_masks, vertex_masks
 
     groups = vertex_masks(head)
     for channel, name in enumerate(("upper_lip", "lower_lip", "upper_eyelid", "lower_eyelid")):
@@ -106,16 +106,16 @@ def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
                 pixels[y, x, channel] = groups[name]
     image = bpy.data.images.new("masks", size, size, alpha=True, float_buffer=True)
     image.pixels.foreach_set(pixels.ravel())
-    key = head.data[face_data.BINDING_KEY_PROP]
+    key = head.data[binding_store.BINDING_KEY_PROP]
     head.mpeg4_face.mask_image = image  # rebinds
-    assert head.data[face_data.BINDING_KEY_PROP] != key
+    assert head.data[binding_store.BINDING_KEY_PROP] != key
     sampled = vertex_masks(head)
     assert missing_masks(head) == [] and set(sampled) == set(groups)
     for name in groups:  # texels shared by neighbouring vertices blur a few weights; the rest match
         assert np.mean(np.abs(sampled[name] - groups[name]) < 0.05) > 0.9
-    by_image = face_data.load_binding(head.data)[0]
+    by_image = binding_store.load(head.data)
     assert by_image.n_pairs == pytest.approx(by_groups.n_pairs, rel=0.1)
     chin = face_data.fp_empties(head)["2.1"]
     chin.location.z -= 0.01
     bpy.context.view_layer.update()
-    assert np.abs(positions(head.data) - face_data.stored_rest(head.data)).max() > 0.004
+    assert np.abs(positions(head.data) - rest_shape.stored_rest(head.data)).max() > 0.004

@@ -1,0 +1,227 @@
+"""The one store of a face's binding: computed here, saved with the .blend, cached in memory.
+
+The deformer's arrays are saved as ID-property arrays under `mpeg4_binding` on the face's mesh data
+(reading them back is a buffer copy) with a digest of everything they depend on (`mpeg4_binding_key`),
+so an opened file reuses its binding unless the rest data changed. Loaded bindings are cached per mesh
+and key. Stored data is checked before use: a crafted file cannot request an allocation by a dtype
+or a shape that does not match the array it came with.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+
+import bpy
+import numpy as np
+
+from ..deform.face_binding import FADE_BELOW, bind_face
+from ..deform.masks import image_masks, vertex_uvs
+from ..deform.planar_bones import Binding
+from ..errors import Mpeg4Error
+from ..mpeg4.control_mesh import MASK_NAMES
+from . import face_data, rest_shape
+
+BINDING_PROP = "mpeg4_binding"
+BINDING_KEY_PROP = "mpeg4_binding_key"
+# the dtypes a binding is made of; anything else in a file is refused
+STORED_DTYPES = frozenset({"<f8", "<f4", "<i8", "<i4", "<i2", "|i1", "|b1"})
+MAX_NDIM = 3
+
+_cache: dict[int, tuple[str, Binding]] = {}
+
+
+def forget(mesh: bpy.types.Mesh | None = None) -> None:
+    """Drop cached bindings (all, or one mesh's)."""
+    if mesh is None:
+        _cache.clear()
+    else:
+        _cache.pop(mesh.session_uid, None)
+
+
+def stored_key(mesh: bpy.types.Mesh) -> str | None:
+    key = mesh.get(BINDING_KEY_PROP)
+    return key if isinstance(key, str) else None
+
+
+def is_bound(face: bpy.types.Object) -> bool:
+    return face.type == "MESH" and stored_key(face.data) is not None
+
+
+def binding_key(
+    rest: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, params: dict, masks: dict[str, np.ndarray]
+) -> str:
+    """A digest of everything a binding depends on, to tell whether a stored binding is still valid."""
+    h = hashlib.blake2b(digest_size=16)
+    for arr in (rest, control_rest, triangles, *(masks[k] for k in sorted(masks))):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    h.update(repr(sorted(params.items())).encode())
+    h.update(repr(sorted(masks)).encode())
+    return h.hexdigest()
+
+
+def save(mesh: bpy.types.Mesh, binding: Binding, key: str) -> None:
+    group = {}
+    for field in dataclasses.fields(binding):
+        if not field.init:
+            continue
+        value = getattr(binding, field.name)
+        if isinstance(value, np.ndarray):
+            # ID property arrays hold int32, float32 and float64
+            stored = value.astype(np.int32) if value.dtype.kind in "iub" else value
+            group[field.name] = np.ascontiguousarray(stored).ravel()
+            group[field.name + ".shape"] = list(value.shape) or [0]
+            group[field.name + ".dtype"] = value.dtype.str
+        else:
+            group[field.name] = value
+    clear(mesh)  # replaced whole, never resized in place
+    mesh[BINDING_PROP] = group
+    mesh[BINDING_KEY_PROP] = key
+    _cache[mesh.session_uid] = (key, binding)
+
+
+def _stored_array(group, name: str) -> np.ndarray | None:
+    """The array `name` of a stored group, or None when its dtype or shape is not one a binding has."""
+    dtype, shape, data = group.get(name + ".dtype"), group.get(name + ".shape"), group.get(name)
+    if not isinstance(dtype, str) or dtype not in STORED_DTYPES or not hasattr(data, "to_list"):
+        return None
+    if not hasattr(shape, "to_list") or not 1 <= len(shape) <= MAX_NDIM:
+        return None
+    shape = tuple(int(n) for n in shape)
+    if any(n < 0 for n in shape):
+        return None
+    size = int(np.prod(shape, dtype=np.int64))
+    if shape == (0,) or size == len(data):
+        return np.array(data, dtype=np.dtype(dtype)).reshape(shape if size == len(data) else (0,))
+    return None
+
+
+def load(mesh: bpy.types.Mesh) -> Binding | None:
+    """The face's binding (cached), or None when there is none or the stored one is unusable."""
+    key = stored_key(mesh)
+    if key is None:
+        return None
+    cached = _cache.get(mesh.session_uid)
+    if cached is not None and cached[0] == key:
+        return cached[1]
+    group = mesh.get(BINDING_PROP)
+    if group is None or not hasattr(group, "keys"):
+        return None
+    values = {}
+    for field in dataclasses.fields(Binding):
+        if not field.init:
+            continue
+        if field.name + ".dtype" in group:
+            values[field.name] = _stored_array(group, field.name)
+            if values[field.name] is None:
+                return None
+        elif isinstance(group.get(field.name), int):
+            values[field.name] = group[field.name]
+        else:
+            return None
+    try:
+        binding = Binding(**values)
+    except (ValueError, IndexError, TypeError):
+        return None
+    _cache[mesh.session_uid] = (key, binding)
+    return binding
+
+
+def clear(mesh: bpy.types.Mesh) -> None:
+    for prop in (BINDING_PROP, BINDING_KEY_PROP):
+        if prop in mesh:
+            del mesh[prop]
+    forget(mesh)
+
+
+# ----------------------------------------------------------------------------- computing a binding
+
+
+def missing_masks(face) -> list[str]:
+    """The mask names neither the face's mask image nor a vertex group provides."""
+    if face.mpeg4_face.mask_image is not None:
+        return []
+    return [name for name in MASK_NAMES if face.vertex_groups.get(name) is None]
+
+
+def vertex_masks(face) -> dict[str, np.ndarray]:
+    """Per-vertex mask weights by mask name.
+
+    From the face's mask image when it has one (one channel per mask, sampled at the UVs, paper 000
+    Figure 9), else from the vertex groups named like the masks.
+    """
+    image = face.mpeg4_face.mask_image
+    if image is not None:
+        return _image_masks(face, image)
+    return face_data.group_weights(face, MASK_NAMES)
+
+
+def _image_masks(face, image) -> dict[str, np.ndarray]:
+    mesh = face.data
+    if mesh.uv_layers.active is None:
+        raise Mpeg4Error(
+            f"{face.name} has no UV map to sample the mask image {image.name!r} with: add one or clear the mask image"
+        )
+    width, height = image.size
+    if width == 0 or height == 0:
+        raise Mpeg4Error(f"the mask image {image.name!r} has no pixels (is its file missing?)")
+    pixels = np.empty(width * height * image.channels, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    loop_vertex = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", loop_vertex)
+    loop_uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", loop_uv)
+    uv = vertex_uvs(loop_vertex, loop_uv, len(mesh.vertices))
+    return image_masks(pixels.reshape(height, width, image.channels), uv, MASK_NAMES)
+
+
+def compute(
+    face, rest: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, triangle_masks, es0: float, unless=None
+) -> tuple[Binding | None, str]:
+    """Bind `rest` to the control mesh with the face's current parameters; changes nothing in the scene.
+
+    Returns (None, key) when the key equals `unless` (the stored binding is still valid)."""
+    settings = face.mpeg4_face
+    masks = vertex_masks(face) if settings.use_masks else {}
+    tri_masks = [m if m in masks else None for m in triangle_masks]
+    params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent, "es0": es0}
+    key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)
+    if key == unless:
+        return None, key
+    binding = bind_face(
+        rest.astype(np.float64),
+        control_rest,
+        triangles,
+        vertex_masks=masks or None,
+        triangle_masks=tri_masks if masks else None,
+        **params,
+    )
+    return binding, key
+
+
+def control_data(face) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
+    """The stored control mesh: rest points (M, 3), triangles (T, 3) and per-triangle masks."""
+    control = face.mpeg4_face.control_object
+    if control is None or control.type != "MESH" or face_data.REST_PROP not in control.data:
+        raise Mpeg4Error(f"{face.name} has no control mesh: run Set Up Face")
+    mesh = control.data
+    points = np.asarray(mesh[face_data.REST_PROP], dtype=np.float64)
+    if points.size != 3 * len(mesh.vertices):
+        raise Mpeg4Error(f"the control mesh {control.name!r} was edited: run Set Up Face")
+    tris = np.array([list(p.vertices) for p in mesh.polygons if len(p.vertices) == 3], dtype=np.int64)
+    masks = list(mesh.get(face_data.TRIANGLE_MASKS_PROP, [""] * len(tris)))
+    if len(tris) != len(mesh.polygons) or len(masks) != len(tris):
+        raise Mpeg4Error(f"the control mesh {control.name!r} was edited: run Set Up Face")
+    return points.reshape(-1, 3), tris.reshape(-1, 3), [m or None for m in masks]
+
+
+def rebind(face) -> None:
+    """Bind again with the face's current parameters (after a setting changed), if anything changed."""
+    mesh = face.data
+    rest = rest_shape.reference_positions(mesh)
+    if rest is None or len(rest) != len(mesh.vertices):
+        raise Mpeg4Error(f"{face.name}'s mesh changed since set-up: run Set Up Face again")
+    points, tris, tri_masks = control_data(face)
+    binding, key = compute(face, rest, points, tris, tri_masks, face.mpeg4_face.fapu[1], unless=stored_key(mesh))
+    if binding is not None:
+        save(mesh, binding, key)

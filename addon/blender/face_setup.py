@@ -1,0 +1,251 @@
+"""Setting a face up for MPEG-4 animation, and taking it down again (the services the operators call).
+
+Set-up is all-or-nothing: it works out everything first (the FP empties it adopts and where they
+snap, the control mesh, FAPU, the rest shape, masks and the binding) without touching the scene, and
+only then writes it all. Set-up always starts afresh from the mesh as it is now. Everything it creates
+or changes is recorded, so Remove can take exactly that away and leave the file as it was before.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import bpy
+import numpy as np
+
+from ..deform.planar_bones import Binding
+from ..errors import Mpeg4Error
+from ..mpeg4 import control_mesh
+from ..mpeg4.fapu import FapuError, compute_fapu
+from ..mpeg4.feature_points import feature_point
+from . import animation, bake, binding_store, face_data, followers, fp_empties, live, rest_shape
+from .reporting import Warn
+
+FOLLOWERS = (("left_eye", "3.5"), ("right_eye", "3.6"), ("lower_teeth", "9.11"), ("tongue", "6.2"))
+LOCK_INTERFACE_PROP = "mpeg4_locked_interface"  # on the scene: set-up turned Lock Interface on
+
+
+@dataclass
+class Plan:
+    """Everything set-up will write, computed before the scene changes."""
+
+    empties: dict
+    planned: dict[str, np.ndarray]
+    neutral: dict[str, np.ndarray]
+    control_ids: list[str]
+    control_points: np.ndarray
+    triangles: np.ndarray
+    triangle_masks: list[str | None]
+    fapu: tuple[float, ...]
+    rest: np.ndarray
+    binding: Binding
+    key: str
+    notes: list[str]
+
+
+def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
+    """A point on the head's vertical axis: 7.1 (top of the spine), else the middle of the bounding box."""
+    centre = positions.get("7.1")
+    if centre is None:
+        corners = np.array(face.bound_box)
+        centre = 0.5 * (corners.min(axis=0) + corners.max(axis=0))
+    return np.asarray(centre, dtype=np.float64)
+
+
+def build_control(face, positions: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray, list[str | None]]:
+    """Control FP ids, triangles and triangle masks for the FPs present."""
+    template_ids = {fp_id for tri in control_mesh.CONTROL_TRIANGLES for fp_id in tri}
+    if template_ids <= positions.keys():
+        ids = sorted(template_ids, key=lambda s: tuple(int(p) for p in s.split(".")))
+        index = {fp_id: i for i, fp_id in enumerate(ids)}
+        tris = np.array([[index[fp_id] for fp_id in tri] for tri in control_mesh.CONTROL_TRIANGLES])
+        return ids, tris, list(control_mesh.TRIANGLE_MASKS)
+    skin = {k: v for k, v in positions.items() if feature_point(k).surface == "skin"}
+    if len(skin) < 3:
+        raise Mpeg4Error(f"only {len(skin)} skin feature points are placed; at least 3 are needed")
+    ids, tris, masks = control_mesh.triangulate_present(skin, head_centre(face, positions))
+    if len(tris) == 0:
+        raise Mpeg4Error("the placed feature points give no usable control triangle")
+    return ids, tris, masks
+
+
+def _check_triangles(ids: list[str], points: np.ndarray, tris: np.ndarray) -> None:
+    """Refuse control triangles whose feature points coincide or lie on one line, naming them."""
+    corners = points[tris]
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    scale = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    bad = np.flatnonzero(areas <= 1e-8 * scale**2)
+    if scale == 0.0 or len(bad):
+        names = ", ".join("/".join(f"FP {ids[k]}" for k in tris[t]) for t in bad[:3])
+        more = f" and {len(bad) - 3} more" if len(bad) > 3 else ""
+        raise Mpeg4Error(
+            f"feature points coincide or lie on one line in control triangles {names}{more}: move "
+            "them apart and run Set Up again"
+        )
+
+
+def _rest_now(face) -> np.ndarray:
+    """The face's rest shape as it is now: the stored one while our deformation is shown, else the mesh."""
+    mesh = face.data
+    if mesh.shape_keys is None and face.mpeg4_face.enabled:
+        stored = rest_shape.stored_rest(mesh)
+        if stored is not None:
+            return stored
+    return rest_shape.current_rest(mesh)
+
+
+def plan(face) -> Plan:
+    """Work out the whole set-up; raises Mpeg4Error with a clear message, changes nothing."""
+    if face is None or face.type != "MESH":
+        raise Mpeg4Error("select the face mesh first")
+    if len(face.data.vertices) == 0:
+        raise Mpeg4Error(f"{face.name} has no vertices")
+    if face.mode == "EDIT":
+        raise Mpeg4Error(f"{face.name} is in Edit Mode: go back to Object Mode first")
+    coll = face_data.fp_collection(face)
+    empties = fp_empties.candidates(coll) if coll is not None else {}
+    if not empties:
+        name = coll.name if coll else face_data.fp_collection_name(face)
+        raise Mpeg4Error(
+            f"no feature point empties in collection {name!r}: place them with Place Feature Points "
+            "(or name empties 'FP 2.1', 'FP 9.3', ...)"
+        )
+    fp_empties.check_adoptable(face, empties)
+    notes = []
+    planned = fp_empties.planned_locations(face, empties)
+    now = face_data.local_positions(face, empties)
+    snapped = sum(1 for fp_id in planned if np.abs(planned[fp_id] - now[fp_id]).max() > 1e-6)
+    if snapped:
+        notes.append(f"snapped {snapped} feature points onto the surface")
+    neutral = fp_empties.neutral_locations(empties, planned)
+    ids, tris, tri_masks = build_control(face, neutral)
+    points = np.array([neutral[fp_id] for fp_id in ids], dtype=np.float64)
+    _check_triangles(ids, points, tris)
+    if len(ids) < len(neutral):
+        notes.append(f"control mesh over {len(ids)} of {len(neutral)} FPs ({len(tris)} triangles)")
+    try:
+        fapu = tuple(compute_fapu(neutral).as_dict().values())
+    except FapuError as exc:
+        fapu = (0.0,) * 5
+        notes.append(Warn(f"FAP import needs FAPU: {exc}"))
+    rest = _rest_now(face)
+    if face.mpeg4_face.use_masks:
+        missing = binding_store.missing_masks(face)
+        if missing:
+            notes.append(Warn(f"no vertex groups {', '.join(missing)}: those openings are not masked"))
+    try:
+        binding, key = binding_store.compute(face, rest, points, tris, tri_masks, fapu[1])
+    except np.linalg.LinAlgError as exc:
+        raise Mpeg4Error(
+            f"the feature points cannot bind {face.name} ({exc}): check for points placed on top of each other"
+        ) from exc
+    return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes)
+
+
+def _write_control_object(face, coll, plan: Plan) -> bpy.types.Object:
+    settings = face.mpeg4_face
+    control = settings.control_object
+    name = f"{face.name} Control"
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(plan.control_points.tolist(), [], plan.triangles.tolist())
+    mesh[face_data.FP_IDS_PROP] = list(plan.control_ids)
+    mesh[face_data.REST_PROP] = plan.control_points.astype(np.float32).ravel()
+    mesh[face_data.TRIANGLE_MASKS_PROP] = [m or "" for m in plan.triangle_masks]
+    if control is None or face_data.CREATED_PROP not in control:
+        control = bpy.data.objects.new(name, mesh)
+        control[face_data.CREATED_PROP] = True
+        coll.objects.link(control)
+        control.parent = face
+        control.display_type = "WIRE"
+        control.hide_render = True
+        control.show_in_front = True
+        settings.control_object = control
+    else:
+        old = control.data
+        control.data = mesh
+        if old.users == 0:
+            bpy.data.meshes.remove(old)
+    return control
+
+
+def set_up(face) -> list[str]:
+    """Set `face` up afresh; returns report lines. Raises Mpeg4Error (and changes nothing) on a problem."""
+    p = plan(face)
+    settings = face.mpeg4_face
+    notes = list(p.notes)
+    if settings.enabled:
+        live.pause(face)  # back to rest without the property update (which would apply the old binding)
+    coll = fp_empties.ensure_fp_collection(face)
+    reparented = fp_empties.adopt(face, p.empties, p.planned, p.neutral)
+    if reparented:
+        notes.append(f"parented {reparented} feature point empties to {face.name}")
+    _write_control_object(face, coll, p)
+    settings.fapu = p.fapu
+    mesh = face.data
+    rest_shape.store_rest(mesh, p.rest)
+    binding_store.save(mesh, p.binding, p.key)
+    notes.extend(hook_followers(face, p.empties))
+    settings.status = ""
+    settings.enabled = True
+    scene = bpy.context.scene
+    if not scene.render.use_lock_interface:
+        scene.render.use_lock_interface = True
+        scene[LOCK_INTERFACE_PROP] = True
+        notes.append("turned on Render > Lock Interface (Blender's advice for handlers that edit meshes)")
+    return notes
+
+
+def hook_followers(face, empties) -> list[str]:
+    settings = face.mpeg4_face
+    guessed = followers.find_followers(face)
+    notes = []
+    inv = np.array(face.matrix_world.inverted())
+    for name, fp_id in FOLLOWERS:
+        ob = getattr(settings, name) or guessed[name]
+        empty = empties.get(fp_id)
+        if ob is None or empty is None:
+            continue
+        setattr(settings, name, ob)
+        if name.endswith("eye"):
+            pivot = inv[:3, :3] @ np.array(ob.matrix_world.translation) + inv[:3, 3]
+            followers.follow_gaze(ob, empty, pivot)
+        else:
+            followers.follow_location(ob, empty)
+        notes.append(f"{ob.name} follows FP {fp_id}")
+    return notes
+
+
+def remove(face) -> list[str]:
+    """Undo set-up, import and bake: the file goes back to how it was before set-up."""
+    settings = face.mpeg4_face
+    notes = []
+    live.forget(face)
+    mesh = face.data
+    rest_shape.restore_rest(mesh)
+    rest_shape.remove_own_shape_key(face)
+    binding_store.clear(mesh)
+    rest_shape.clear_rest(mesh)
+    notes.extend(bake.remove_bakes(face))
+    empties = face_data.fp_empties(face)
+    removed_actions = animation.remove_streams([face, *empties.values()])
+    if removed_actions:
+        notes.append(f"removed {removed_actions} imported FAP stream(s)")
+    for name, _fp_id in FOLLOWERS:
+        followers.remove_follow(getattr(settings, name))
+    control = settings.control_object
+    if control is not None and face_data.CREATED_PROP in control:
+        old = control.data
+        bpy.data.objects.remove(control)
+        if old.users == 0:
+            bpy.data.meshes.remove(old)
+    created = fp_empties.release(face)
+    if created:
+        notes.append(f"removed {created} feature point empties set-up had made")
+    scene = bpy.context.scene
+    if scene.get(LOCK_INTERFACE_PROP) and not any(
+        ob.type == "MESH" and ob != face and binding_store.is_bound(ob) for ob in scene.objects
+    ):
+        scene.render.use_lock_interface = False
+        del scene[LOCK_INTERFACE_PROP]
+    face.property_unset("mpeg4_face")
+    return notes

@@ -1,0 +1,90 @@
+"""Head rotation (FAPs 48-50) as the face object's delta transform, both ways, in one place.
+
+The head turns about a pivot p (face-local, FP 7.1) by R_h, given in the MPEG-4 face frame. Blender
+composes an object's rotation as R_delta @ R_user (delta on the left), so with matrix_basis =
+T(loc + dloc) R_d R_u S (uniform scale s), turning local points about p by R_h needs
+R_d = R_u R_h R_u^-1 and dloc = R_u s (p - R_h p). Which delta property Blender reads depends on the
+object's rotation mode: delta_rotation_quaternion in quaternion mode, delta_rotation_euler (in the
+object's own Euler order) otherwise; axis-angle has no delta and is refused.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from mathutils import Euler, Matrix, Quaternion
+
+from ..errors import Mpeg4Error
+from ..geometry.face_axes import BLENDER_FACE_AXES
+from ..mpeg4.decode import head_angles, head_rotation
+
+DELTA_REST_PROP = "mpeg4_delta_rest"  # on the face: its delta transform before the first import
+
+
+def check_rotation_mode(face) -> None:
+    if face.rotation_mode == "AXIS_ANGLE":
+        raise Mpeg4Error(
+            f"{face.name} uses Axis Angle rotation, which has no delta rotation for head motion: "
+            "set its rotation mode to an Euler order or Quaternion"
+        )
+
+
+def rotation_path(face) -> tuple[str, int]:
+    """The delta rotation property Blender reads for the face's rotation mode, and its size."""
+    return ("delta_rotation_quaternion", 4) if face.rotation_mode == "QUATERNION" else ("delta_rotation_euler", 3)
+
+
+def user_rotation(face) -> np.ndarray:
+    """The face's own rotation (without the delta) as a 3x3 matrix, whatever its rotation mode."""
+    if face.rotation_mode == "QUATERNION":
+        return np.array(face.rotation_quaternion.normalized().to_matrix())
+    return np.array(face.rotation_euler.to_matrix())  # the Euler carries the object's order
+
+
+def to_delta(face, angles: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(F, 3) head pitch/yaw/roll in radians -> per-frame delta rotation values and (F, 3) delta location."""
+    check_rotation_mode(face)
+    axes = BLENDER_FACE_AXES
+    r_mesh = axes.T @ head_rotation(angles) @ axes
+    r_user = user_rotation(face)
+    scale = float(np.mean(face.scale))
+    r_delta = r_user @ r_mesh @ r_user.T
+    dloc = scale * np.einsum("ij,fj->fi", r_user, pivot - np.einsum("fij,j->fi", r_mesh, pivot))
+    if face.rotation_mode == "QUATERNION":
+        rotation = np.array([Matrix(r.tolist()).to_quaternion() for r in r_delta])
+        rotation *= np.where(rotation[:, :1] < 0, -1.0, 1.0)  # one hemisphere, so keys interpolate the short way
+    else:
+        rotation = np.array([Matrix(r.tolist()).to_euler(face.rotation_mode) for r in r_delta])
+    return rotation, dloc
+
+
+def from_delta(face, rotation: np.ndarray) -> np.ndarray:
+    """Per-frame delta rotation values (as `to_delta` gives them) -> (F, 3) head pitch/yaw/roll."""
+    check_rotation_mode(face)
+    if face.rotation_mode == "QUATERNION":
+        r_delta = np.array([np.array(Quaternion(q.tolist()).normalized().to_matrix()) for q in rotation])
+    else:
+        r_delta = np.array([np.array(Euler(e.tolist(), face.rotation_mode).to_matrix()) for e in rotation])
+    r_user = user_rotation(face)
+    r_mesh = r_user.T @ r_delta @ r_user
+    axes = BLENDER_FACE_AXES
+    return head_angles(axes @ r_mesh @ axes.T)
+
+
+def remember_rest(face) -> None:
+    """Record the face's delta transform before head motion is first imported (Remove restores it)."""
+    if DELTA_REST_PROP not in face:
+        face[DELTA_REST_PROP] = {
+            "location": list(face.delta_location),
+            "rotation_euler": list(face.delta_rotation_euler),
+            "rotation_quaternion": list(face.delta_rotation_quaternion),
+        }
+
+
+def restore_rest(face) -> None:
+    record = face.get(DELTA_REST_PROP)
+    if record is None:
+        return
+    face.delta_location = record["location"]
+    face.delta_rotation_euler = record["rotation_euler"]
+    face.delta_rotation_quaternion = record["rotation_quaternion"]
+    del face[DELTA_REST_PROP]

@@ -1,0 +1,58 @@
+"""Where the operators appear: File > Import/Export, Object > MPEG-4 Face (so F3 search finds them too), and
+a .fap file dropped on the 3D viewport."""
+
+import bpy
+
+from . import ops
+
+
+class MPEG4_MT_object(bpy.types.Menu):
+    bl_idname = "MPEG4_MT_object"
+    bl_label = "MPEG-4 Face"
+
+    def draw(self, _context):
+        layout = self.layout
+        layout.operator(ops.MPEG4_OT_place_feature_points.bl_idname)
+        layout.operator(ops.MPEG4_OT_setup_face.bl_idname)
+        layout.separator()
+        layout.operator(ops.MPEG4_OT_import_fap.bl_idname)
+        layout.operator(ops.MPEG4_OT_export_fap.bl_idname)
+        layout.separator()
+        layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Shape Keys").target = "SHAPE_KEYS"
+        layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Point Cache").target = "POINT_CACHE"
+        layout.separator()
+        layout.operator(ops.MPEG4_OT_remove_face.bl_idname)
+
+
+class MPEG4_FH_fap(bpy.types.FileHandler):
+    """A .fap file dropped on the 3D viewport imports onto the active face."""
+
+    bl_idname = "MPEG4_FH_fap"
+    bl_label = "MPEG-4 FAP stream"
+    bl_import_operator = ops.MPEG4_OT_import_fap.bl_idname
+    bl_file_extensions = ".fap"
+
+    @classmethod
+    def poll_drop(cls, context):
+        return context.area is not None and context.area.type == "VIEW_3D"
+
+
+def menu_import(self, _context):
+    self.layout.operator(ops.MPEG4_OT_import_fap.bl_idname, text="MPEG-4 FAP (.fap)")
+
+
+def menu_export(self, _context):
+    self.layout.operator(ops.MPEG4_OT_export_fap.bl_idname, text="MPEG-4 FAP (.fap)")
+
+
+def menu_object(self, _context):
+    self.layout.separator()
+    self.layout.menu(MPEG4_MT_object.bl_idname)
+
+
+CLASSES = (MPEG4_MT_object, MPEG4_FH_fap)
+MENU_ENTRIES = (
+    (bpy.types.TOPBAR_MT_file_import, menu_import),
+    (bpy.types.TOPBAR_MT_file_export, menu_export),
+    (bpy.types.VIEW3D_MT_object, menu_object),
+)
