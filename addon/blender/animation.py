@@ -4,9 +4,8 @@ Blender 4.4 introduced slotted actions (one action animating many objects, a slo
 `Action.fcurves`; 4.2-4.3 have only the latter, so there a stream gets one action per object, named
 '<file> <object>'. Keys are written with one `foreach_set` per curve, never one keyframe_insert per key.
 
-A stream either replaces an object's motion (it becomes the active action; a user's own action is kept
-with a fake user and given back by `remove_streams`) or adds to it (an NLA strip blended with Combine, whose
-keys are offsets from the neutral face). Everything is tagged so Remove can take exactly it away.
+A stream's action becomes the active action of each object it moves; a user's own action is kept with a
+fake user and given back by `remove_streams`. Everything is tagged so Remove can take exactly it away.
 """
 
 from __future__ import annotations
@@ -86,27 +85,6 @@ def replace_motion(ob, streams: StreamActions):
     return lambda path, index: (
         _fcurves(action, slot).find(path, index=index) or _fcurves(action, slot).new(path, index=index)
     )
-
-
-def add_motion(ob, streams: StreamActions, start: float):
-    """Add the stream on top of the object's motion as an NLA strip (Add blending)."""
-    anim = _anim(ob)
-    action = streams.action_for(ob)
-    slot = _slot(action, ob)
-    curves = _fcurves(action, slot)
-    track = anim.nla_tracks.new()
-    track.name = streams.name
-
-    def fcurve(path, index):
-        return curves.find(path, index=index) or curves.new(path, index=index)
-
-    def finish():
-        strip = track.strips.new(streams.name, int(np.floor(start)), action)
-        if slot is not None:
-            strip.action_slot = slot
-        strip.blend_type = "COMBINE"  # adds locations, composes rotations (quaternions too)
-
-    return fcurve, finish
 
 
 def clear_stream_motion(ob) -> None:

@@ -18,7 +18,7 @@ from ..errors import Mpeg4Error
 from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
-from . import animation, bake, binding_store, face_data, followers, fp_empties, live, rest_shape
+from . import animation, bake, binding_store, face_data, followers, fp_empties, head_motion, live, rest_shape
 from .reporting import Warn
 
 FOLLOWERS = (("left_eye", "3.5"), ("right_eye", "3.6"), ("lower_teeth", "9.11"), ("tongue", "6.2"))
@@ -228,6 +228,7 @@ def remove(face) -> list[str]:
     notes.extend(bake.remove_bakes(face))
     empties = face_data.fp_empties(face)
     removed_actions = animation.remove_streams([face, *empties.values()])
+    head_motion.restore_rest(face)
     if removed_actions:
         notes.append(f"removed {removed_actions} imported FAP stream(s)")
     for name, _fp_id in FOLLOWERS:

@@ -36,7 +36,7 @@ class ImportOptions:
     use_stream_fps: bool = True  # resample the stream's time to the scene's fps (else one frame per frame)
     gain: float = 1.0
     clamp: float | None = None  # largest |FAP value| after the gain, in FAP units
-    add: bool = False  # add to the existing motion (NLA strip) instead of replacing it
+    add: bool = False  # add to the existing motion (sampled at the stream's frames) instead of replacing it
     fill_partners: bool = False
     set_frame_range: bool = True
 
@@ -123,30 +123,30 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
     # everything is checked: from here on the scene changes
     name = os.path.splitext(source)[0]
     streams = animation.StreamActions(name, source)
-    finishers = []
     with progress(context, len(empties) + 1) as step:
         for i, (fp_id, ob) in enumerate(empties.items()):
             k = fp_index(fp_id)
-            offset = neutral[k] if options.add else np.zeros(3)
-            fcurve = _curves(ob, streams, options, frames, finishers)
+            keyed = points[:, k]
+            if options.add:  # the existing motion, sampled where the stream has keys, plus the stream's offsets
+                base = [animation.sample(ob, "location", axis, frames, ob.location[axis]) for axis in range(3)]
+                keyed = np.stack(base, axis=1) + keyed - neutral[k]
+            fcurve = animation.replace_motion(ob, streams)
             for axis in range(3):
-                animation.set_keys(fcurve("location", axis), frames, points[:, k, axis] - offset[axis])
+                animation.set_keys(fcurve("location", axis), frames, keyed[:, axis])
             step(i)
         if has_head:
+            if options.add:
+                rotation, dloc = head_motion.compose_with_existing(face, frames, rotation, dloc)
             head_motion.remember_rest(face)
-            fcurve = _curves(face, streams, options, frames, finishers)
+            fcurve = animation.replace_motion(face, streams)
             path, size = head_motion.rotation_path(face)
-            base = np.array([1.0, 0.0, 0.0, 0.0]) if size == 4 else np.zeros(3)
             for axis in range(size):
-                offset = base[axis] if options.add else 0.0
-                animation.set_keys(fcurve(path, axis), frames, rotation[:, axis] - offset)
+                animation.set_keys(fcurve(path, axis), frames, rotation[:, axis])
             for axis in range(3):
                 animation.set_keys(fcurve("delta_location", axis), frames, dloc[:, axis])
         elif not options.add:
             animation.clear_stream_motion(face)  # a new stream without head motion replaces the old head motion
             head_motion.restore_rest(face)
-        for finish in finishers:
-            finish()
         step(len(empties) + 1)
     notes = [f"keyed {len(empties)} feature points over {len(frames)} frames of {source} (action {name!r})"]
     if has_head:
@@ -158,14 +158,6 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
         scene.frame_end = last
         notes.append(f"scene end frame set to {last}")
     return notes
-
-
-def _curves(ob, streams, options: ImportOptions, frames, finishers):
-    if options.add:
-        fcurve, finish = animation.add_motion(ob, streams, frames[0])
-        finishers.append(finish)
-        return fcurve
-    return animation.replace_motion(ob, streams)
 
 
 def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[str]:

@@ -16,6 +16,7 @@ from mathutils import Euler, Matrix, Quaternion
 from ..errors import Mpeg4Error
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import head_angles, head_rotation
+from . import animation
 
 DELTA_REST_PROP = "mpeg4_delta_rest"  # on the face: its delta transform before the first import
 
@@ -68,6 +69,29 @@ def from_delta(face, rotation: np.ndarray) -> np.ndarray:
     r_mesh = r_user.T @ r_delta @ r_user
     axes = BLENDER_FACE_AXES
     return head_angles(axes @ r_mesh @ axes.T)
+
+
+def compose_with_existing(face, frames, rotation: np.ndarray, dloc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Head motion on top of the face's existing delta motion, sampled at `frames`: rotations compose (the
+    stream's turn after the existing one), locations add."""
+    path, size = rotation_path(face)
+    rest = getattr(face, path)
+    base = np.stack([animation.sample(face, path, axis, frames, rest[axis]) for axis in range(size)], axis=1)
+    base_loc = np.stack(
+        [animation.sample(face, "delta_location", a, frames, face.delta_location[a]) for a in range(3)], axis=1
+    )
+    if size == 4:
+        combined = [Quaternion(q.tolist()) @ Quaternion(b.tolist()) for q, b in zip(rotation, base, strict=True)]
+        composed = np.array([tuple(q) for q in combined])
+    else:
+        order = face.rotation_mode
+        composed = np.array(
+            [
+                (Euler(r.tolist(), order).to_matrix() @ Euler(b.tolist(), order).to_matrix()).to_euler(order)
+                for r, b in zip(rotation, base, strict=True)
+            ]
+        )
+    return composed, dloc + base_loc
 
 
 def remember_rest(face) -> None:

@@ -73,7 +73,7 @@ def report_outside_operator(face, exc: BaseException) -> None:
     if face is not None:
         face.mpeg4_face.status = message
     wm = bpy.context.window_manager
-    if wm is not None and wm.windows:
+    if not bpy.app.background and wm is not None and wm.windows:
 
         def draw(menu, _context):
             menu.layout.label(text=message)
