@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import bpy
 import numpy as np
+from mathutils import Matrix
 
 from ..mpeg4.feature_points import FP_IDS, fp_index
 
@@ -59,19 +60,14 @@ def fp_empties(face: bpy.types.Object) -> dict[str, bpy.types.Object]:
     return found
 
 
-def _is_plain_child(face: bpy.types.Object, ob: bpy.types.Object) -> bool:
-    """A child of the face whose location is its face-local position (no parent inverse, constraints or
-    rotation of a parent in between)."""
+IDENTITY = Matrix.Identity(4)
+
+
+def is_plain_child(face: bpy.types.Object, ob: bpy.types.Object) -> bool:
+    """A child of the face whose location is its face-local position (no parent inverse or constraint)."""
     return (
-        ob.parent == face
-        and ob.parent_type == "OBJECT"
-        and not ob.constraints
-        and is_identity(ob.matrix_parent_inverse)
+        ob.parent == face and ob.parent_type == "OBJECT" and not ob.constraints and ob.matrix_parent_inverse == IDENTITY
     )
-
-
-def is_identity(matrix) -> bool:
-    return np.array_equal(np.array(matrix), np.eye(4))
 
 
 def local_positions(face: bpy.types.Object, objects: dict[str, bpy.types.Object]) -> dict[str, np.ndarray]:
@@ -82,17 +78,13 @@ def local_positions(face: bpy.types.Object, objects: dict[str, bpy.types.Object]
     """
     if not objects:
         return {}
-    inv = None
-    local = {}
-    for fp_id, ob in objects.items():
-        if _is_plain_child(face, ob):
-            local[fp_id] = np.array(ob.location, dtype=np.float64)
-            continue
-        if inv is None:
-            inv = np.array(face.matrix_world.inverted(), dtype=np.float64)
-        world = np.array(ob.matrix_world.translation, dtype=np.float64)
-        local[fp_id] = inv[:3, :3] @ world + inv[:3, 3]
-    return local
+    rows = [ob.location[:] if is_plain_child(face, ob) else None for ob in objects.values()]
+    if any(row is None for row in rows):
+        inv = np.array(face.matrix_world.inverted(), dtype=np.float64)
+        for k, ob in enumerate(objects.values()):
+            if rows[k] is None:
+                rows[k] = inv[:3, :3] @ np.array(ob.matrix_world.translation, dtype=np.float64) + inv[:3, 3]
+    return dict(zip(objects, np.array(rows, dtype=np.float64), strict=True))
 
 
 def neutral_array(positions: dict[str, np.ndarray]) -> np.ndarray:

@@ -58,7 +58,7 @@ def candidates(coll) -> dict[str, bpy.types.Object]:
 
 
 def _needs_parenting(face, ob) -> bool:
-    return ob.parent != face or ob.parent_type != "OBJECT" or not face_data.is_identity(ob.matrix_parent_inverse)
+    return ob.parent != face or ob.parent_type != "OBJECT" or ob.matrix_parent_inverse != face_data.IDENTITY
 
 
 def check_adoptable(face, empties: dict) -> None:

@@ -286,14 +286,29 @@ def on_frame_change(scene, depsgraph=None):
     apply_scene(scene)
 
 
+def _needs_edit_check(face) -> bool:
+    """Cheap test for what a geometry update can mean: Edit Mode, a new shape key, a changed vertex count."""
+    if face.mode == "EDIT" or face.session_uid in _editing:
+        return True
+    state = _states.get(face.session_uid)
+    mesh = face.data
+    return state is not None and (
+        (mesh.shape_keys is not None) != state.on_shape_key or len(mesh.vertices) != state.binding.n_vertices
+    )
+
+
 @bpy.app.handlers.persistent
 def on_depsgraph_update(scene, depsgraph):
     if _busy:
         return
-    # transforms move empties; geometry updates (Edit Mode, a new shape key) are checked against the pose
-    if any(u.is_updated_transform or u.is_updated_geometry for u in depsgraph.updates):
+    updates = depsgraph.updates
+    if any(u.is_updated_transform for u in updates):  # an empty (or the face) moved
         _mirror_edit(scene, depsgraph)
         apply_scene(scene)
+    elif any(u.is_updated_geometry for u in updates):  # our own writes, or an edit to guard against
+        faces = [ob for ob in scene.objects if ob.type == "MESH" and ob.mpeg4_face.enabled]
+        if any(_needs_edit_check(face) for face in faces):
+            apply_scene(scene)
 
 
 @bpy.app.handlers.persistent

@@ -357,3 +357,19 @@ def test_x_mirror_places_the_partner_and_empties_are_drawn_to_scale():
     assert tuple(right.location) == (-left.location.x, left.location.y, left.location.z)
     assert left.empty_display_size == pytest.approx(fp_empties.display_size(head))
     assert 0.002 < left.empty_display_size * max(head.scale) < 0.01  # a few millimetres on a human head
+
+
+def test_x_mirror_moves_the_partner_of_the_empty_being_moved():
+    head = set_up_sample()
+    head.mpeg4_face.use_x_mirror = True
+    empties = face_data.fp_empties(head)
+    left, right = empties["8.3"], empties["8.4"]
+    select(left)
+    left.location.z += 0.004
+    bpy.context.view_layer.update()
+    assert tuple(right.location) == (-left.location.x, left.location.y, left.location.z)
+    head.mpeg4_face.use_x_mirror = False
+    before = tuple(right.location)
+    left.location.z += 0.004
+    bpy.context.view_layer.update()
+    assert tuple(right.location) == before
