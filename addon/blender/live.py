@@ -314,3 +314,9 @@ def on_depsgraph_update(scene, depsgraph):
 @bpy.app.handlers.persistent
 def on_load_post(*_args):
     forget()
+
+
+@bpy.app.handlers.persistent
+def on_undo_redo(*_args):
+    # undo brings back older mesh data and empties: cached poses and bindings may no longer match them
+    forget()

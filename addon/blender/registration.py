@@ -9,6 +9,8 @@ HANDLERS = (
     (bpy.app.handlers.frame_change_post, live.on_frame_change),
     (bpy.app.handlers.depsgraph_update_post, live.on_depsgraph_update),
     (bpy.app.handlers.load_post, live.on_load_post),
+    (bpy.app.handlers.undo_post, live.on_undo_redo),
+    (bpy.app.handlers.redo_post, live.on_undo_redo),
 )
 
 
