@@ -1,6 +1,6 @@
 """Build the installable extension zip: blender_manifest.toml and the `addon` package at the zip root.
 
-    python scripts/build_extension.py [--out dist]
+    .venv/bin/python -m scripts.build_extension [--out dist]
 
 Checks the manifest's required fields first and prints the zip's path. Nothing from tests/ or scripts/
 goes in; caches and byte code are left out.

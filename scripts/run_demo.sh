@@ -4,4 +4,4 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh
-.venv/bin/python scripts/convert.py --face sample_blends/makehuman_head.blend sample_blends/demo.fap -o out "$@"
+.venv/bin/python -m scripts.convert --face sample_blends/makehuman_head.blend sample_blends/demo.fap -o out "$@"

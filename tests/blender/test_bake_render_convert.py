@@ -1,16 +1,14 @@
-"""Baking, rendering and batch conversion of the sample head."""
-
-import subprocess
-import sys
+"""Baking and rendering the sample head (with the conversion script's camera and render helpers);
+the conversion script itself is tested in `tests/scripts/test_convert.py`."""
 
 import bpy
 import numpy as np
-import pytest
 
 from addon.blender import rest_shape
 from addon.formats.pc2 import read_pc2
+from scripts import convert
 
-from .helpers import DEMO_FAP, ROOT, evaluated_positions, positions, set_up_sample
+from .helpers import DEMO_FAP, evaluated_positions, positions, set_up_sample
 
 
 def _import_demo():
@@ -53,9 +51,6 @@ def test_shape_key_bake_plays_the_same_without_the_live_effect():
 
 def test_workbench_render_shows_the_deformed_face(tmp_path):
     head, scene = _import_demo()
-    sys.path.insert(0, str(ROOT / "scripts"))
-    import convert
-
     convert.frame_face(scene, head, 64)
     convert.set_engine(scene, "WORKBENCH")
     convert._image_settings(scene, video=False)
@@ -70,48 +65,3 @@ def test_workbench_render_shows_the_deformed_face(tmp_path):
     # with the effect off only the teeth behind the lips (driven by FP 9.11) can still differ
     off = np.abs(rest - render(25)).max(axis=2) > 0.02
     assert off.sum() < changed.sum() / 4
-
-
-@pytest.mark.parametrize("mode", ["bpy-module"])
-def test_convert_script_converts_good_streams_and_reports_bad_ones(tmp_path, mode):
-    short = tmp_path / "short.fap"
-    lines = DEMO_FAP.read_text().splitlines()
-    header = lines[0].split()
-    short.write_text(" ".join(header[:-1] + ["8"]) + "\n" + "\n".join(lines[1:17]) + "\n")
-    bad = tmp_path / "broken.fap"
-    bad.write_text("2.1 broken 25 1\n1 0 0\n")
-    out = tmp_path / "out"
-    face = ROOT / "sample_blends" / "makehuman_head.blend"
-    command = [
-        sys.executable,
-        str(ROOT / "scripts" / "convert.py"),
-        "--face",
-        str(face),
-        str(short),
-        str(bad),
-        "-o",
-        str(out),
-        "--resolution",
-        "64",
-        "--sheet",
-        "4",
-    ]
-    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
-    assert result.returncode == 1, result.stdout + result.stderr
-    assert "[1/2]" in result.stdout and "short.fap: ok" in result.stdout
-    assert "[2/2]" in result.stdout and "broken.fap: FAILED" in result.stdout and "line 2" in result.stdout
-    assert "1 converted, 1 failed" in result.stdout
-    for name in ("short.abc", "short.mp4", "short_sheet.png", "short.pc2"):
-        assert (out / name).stat().st_size > 0
-    assert not (out / "broken.abc").exists()
-
-
-def test_convert_reads_arguments_after_the_double_dash(monkeypatch):
-    sys.path.insert(0, str(ROOT / "scripts"))
-    import convert
-
-    monkeypatch.setattr(
-        sys, "argv", ["blender", "--background", "f.blend", "--python", "convert.py", "--", "a.fap", "-o", "out"]
-    )
-    args = convert.parse_args(convert.script_argv())
-    assert [p.name for p in args.streams] == ["a.fap"] and args.out.name == "out" and args.face is None

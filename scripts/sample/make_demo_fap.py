@@ -1,6 +1,6 @@
 """Author the bundled example stream `sample_blends/demo.fap` from low-level FAPs.
 
-    python scripts/make_demo_fap.py [--out sample_blends/demo.fap]
+    .venv/bin/python -m scripts.sample.make_demo_fap [--out sample_blends/demo.fap]
 
 Seven short scenes at 25 fps, each easing in and out (raised cosine): jaw, lips, lip corners (smile),
 cheeks, brows, eyelids (blinks), eyeballs (look around), head turns. Values are in FAPU/AU as the
@@ -15,11 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from addon.mpeg4.fap_file import FapStream, write_fap
+from addon.mpeg4.faps import N_FAPS
 
-from addon.mpeg4.fap_file import FapStream, write_fap  # noqa: E402
-from addon.mpeg4.faps import N_FAPS  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 FPS = 25
 # (duration in seconds, {FAP number: peak value}); a scene's FAPs rise and fall together

