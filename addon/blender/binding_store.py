@@ -1,9 +1,11 @@
 """The one store of a face's binding: computed here, saved with the .blend, cached in memory.
 
-The deformer's arrays are saved as ID-property arrays under `mpeg4_binding` on the face's mesh data
-(reading them back is a buffer copy) with a digest of everything they depend on (`mpeg4_binding_key`),
-so an opened file reuses its binding unless the rest data changed. Loaded bindings are cached per mesh
-and key. Stored data is checked before use: a crafted file cannot request an allocation by a dtype
+The deformer's arrays are saved as ID-property arrays (reading them back is a buffer copy) with a digest
+of everything they depend on, so an opened file reuses its binding unless the rest data changed. They
+live off the face's mesh, on a hidden Text data-block of their own (`face.mpeg4_face.binding_holder`,
+named '.MPEG-4 binding <face>'): the depsgraph copies a mesh with all its ID properties whenever its
+positions are written, which is every frame, and never evaluates a Text. Loaded bindings are cached per
+face and key. Stored data is checked before use: a crafted file cannot request an allocation by a dtype
 or a shape that does not match the array it came with.
 """
 
@@ -21,31 +23,39 @@ from ..deform.planar_bones import Binding
 from ..errors import Mpeg4Error
 from ..mpeg4.control_mesh import MASK_NAMES
 from . import face_data, rest_shape
+from .face_data import CREATED_PROP
 
 BINDING_PROP = "mpeg4_binding"
 BINDING_KEY_PROP = "mpeg4_binding_key"
 # the dtypes a binding is made of; anything else in a file is refused
+LEGACY_MESH_PROPS = (BINDING_PROP, BINDING_KEY_PROP)
 STORED_DTYPES = frozenset({"<f8", "<f4", "<i8", "<i4", "<i2", "|i1", "|b1"})
 MAX_NDIM = 3
 
 _cache: dict[int, tuple[str, Binding]] = {}
 
 
-def forget(mesh: bpy.types.Mesh | None = None) -> None:
-    """Drop cached bindings (all, or one mesh's)."""
-    if mesh is None:
+def forget(face: bpy.types.Object | None = None) -> None:
+    """Drop cached bindings (all, or one face's)."""
+    if face is None:
         _cache.clear()
     else:
-        _cache.pop(mesh.session_uid, None)
+        _cache.pop(face.session_uid, None)
 
 
-def stored_key(mesh: bpy.types.Mesh) -> str | None:
-    key = mesh.get(BINDING_KEY_PROP)
+def holder(face: bpy.types.Object):
+    """The data-block holding the face's binding, or None."""
+    return face.mpeg4_face.binding_holder if face.type == "MESH" else None
+
+
+def stored_key(face: bpy.types.Object) -> str | None:
+    held = holder(face)
+    key = held.get(BINDING_KEY_PROP) if held is not None else None
     return key if isinstance(key, str) else None
 
 
 def is_bound(face: bpy.types.Object) -> bool:
-    return face.type == "MESH" and stored_key(face.data) is not None
+    return stored_key(face) is not None
 
 
 def binding_key(
@@ -60,7 +70,7 @@ def binding_key(
     return h.hexdigest()
 
 
-def save(mesh: bpy.types.Mesh, binding: Binding, key: str) -> None:
+def save(face: bpy.types.Object, binding: Binding, key: str) -> None:
     group = {}
     for field in dataclasses.fields(binding):
         if not field.init:
@@ -74,10 +84,14 @@ def save(mesh: bpy.types.Mesh, binding: Binding, key: str) -> None:
             group[field.name + ".dtype"] = value.dtype.str
         else:
             group[field.name] = value
-    clear(mesh)  # replaced whole, never resized in place
-    mesh[BINDING_PROP] = group
-    mesh[BINDING_KEY_PROP] = key
-    _cache[mesh.session_uid] = (key, binding)
+    clear(face)  # replaced whole, never resized in place (nor shared with a duplicated face)
+    held = bpy.data.texts.new(f".MPEG-4 binding {face.name}")
+    held.use_fake_user = False  # the face's pointer keeps it; texts are made with a fake user
+    held[CREATED_PROP] = True
+    held[BINDING_PROP] = group
+    held[BINDING_KEY_PROP] = key
+    face.mpeg4_face.binding_holder = held
+    _cache[face.session_uid] = (key, binding)
 
 
 def _stored_array(group, name: str) -> np.ndarray | None:
@@ -96,15 +110,15 @@ def _stored_array(group, name: str) -> np.ndarray | None:
     return None
 
 
-def load(mesh: bpy.types.Mesh) -> Binding | None:
+def load(face: bpy.types.Object) -> Binding | None:
     """The face's binding (cached), or None when there is none or the stored one is unusable."""
-    key = stored_key(mesh)
+    key = stored_key(face)
     if key is None:
         return None
-    cached = _cache.get(mesh.session_uid)
+    cached = _cache.get(face.session_uid)
     if cached is not None and cached[0] == key:
         return cached[1]
-    group = mesh.get(BINDING_PROP)
+    group = holder(face).get(BINDING_PROP)
     if group is None or not hasattr(group, "keys"):
         return None
     values = {}
@@ -123,15 +137,20 @@ def load(mesh: bpy.types.Mesh) -> Binding | None:
         binding = Binding(**values)
     except (ValueError, IndexError, TypeError):
         return None
-    _cache[mesh.session_uid] = (key, binding)
+    _cache[face.session_uid] = (key, binding)
     return binding
 
 
-def clear(mesh: bpy.types.Mesh) -> None:
-    for prop in (BINDING_PROP, BINDING_KEY_PROP):
-        if prop in mesh:
-            del mesh[prop]
-    forget(mesh)
+def clear(face: bpy.types.Object) -> None:
+    for prop in LEGACY_MESH_PROPS:  # where versions before 0.2 kept the binding
+        if prop in face.data:
+            del face.data[prop]
+    held = holder(face)
+    if held is not None:
+        face.mpeg4_face.binding_holder = None
+        if held.users == int(held.use_fake_user) and CREATED_PROP in held:
+            bpy.data.texts.remove(held)
+    forget(face)
 
 
 # ----------------------------------------------------------------------------- computing a binding
@@ -222,6 +241,6 @@ def rebind(face) -> None:
     if rest is None or len(rest) != len(mesh.vertices):
         raise Mpeg4Error(f"{face.name}'s mesh changed since set-up: run Set Up Face again")
     points, tris, tri_masks = control_data(face)
-    binding, key = compute(face, rest, points, tris, tri_masks, face.mpeg4_face.fapu[1], unless=stored_key(mesh))
+    binding, key = compute(face, rest, points, tris, tri_masks, face.mpeg4_face.fapu[1], unless=stored_key(face))
     if binding is not None:
-        save(mesh, binding, key)
+        save(face, binding, key)

@@ -183,7 +183,7 @@ def set_up(face) -> list[str]:
     settings.fapu = p.fapu
     mesh = face.data
     rest_shape.store_rest(mesh, p.rest)
-    binding_store.save(mesh, p.binding, p.key)
+    binding_store.save(face, p.binding, p.key)
     notes.extend(hook_followers(face, p.empties))
     settings.status = ""
     settings.enabled = True
@@ -223,7 +223,7 @@ def remove(face) -> list[str]:
     mesh = face.data
     rest_shape.restore_rest(mesh)
     rest_shape.remove_own_shape_key(face)
-    binding_store.clear(mesh)
+    binding_store.clear(face)
     rest_shape.clear_rest(mesh)
     notes.extend(bake.remove_bakes(face))
     empties = face_data.fp_empties(face)

@@ -56,7 +56,7 @@ def forget(face: bpy.types.Object | None = None) -> None:
     else:
         _states.pop(face.session_uid, None)
         if face.type == "MESH":
-            binding_store.forget(face.data)
+            binding_store.forget(face)
 
 
 def _linked(ob) -> bool:
@@ -65,11 +65,11 @@ def _linked(ob) -> bool:
 
 def _state(face) -> _State:
     mesh = face.data
-    key = binding_store.stored_key(mesh)
+    key = binding_store.stored_key(face)
     state = _states.get(face.session_uid)
     if state is not None and state.key == key and state.binding.n_vertices == len(mesh.vertices):
         return state
-    binding = binding_store.load(mesh)
+    binding = binding_store.load(face)
     if binding is None:
         raise LookupError("the face is not bound: run Set Up Face")
     if binding.n_vertices != len(mesh.vertices):
@@ -159,7 +159,7 @@ def _resume_after_edit_mode(face) -> bool:
     """Back from Edit Mode: go on if the mesh is the bound rest shape, else keep the edit and stop."""
     _editing.discard(face.session_uid)
     mesh = face.data
-    binding = binding_store.load(mesh)
+    binding = binding_store.load(face)
     now = rest_shape.current_rest(mesh)
     if face.mpeg4_face.status == PAUSED_IN_EDIT_MODE:
         face.mpeg4_face.status = ""

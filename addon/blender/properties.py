@@ -84,6 +84,9 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         default=False,
     )
     fp_collection: PointerProperty(name="Feature Points", type=bpy.types.Collection)
+    binding_holder: PointerProperty(
+        name="Binding", type=bpy.types.Text, description="Where the face's binding is saved (set up by Set Up Face)"
+    )
     control_object: PointerProperty(name="Control Mesh", type=bpy.types.Object)
     left_eye: PointerProperty(
         name="Left Eyeball",

@@ -40,7 +40,7 @@ def test_setup_builds_control_mesh_fapu_and_binding():
     head = set_up_sample()
     s = head.mpeg4_face
     assert s.enabled and s.status == ""
-    assert binding_store.BINDING_KEY_PROP in head.data
+    assert binding_store.is_bound(head)
     control = s.control_object
     assert control is not None and len(control.data.polygons) > 50
     assert s.left_eye.name == "Eye L" and s.lower_teeth.name == "Teeth Lower" and s.tongue.name == "Tongue"
@@ -79,12 +79,12 @@ def test_import_then_frames_match_the_core_and_survive_save_and_reload(tmp_path)
         expected = core_result(head, DEMO_FAP, index)
         np.testing.assert_allclose(positions(head.data), expected, atol=1e-6)
     before = positions(head.data).copy()
-    key = head.data[binding_store.BINDING_KEY_PROP]
+    key = binding_store.stored_key(head)
     path = tmp_path / "saved.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     bpy.ops.wm.open_mainfile(filepath=str(path))
     head = bpy.data.objects["Head"]
-    assert head.data[binding_store.BINDING_KEY_PROP] == key  # the stored binding is used, not recomputed
+    assert binding_store.stored_key(head) == key  # the stored binding is used, not recomputed
     scene = bpy.context.scene
     scene.frame_set(scene.frame_current)
     np.testing.assert_allclose(positions(head.data), before, atol=1e-6)
@@ -144,7 +144,7 @@ def test_remove_restores_the_original_file_state_bit_for_bit():
     np.testing.assert_array_equal(positions(head.data), original)
     # the sample's own empties and parts stay; the control mesh set-up made is gone
     assert {ob.name for ob in bpy.data.objects} == names - {"Head Control"}
-    assert binding_store.BINDING_PROP not in head.data and face_data.REST_PROP not in head.data
+    assert not binding_store.is_bound(head) and face_data.REST_PROP not in head.data
     assert bpy.data.objects["Eye L"].animation_data is None or not bpy.data.objects["Eye L"].animation_data.drivers
 
 
@@ -205,16 +205,16 @@ def test_two_faces_in_one_scene_keep_their_own_settings():
 
 def test_changing_a_parameter_rebinds_and_the_mode_switches_the_formula():
     head = set_up_sample()
-    key, pairs = head.data[binding_store.BINDING_KEY_PROP], binding_store.load(head.data).n_pairs
+    key, pairs = binding_store.stored_key(head), binding_store.load(head).n_pairs
     head.mpeg4_face.radius_fraction = 1.5
-    assert head.data[binding_store.BINDING_KEY_PROP] != key
-    assert binding_store.load(head.data).n_pairs > pairs  # larger affection volumes
+    assert binding_store.stored_key(head) != key
+    assert binding_store.load(head).n_pairs > pairs  # larger affection volumes
     corner = face_data.fp_empties(head)["8.3"]
     corner.location.x += 0.01
     bpy.context.view_layer.update()
     planar = positions(head.data).copy()
     head.mpeg4_face.mode = "SOFFD"
-    assert head.data[binding_store.BINDING_KEY_PROP] != key  # the mode needs no new binding...
+    assert binding_store.stored_key(head) != key  # the mode needs no new binding...
     assert np.abs(positions(head.data) - planar).max() > 1e-5  # ...but deforms differently
 
 

@@ -85,7 +85,7 @@ def test_open_jaw_moves_each_faces_chin_by_its_own_mns0():
 def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
     head = open_sample()
     select(head)
-    by_groups = binding_store.load(head.data)
+    by_groups = binding_store.load(head)
     # paint the four vertex-group masks into an image, texel by texel at each vertex's UV, and use it
     mesh = head.data
     loop_vertex = np.array([loop.vertex_index for loop in mesh.loops])
@@ -106,14 +106,14 @@ def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
                 pixels[y, x, channel] = groups[name]
     image = bpy.data.images.new("masks", size, size, alpha=True, float_buffer=True)
     image.pixels.foreach_set(pixels.ravel())
-    key = head.data[binding_store.BINDING_KEY_PROP]
+    key = binding_store.stored_key(head)
     head.mpeg4_face.mask_image = image  # rebinds
-    assert head.data[binding_store.BINDING_KEY_PROP] != key
+    assert binding_store.stored_key(head) != key
     sampled = vertex_masks(head)
     assert missing_masks(head) == [] and set(sampled) == set(groups)
     for name in groups:  # texels shared by neighbouring vertices blur a few weights; the rest match
         assert np.mean(np.abs(sampled[name] - groups[name]) < 0.05) > 0.9
-    by_image = binding_store.load(head.data)
+    by_image = binding_store.load(head)
     assert by_image.n_pairs == pytest.approx(by_groups.n_pairs, rel=0.1)
     chin = face_data.fp_empties(head)["2.1"]
     chin.location.z -= 0.01
