@@ -1,207 +1,206 @@
-"""Planar Bones against Blender's Surface Deform on the sample head: bind time and per-frame time.
+"""End to end: a played frame of the add-on against Blender's Surface Deform, as a user waits for it.
 
-    .venv/bin/python -m scripts.bench.bench [--face sample_blends/makehuman_head.blend] [--frames 60]
-        [--levels 0 1 2] [--cover face all]
+    .venv/bin/python -m scripts.bench.bench [--levels 0 1 2] [--frames 100] [--stream FILE.fap] [--json OUT]
 
-The head is subdivided (Catmull-Clark, a Subdivision Surface modifier applied to a copy) to each level;
-both deformers run in this one process on that mesh against the same control mesh (the template's FPs;
-Planar Bones with the lip and eyelid masks from the vertex groups, which the subdivision interpolates).
-Planar Bones is bound once per coverage choice (`bind(cover=...)`, see `scripts/bench/evaluate.py`): `face`,
-exactly what the add-on binds with (`addon.deform.face_binding`), and `all`, every vertex (the `bind`
-default), which raises border radii to reach scalp and neck and so binds ~5x more pairs. The control
-mesh follows a smooth FP animation of a few
-millimetres per point. At each level everything is bound first, then every frame runs each deformer in
-turn (so a load change on the machine hits all figures alike); each figure is the median over the
-frames, after two warm-up frames.
-
-* PB bind: computing the cover + `planar_bones.bind` (float64, with the evaluation arrays it builds).
-* SD bind: copy the mesh, add the modifier, `surfacedeform_bind` + `view_layer.update()`.
-* PB frame: `evaluate(binding, control, out=float32 buffer)` + `position` attribute `foreach_set`
-  (float32) + `mesh.update()`: the add-on's per-frame work, ending with new positions in the mesh.
-* PB frame + depsgraph: the same + `depsgraph.update()`, so Blender has also evaluated the mesh.
-* SD frame: move the 57 control-mesh vertices (`foreach_set` float32 + `mesh.update()`),
-  `depsgraph.update()` (evaluates the control mesh and the Surface Deform modifier), then read the
-  evaluated positions with `evaluated_get(depsgraph)` + `foreach_get` into a float32 buffer.
-
-The SD frame includes a depsgraph evaluation of the deformed object that the PB frame leaves to Blender's
-next redraw, so the fair ratio is the one with "PB frame + depsgraph"; both ratios are printed.
+For each size (the sample head, and its Catmull-Clark subdivisions at levels 1 and 2, applied), in one
+process:
+- the add-on as a user has it: the head set up with Set Up Face (its own frame handler, its binding
+  store), the stream imported onto the FP empties with Import FAP Stream;
+- the best peer, Blender's Surface Deform: a copy of the head at rest, bound to a copy of the add-on's
+  control mesh whose every vertex is hooked (a Hook modifier) to the same keyed FP empty, so the same
+  animation drives both.
+The two live in two scenes that share the FP empties, so a `frame_set` evaluates one of them only.
+Every frame, in alternating order, each side runs `scene.frame_set(f)` and then reads the evaluated
+mesh back with `foreach_get` into a float32 buffer; each figure is the median over the frames after two
+warm-up frames. `kernel_ms` is `planar_bones.evaluate` alone on the same control positions (a footnote:
+it leaves out what Blender does around it). `bind_s` is Set Up Face; `binding_mb` the binding's arrays.
 """
 
+from __future__ import annotations
+
 import argparse
-import sys
+import json
+import tempfile
 import time
 from pathlib import Path
 
 import bpy
 import numpy as np
 
-from addon.deform.face_binding import FADE_BELOW
-from addon.deform.planar_bones import bind, evaluate
-from addon.mpeg4.control_mesh import TRIANGLE_MASKS
-from scripts.bench.evaluate import (
-    COVERS,
-    DEFAULT_FACE,
-    SampleFace,
-    cover_vertices,
-    load_face,
-    read_vertices,
-    surface_deform_control,
-    vertex_masks,
-)
-from scripts.bench.surface_deform import SurfaceDeform, copy_object, write_positions
+import addon
+from addon.blender import binding_store, face_data, live, rest_shape
+from addon.deform.planar_bones import evaluate
+from addon.mpeg4.fap_file import read_fap, write_fap
+from scripts.bench.surface_deform import SurfaceDeform, copy_object
 
-WARM_UP = 2  # frames run but not timed
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
+DEMO = ROOT / "sample_blends" / "demo.fap"
+WARM_UP = 2
 
 
-def subdivided(face: SampleFace, level: int) -> bpy.types.Object:
-    """A copy of the head with a Catmull-Clark Subdivision Surface modifier of `level` applied."""
-    obj = copy_object(face.head, f"Head level {level}")
+def _select(ob) -> None:
+    for other in bpy.context.view_layer.objects:
+        other.select_set(False)
+    ob.select_set(True)
+    bpy.context.view_layer.objects.active = ob
+
+
+def _operator(op, **kwargs) -> None:
+    if op(**kwargs) != {"FINISHED"}:
+        raise SystemExit(f"{op.idname()} did not finish")
+
+
+def prepare(level: int, stream: Path) -> tuple[bpy.types.Object, float]:
+    """Open the sample, subdivide the head, set it up and import the stream; returns (head, set-up time)."""
+    bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
+    head = bpy.data.objects["Head"]
+    _select(head)
+    _operator(bpy.ops.mpeg4.remove_face)
     if level:
-        modifier = obj.modifiers.new("Subdivision", "SUBSURF")
-        modifier.subdivision_type = "CATMULL_CLARK"
+        modifier = head.modifiers.new("Subdivision", "SUBSURF")
         modifier.levels = level
-        with bpy.context.temp_override(object=obj, active_object=obj):
-            bpy.ops.object.modifier_apply(modifier=modifier.name)
-    return obj
+        bpy.ops.object.modifier_apply(modifier=modifier.name)
+    start = time.perf_counter()
+    _operator(bpy.ops.mpeg4.setup_face)
+    bind_s = time.perf_counter() - start
+    _operator(bpy.ops.mpeg4.import_fap, filepath=str(stream), start_frame=1)
+    return head, bind_s
 
 
-def animation(control_rest: np.ndarray, frames: int) -> np.ndarray:
-    """(frames, M, 3) smooth motion of each FP, up to 4 mm, every point with its own phase."""
-    rng = np.random.default_rng(7)
-    phase = rng.uniform(0.0, 2.0 * np.pi, control_rest.shape)
-    amplitude = rng.uniform(0.001, 0.004, control_rest.shape)
-    t = np.arange(frames)[:, None, None] / 24.0
-    return control_rest + amplitude * np.sin(2.0 * np.pi * 0.7 * t + phase)
+def peer_scene(head: bpy.types.Object) -> tuple[bpy.types.Scene, SurfaceDeform]:
+    """A second scene: Surface Deform on a copy of the head, through a hooked copy of the control mesh."""
+    settings = head.mpeg4_face
+    scene = bpy.data.scenes.new("Surface Deform")
+    scene.frame_start, scene.frame_end = bpy.context.scene.frame_start, bpy.context.scene.frame_end
+    scene.render.fps, scene.render.fps_base = bpy.context.scene.render.fps, bpy.context.scene.render.fps_base
+    scene.collection.children.link(settings.fp_collection)  # the same keyed empties
+    rest = copy_object(head, "Head (Surface Deform)")
+    for coll in list(rest.users_collection):
+        coll.objects.unlink(rest)
+    scene.collection.objects.link(rest)
+    rest.property_unset("mpeg4_face")
+    rest.animation_data_clear()
+    rest.data.attributes["position"].data.foreach_set("vector", rest_shape.stored_rest(head.data).ravel())
+    control = settings.control_object.copy()
+    control.data = settings.control_object.data.copy()
+    control.parent = head.parent
+    control.matrix_world = head.matrix_world
+    scene.collection.objects.link(control)
+    rest.parent = None
+    rest.matrix_world = head.matrix_world
+    empties = face_data.fp_empties(head)
+    ids = list(control.data[face_data.FP_IDS_PROP])
+    for index, fp_id in enumerate(ids):
+        hook = control.modifiers.new(f"Hook {fp_id}", "HOOK")
+        hook.object = empties[fp_id]
+        hook.vertex_indices_set([index])
+        # identity at rest: the hook's inverse undoes the empty's rest transform in the control's space
+        hook.matrix_inverse = empties[fp_id].matrix_world.inverted() @ control.matrix_world
+    with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+        peer = SurfaceDeform.bind(rest, control, name="Surface Deform", report=print)
+    return scene, peer
 
 
-class PlanarBonesRun:
-    """Planar Bones bound on `obj` with one coverage choice; a frame writes the mesh `obj` shows."""
+def _read(ob, depsgraph, out: np.ndarray) -> None:
+    ob.evaluated_get(depsgraph).data.attributes["position"].data.foreach_get("vector", out)
 
-    def __init__(self, face: SampleFace, obj: bpy.types.Object, rest: np.ndarray, cover: str):
-        self.cover = cover
-        self.mesh = obj.data
-        masks = vertex_masks(obj)
+
+def measure(level: int, frames: int, stream: Path) -> dict:
+    head, bind_s = prepare(level, stream)
+    scene = bpy.context.scene
+    depsgraph = scene.view_layers[0].depsgraph
+    peer_scene_, peer = peer_scene(head)
+    peer_depsgraph = peer_scene_.view_layers[0].depsgraph
+    n = len(head.data.vertices)
+    out_pb = np.empty(n * 3, np.float32)
+    out_sd = np.empty(n * 3, np.float32)
+    kernel_out = np.empty((n, 3), np.float32)
+    binding = binding_store.load(head)
+    pb, sd, kernel = [], [], []
+    first = scene.frame_start
+    for i in range(frames + WARM_UP):
+        frame = first + i
+        sides = [("pb", scene, depsgraph, head, out_pb), ("sd", peer_scene_, peer_depsgraph, peer.obj, out_sd)]
+        if i % 2:
+            sides.reverse()
+        timings = {}
+        for name, sc, dg, ob, out in sides:
+            start = time.perf_counter()
+            sc.frame_set(frame)
+            _read(ob, dg, out)
+            timings[name] = time.perf_counter() - start
+        points = live.control_positions(head, live._state(head))
         start = time.perf_counter()
-        covered = cover_vertices(cover, rest, face)
-        self.binding = bind(
-            rest,
-            face.control_rest,
-            face.triangles,
-            vertex_masks=masks,
-            triangle_masks=list(TRIANGLE_MASKS),
-            cover=covered,
-            fade_below=FADE_BELOW if cover == "face" else 0.0,
+        evaluate(binding, points, out=kernel_out)
+        timings["kernel"] = time.perf_counter() - start
+        if i >= WARM_UP:
+            pb.append(timings["pb"])
+            sd.append(timings["sd"])
+            kernel.append(timings["kernel"])
+    binding_bytes = sum(
+        getattr(binding, f).nbytes for f in vars(binding) if isinstance(getattr(binding, f), np.ndarray)
+    )
+    planar_bones_ms = 1000 * float(np.median(pb))
+    surface_deform_ms = 1000 * float(np.median(sd))
+    return {
+        "level": level,
+        "vertices": n,
+        "planar_bones_ms": round(planar_bones_ms, 2),
+        "surface_deform_ms": round(surface_deform_ms, 2),
+        "ratio": round(planar_bones_ms / surface_deform_ms, 2),
+        "kernel_ms": round(1000 * float(np.median(kernel)), 2),
+        "bind_s": round(bind_s, 2),
+        "binding_mb": round(binding_bytes / 2**20, 1),
+    }
+
+
+def without_head_turns(path: Path, folder: Path) -> Path:
+    """The stream without FAPs 48-50: head turns move the face object, which the peer's copy does not
+    follow, and they cost the same on both sides (an object transform)."""
+    stream = read_fap(path)
+    stream.mask[:, 47:50] = False
+    stream.values[:, 47:50] = 0.0
+    out = folder / path.name
+    write_fap(stream, out)
+    return out
+
+
+def table(sizes: list[dict], frames: int, stream: Path) -> str:
+    lines = [
+        f"Medians over {frames} frames of `{stream.name}` (head turns left out); numpy {np.__version__}, "
+        f"Blender {bpy.app.version_string}.",
+        "",
+        "| vertices | add-on frame (ms) | Surface Deform frame (ms) | ratio | kernel only (ms) | set-up (s) "
+        "| binding (MB) |",
+        "|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for s in sizes:
+        lines.append(
+            f"| {s['vertices']} | {s['planar_bones_ms']:.2f} | {s['surface_deform_ms']:.2f} | {s['ratio']:.2f} "
+            f"| {s['kernel_ms']:.2f} | {s['bind_s']:.2f} | {s['binding_mb']:.1f} |"
         )
-        self.bind_s = time.perf_counter() - start
-        self.buffer = np.empty((len(rest), 3), np.float32)
-
-    def frame(self, control: np.ndarray, depsgraph: bpy.types.Depsgraph) -> tuple[float, float]:
-        """Seconds for evaluate + write-back, and for the depsgraph update that follows."""
-        start = time.perf_counter()
-        evaluate(self.binding, control, out=self.buffer)
-        write_positions(self.mesh, self.buffer)
-        written = time.perf_counter()
-        depsgraph.update()
-        return written - start, time.perf_counter() - written
+    return "\n".join(lines)
 
 
-class SurfaceDeformRun:
-    """Surface Deform on a copy of `obj`, bound to its own copy of the control mesh."""
-
-    def __init__(self, face: SampleFace, obj: bpy.types.Object, level: int):
-        control = surface_deform_control(face, f"Control level {level}")
-        start = time.perf_counter()
-        self.deform = SurfaceDeform.bind(obj, control, f"Surface Deform level {level}")
-        self.bind_s = time.perf_counter() - start
-        self.buffer = np.empty((len(obj.data.vertices), 3), np.float32)
-
-    def frame(self, control: np.ndarray, depsgraph: bpy.types.Depsgraph) -> float:
-        start = time.perf_counter()
-        self.deform.move_control(control)
-        depsgraph.update()
-        self.deform.read_deformed(depsgraph, self.buffer)
-        return time.perf_counter() - start
-
-    def hide(self) -> None:
-        """Keep this level's objects out of the later levels' depsgraph updates."""
-        self.deform.obj.hide_viewport = True
-        self.deform.control.hide_viewport = True
-
-
-def bench_level(face: SampleFace, level: int, covers: list[str], positions: np.ndarray) -> list[dict]:
-    """Bind everything on one subdivision level, then time the deformers frame by frame in turn, so a
-    load change on the machine affects all of them alike."""
-    obj = subdivided(face, level)
-    rest = read_vertices(obj.data).astype(np.float64)
-    surface = SurfaceDeformRun(face, obj, level)
-    runs = [PlanarBonesRun(face, obj, rest, cover) for cover in covers]
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    times = {run.cover: [] for run in runs}
-    surface_times = []
-    for index, control in enumerate(positions):
-        for run in runs:
-            times[run.cover].append(run.frame(control, depsgraph))
-        surface_times.append(surface.frame(control, depsgraph))
-        if index < WARM_UP:
-            times = {cover: [] for cover in times}
-            surface_times = []
-    surface.hide()
-    obj.hide_viewport = True
-    sd_ms = 1e3 * float(np.median(surface_times))
-    rows = []
-    for run in runs:
-        written, updated = np.array(times[run.cover]).T
-        rows.append(
-            {
-                "level": level,
-                "vertices": len(rest),
-                "cover": run.cover,
-                "pairs": run.binding.n_pairs,
-                "pb_bind_s": run.bind_s,
-                "sd_bind_s": surface.bind_s,
-                "sd_jittered": surface.deform.jittered,
-                "pb_ms": 1e3 * float(np.median(written)),
-                "pb_evaluated_ms": 1e3 * float(np.median(written + updated)),
-                "sd_ms": sd_ms,
-            }
-        )
-    return rows
-
-
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--face", default=str(DEFAULT_FACE))
-    parser.add_argument("--frames", type=int, default=60, help="timed frames (at least 50)")
-    parser.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--cover", nargs="+", default=["face", "all"], choices=COVERS)
-    args = parser.parse_args()
-    if args.frames < 50:
-        parser.error("--frames must be at least 50")
-    face = load_face(Path(args.face))
-    positions = animation(face.control_rest, args.frames + WARM_UP)
-    rows = [row for level in args.levels for row in bench_level(face, level, args.cover, positions)]
-
-    print(f"`.venv/bin/python -m scripts.bench.bench {' '.join(sys.argv[1:])}`".replace(" `", "`"))
-    print()
-    print(
-        f"Median over {args.frames} frames; control mesh {len(face.control_rest)} FPs, "
-        f"{len(face.triangles)} triangles; numpy {np.__version__}, Blender {bpy.app.version_string}."
-    )
-    print()
-    print(
-        "| level | vertices | cover | PB pairs | PB bind (s) | SD bind (s) | PB frame (ms) "
-        "| PB frame + depsgraph (ms) | SD frame (ms) | PB/SD | (PB + depsgraph)/SD |"
-    )
-    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for r in rows:
-        jitter = " (jittered)" if r["sd_jittered"] else ""
-        print(
-            f"| {r['level']} | {r['vertices']} | {r['cover']} | {r['pairs']} | {r['pb_bind_s']:.3f} "
-            f"| {r['sd_bind_s']:.3f}{jitter} | {r['pb_ms']:.2f} | {r['pb_evaluated_ms']:.2f} | {r['sd_ms']:.2f} "
-            f"| {r['pb_ms'] / r['sd_ms']:.2f} | {r['pb_evaluated_ms'] / r['sd_ms']:.2f} |"
-        )
+    parser.add_argument("--levels", type=int, nargs="+", default=[0, 1, 2], choices=[0, 1, 2, 3])
+    parser.add_argument("--frames", type=int, default=100)
+    parser.add_argument("--stream", type=Path, default=DEMO, help="the .fap stream both sides play")
+    parser.add_argument("--json", type=Path, help="also write the figures as JSON")
+    args = parser.parse_args(argv)
+    if args.frames < 1:
+        parser.error("--frames must be at least 1")
+    addon.register()
+    with tempfile.TemporaryDirectory() as folder:
+        stream = without_head_turns(args.stream, Path(folder))
+        sizes = [measure(level, args.frames, stream) for level in args.levels]
+    print(table(sizes, args.frames, args.stream))
+    if args.json:
+        args.json.write_text(json.dumps({"sizes": sizes}, indent=2) + "\n")
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    raise SystemExit(main())
