@@ -133,12 +133,14 @@ def plan(face) -> Plan:
         missing = binding_store.missing_masks(face)
         if missing:
             notes.append(Warn(f"no vertex groups {', '.join(missing)}: those openings are not masked"))
+    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1])
     try:
-        binding, key = binding_store.compute(face, rest, points, tris, tri_masks, fapu[1])
+        binding = inputs.bind()
     except np.linalg.LinAlgError as exc:
         raise Mpeg4Error(
             f"the feature points cannot bind {face.name} ({exc}): check for points placed on top of each other"
         ) from exc
+    key = inputs.key
     return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes)
 
 

@@ -241,9 +241,15 @@ def disable(face, message: str, keep_mesh: bool = False) -> None:
 
 
 def settings_changed(face, rebind: bool) -> None:
-    """Property update: rebind if a binding parameter changed, then apply or restore."""
+    """Property update: rebind (in the background) if a binding parameter changed, then apply or restore."""
     if rebind and binding_store.is_bound(face):
-        binding_store.rebind(face)
+        binding_store.request_rebind(face, done=refresh)
+        return
+    refresh(face)
+
+
+def refresh(face) -> None:
+    """Show the face with its current settings and binding: deformed when enabled, else at rest."""
     if face.mpeg4_face.enabled:
         apply_face(face, force=True)
     else:

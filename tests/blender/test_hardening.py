@@ -374,3 +374,25 @@ def test_x_mirror_moves_the_partner_of_the_empty_being_moved():
     left.location.z += 0.004
     bpy.context.view_layer.update()
     assert tuple(right.location) == before
+
+
+def test_a_slider_change_rebinds_in_the_background_while_the_old_binding_plays(monkeypatch):
+    import time
+
+    head = set_up_sample()
+    monkeypatch.setattr(binding_store, "BACKGROUND_REBIND", True)
+    monkeypatch.setattr(binding_store, "REBIND_DELAY", 0.0)
+    old_key = binding_store.stored_key(head)
+    start = time.perf_counter()
+    head.mpeg4_face.radius_fraction = 1.5
+    head.mpeg4_face.radius_fraction = 1.6  # a drag: only the last value is bound
+    blocked = time.perf_counter() - start
+    assert binding_store.busy(head) and binding_store.stored_key(head) == old_key  # the old one still plays
+    assert blocked < 0.1
+    deadline = time.monotonic() + 30
+    while binding_store.busy(head) and time.monotonic() < deadline:
+        binding_store.poll_jobs()
+        time.sleep(0.01)
+    assert not binding_store.busy(head) and binding_store.stored_key(head) != old_key
+    expected = binding_store.stored_inputs(head)
+    assert binding_store.stored_key(head) == expected.key and expected.params["radius_fraction"] == pytest.approx(1.6)
