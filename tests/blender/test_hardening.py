@@ -396,3 +396,28 @@ def test_a_slider_change_rebinds_in_the_background_while_the_old_binding_plays(m
     assert not binding_store.busy(head) and binding_store.stored_key(head) != old_key
     expected = binding_store.stored_inputs(head)
     assert binding_store.stored_key(head) == expected.key and expected.params["radius_fraction"] == pytest.approx(1.6)
+
+
+def test_the_binding_reloads_bit_identical_and_is_not_on_the_mesh(tmp_path):
+    import dataclasses
+
+    head = set_up_sample()
+    bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP))
+    before = binding_store.load(head)
+    assert binding_store.BINDING_PROP not in head.data  # the mesh is copied every frame: keep it small
+    scene = bpy.context.scene
+    scene.frame_set(40)
+    posed = positions(head.data).copy()
+    path = tmp_path / "saved.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    head = bpy.data.objects["Head"]
+    after = binding_store.load(head)
+    assert after is not before
+    for field in dataclasses.fields(before):
+        if field.init:
+            a, b = getattr(before, field.name), getattr(after, field.name)
+            assert np.array_equal(a, b) and getattr(a, "dtype", None) == getattr(b, "dtype", None), field.name
+    bpy.context.scene.frame_set(41)
+    bpy.context.scene.frame_set(40)
+    np.testing.assert_array_equal(positions(head.data), posed)
