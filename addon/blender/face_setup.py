@@ -112,7 +112,8 @@ def plan(face) -> Plan:
         )
     fp_empties.check_adoptable(face, empties)
     notes = []
-    planned = fp_empties.planned_locations(face, empties)
+    rest = _rest_now(face)
+    planned = fp_empties.planned_locations(face, empties, rest)
     now = face_data.local_positions(face, empties)
     snapped = sum(1 for fp_id in planned if np.abs(planned[fp_id] - now[fp_id]).max() > 1e-6)
     if snapped:
@@ -128,7 +129,6 @@ def plan(face) -> Plan:
     except FapuError as exc:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
-    rest = _rest_now(face)
     if face.mpeg4_face.use_masks:
         missing = binding_store.missing_masks(face)
         if missing:

@@ -13,6 +13,7 @@ import re
 import bpy
 import numpy as np
 from mathutils import Matrix, Vector
+from mathutils.bvhtree import BVHTree
 
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
@@ -71,21 +72,34 @@ def check_adoptable(face, empties: dict) -> None:
             )
 
 
-def planned_locations(face, empties: dict) -> dict[str, np.ndarray]:
+def planned_locations(face, empties: dict, rest: np.ndarray) -> dict[str, np.ndarray]:
     """Face-local location of each empty after adoption and snapping, computed without moving anything.
 
-    Skin points snap onto the face's surface unless they are animated (their keys are the user's).
+    Skin points snap onto the face's rest surface (`rest`: (N, 3) positions; the mesh may be showing a
+    pose) unless they are animated (their keys are the user's).
     """
     inv = face.matrix_world.inverted()
+    tree = None
     planned = {}
     for fp_id, ob in empties.items():
         local = ob.location.copy() if not _needs_parenting(face, ob) else inv @ ob.matrix_world.translation
         if feature_point(fp_id).surface == "skin" and not ob.animation_data:
-            ok, on_surface, _normal, _index = face.closest_point_on_mesh(local)
-            if ok:
+            if tree is None:
+                tree = _surface(face, rest)
+            on_surface, *_rest = tree.find_nearest(local)
+            if on_surface is not None:
                 local = on_surface
         planned[fp_id] = np.array(local, dtype=np.float64)
     return planned
+
+
+def _surface(face, rest: np.ndarray) -> BVHTree:
+    polygons = face.data.polygons
+    loops = np.empty(len(face.data.loops), dtype=np.int32)
+    face.data.loops.foreach_get("vertex_index", loops)
+    starts = np.empty(len(polygons), dtype=np.int32)
+    polygons.foreach_get("loop_start", starts)
+    return BVHTree.FromPolygons(rest.tolist(), [p.tolist() for p in np.split(loops, starts[1:])])
 
 
 def neutral_locations(empties: dict, planned: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

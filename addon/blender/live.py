@@ -236,6 +236,8 @@ def disable(face, message: str, keep_mesh: bool = False) -> None:
     settings.status = message
     if keep_mesh:
         settings["enabled"] = False  # the ID property, so the update does not write the old rest over the edit
+        if face.data.shape_keys is not None:
+            rest_shape.restore_rest(face.data)  # only our own key: it must not keep showing the pose
     elif settings.enabled:
         settings.enabled = False  # its update restores the rest mesh
 

@@ -421,3 +421,19 @@ def test_the_binding_reloads_bit_identical_and_is_not_on_the_mesh(tmp_path):
     bpy.context.scene.frame_set(41)
     bpy.context.scene.frame_set(40)
     np.testing.assert_array_equal(positions(head.data), posed)
+
+
+def test_set_up_while_posed_snaps_onto_the_rest_surface():
+    from mathutils.bvhtree import BVHTree
+
+    head = set_up_sample()
+    chin = face_data.fp_empties(head)["2.1"]
+    chin.location.y -= 0.006  # off the surface, and the face follows it: the mesh shows a pose
+    bpy.context.view_layer.update()
+    rest = rest_shape.stored_rest(head.data).copy()
+    assert np.abs(positions(head.data) - rest).max() > 0.002
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    tree = BVHTree.FromPolygons(rest.tolist(), [list(p.vertices) for p in head.data.polygons])
+    _nearest, _normal, _index, distance = tree.find_nearest(chin.location)
+    assert distance < 1e-6
+    np.testing.assert_array_equal(rest_shape.stored_rest(head.data), rest)  # the rest shape, not the pose
