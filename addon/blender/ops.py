@@ -1,6 +1,8 @@
 """Operators. Each is thin: it says when it can run (`unavailable`), gathers its inputs and calls a service."""
 
+import contextlib
 import os
+import time
 
 import bpy
 from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
@@ -10,7 +12,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
 from . import bake, binding_store, face_data, face_setup, fap_io, fp_empties
-from .reporting import Mpeg4Operator, report_outside_operator
+from .reporting import Mpeg4Operator, progress, report_outside_operator
 
 
 def _face(context):
@@ -266,8 +268,19 @@ class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):
         return fap_io.export_fap(context, _face(context), self.filepath, start, end)
 
 
+NAVIGATION_EVENTS = {
+    "MOUSEMOVE",
+    "INBETWEEN_MOUSEMOVE",
+    "MIDDLEMOUSE",
+    "WHEELUPMOUSE",
+    "WHEELDOWNMOUSE",
+    "TRACKPADPAN",
+    "TRACKPADZOOM",
+}
+
+
 class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
-    """Bake the deformation over the scene's frame range so the animation plays without this extension"""
+    """Bake the deformation over a frame range so the animation plays without this extension (Esc cancels)"""
 
     bl_idname = "mpeg4.bake"
     bl_label = "Bake"
@@ -278,9 +291,23 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
         items=(
             ("SHAPE_KEYS", "Shape Keys", "One shape key per frame, keyed on and off"),
             ("POINT_CACHE", "Point Cache", "A .pc2 file next to the .blend, read by a Mesh Cache modifier"),
+            (
+                "ALEMBIC",
+                "Point Cache and Alembic",
+                "A point cache as above, then Blender's Alembic exporter writes the baked face (and the eyes, "
+                "teeth and tongue that follow it) to an .abc",
+            ),
         ),
     )
     filepath: StringProperty(name="Cache File", subtype="FILE_PATH", default="")
+    alembic_filepath: StringProperty(
+        name="Alembic File", subtype="FILE_PATH", default="", description="Empty: the cache file's name with .abc"
+    )
+    frame_start: IntProperty(name="Start", description="First frame to bake (not set: the scene's start)")
+    frame_end: IntProperty(name="End", description="Last frame to bake (not set: the scene's end)")
+
+    TICK_SECONDS = 0.1  # frames baked per timer tick: as many as fit, so the window stays responsive
+    _job = None  # the bake a modal run steps
 
     @classmethod
     def unavailable(cls, context):
@@ -289,13 +316,83 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
             return "Turn Deform on before baking"
         return reason
 
-    def run(self, context):
+    def _bake(self, context) -> bake.Bake:
         face = _face(context)
         scene = context.scene
-        frames = range(scene.frame_start, scene.frame_end + 1)
+        start = self.frame_start if self.properties.is_property_set("frame_start") else scene.frame_start
+        end = self.frame_end if self.properties.is_property_set("frame_end") else scene.frame_end
+        frames = range(start, end + 1)
         if self.target == "SHAPE_KEYS":
-            return bake.bake_shape_keys(context, face, frames)
-        return bake.bake_point_cache(context, face, frames, self.filepath or None)
+            return bake.ShapeKeyBake(context, face, frames)
+        return bake.PointCacheBake(
+            context, face, frames, self.filepath or None, self.target == "ALEMBIC", self.alembic_filepath or None
+        )
+
+    # without a window (background mode, scripts) the whole bake at once; after a modal run its end
+    def run(self, context):
+        return bake.run(context, self._job or self._bake(context))
+
+    # in a window: a timer bakes a few frames per tick, with progress in the status bar; Esc cancels
+    def invoke(self, context, event):
+        if context.window is None:
+            return self.execute(context)
+        try:
+            self._job = self._bake(context)
+        except Exception as exc:
+            report_outside_operator(face_data.active_face(context), exc)
+            return {"CANCELLED"}
+        wm = context.window_manager
+        self._ui = contextlib.ExitStack()
+        self._update = self._ui.enter_context(progress(context, len(self._job.frames)))
+        timer = wm.event_timer_add(0.01, window=context.window)
+        self._ui.callback(wm.event_timer_remove, timer)
+        self._texts = [context.workspace.status_text_set]
+        if context.area is not None:
+            self._texts.append(context.area.header_text_set)
+        for show in self._texts:
+            self._ui.callback(show, None)
+        self._show_progress()
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _show_progress(self):
+        job = self._job
+        text = f"Baking {job.face_name}: frame {job.baked} of {len(job.frames)}   Esc: cancel"
+        if job.done:
+            text = f"Baking {job.face_name}: {job.finishing}"
+        for show in self._texts:
+            show(text)
+        self._update(job.baked)
+
+    def modal(self, context, event):
+        if event.type == "ESC" and event.value == "PRESS":
+            self.cancel(context)
+            self.report({"WARNING"}, "Bake cancelled")
+            return {"CANCELLED"}
+        if event.type in NAVIGATION_EVENTS:
+            return {"PASS_THROUGH"}
+        if event.type != "TIMER":
+            return {"RUNNING_MODAL"}  # nothing else: the scene must not change under the bake
+        job = self._job
+        if job.done:  # a tick after the last frame, so the window says what happens meanwhile
+            self._ui.close()
+            return self.execute(context)  # stores the result and reports like any run
+        try:
+            deadline = time.perf_counter() + self.TICK_SECONDS
+            job.step()
+            while not job.done and time.perf_counter() < deadline:
+                job.step()
+        except Exception as exc:
+            self.cancel(context)
+            report_outside_operator(bpy.data.objects.get(job.face_name), exc)
+            return {"CANCELLED"}
+        self._show_progress()
+        return {"RUNNING_MODAL"}
+
+    def cancel(self, context):
+        """Esc, an error, or Blender ending the operator (a file loaded): the bake is taken back."""
+        self._ui.close()
+        self._job.cancel()
 
 
 CLASSES = (

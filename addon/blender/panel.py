@@ -70,9 +70,15 @@ class MPEG4_PT_face(bpy.types.Panel):
             col.operator("mpeg4.import_fap", icon="IMPORT")
             col.operator("mpeg4.export_fap", icon="EXPORT")
             col.prop(context.scene.mpeg4, "fill_partners")
-            row = layout.row(align=True)
+            col = layout.column(align=True)
+            col.label(text="Bake the scene's frames:")
+            row = col.row(align=True)
+            row.prop(context.scene, "frame_start", text="Start")
+            row.prop(context.scene, "frame_end", text="End")
+            row = col.row(align=True)
             row.operator("mpeg4.bake", text="Bake Shape Keys").target = "SHAPE_KEYS"
             row.operator("mpeg4.bake", text="Bake Point Cache").target = "POINT_CACHE"
+            col.operator("mpeg4.bake", text="Bake Point Cache + Alembic").target = "ALEMBIC"
 
 
 CLASSES = (MPEG4_PT_face,)
