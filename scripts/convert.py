@@ -10,8 +10,16 @@ face. Each problem stops the run with one line `convert.py: error: ...` and exit
 Then, for each stream: open the face file afresh, set the face up if it is not yet, import the stream
 (one stream frame per scene frame, at the stream's frame rate), bake the deformation to a PC2 point
 cache, export Alembic with Blender's own exporter, render a Workbench (or Cycles) preview MP4 and a PNG
-contact sheet. One line per stream, `[i/n] PATH: ok ...` or `[i/n] PATH: FAILED: reason`; a stream
-that fails leaves no outputs and the others still convert; the exit status is 1 if any failed.
+contact sheet. One line per stream, `[i/n] PATH: ok ...` or `[i/n] PATH: FAILED: reason`, then
+`N converted, M failed in T s`; a stream that fails leaves no outputs and the others still convert; the
+exit status is 1 if any failed, 130 after Ctrl+C.
+
+Blender's own output while a stream converts (a line or more per rendered frame) goes to `OUTDIR/STEM.log`;
+stderr shows a progress bar instead (on a terminal; otherwise a line at 25, 50 and 75 %).
+
+`--jobs N` converts each stream in a Blender process of its own, N at a time: the command that started
+this one, given that single stream (see `child_command`). The lines still come in stream order; a process
+that ends without its line (killed, crashed) makes its stream FAILED with how it ended.
 
 The add-on is the installed extension when Blender has it enabled, else the `addon` package of the
 checkout this script sits in, else the installed extension enabled for this run (the bpy module does
@@ -21,9 +29,15 @@ not enable extensions by itself). So a copy of this file alone works wherever th
 from __future__ import annotations
 
 import argparse
+import contextlib
+import ctypes
 import functools
 import importlib
 import math
+import os
+import shutil
+import signal
+import subprocess
 import sys
 import tempfile
 import time
@@ -35,8 +49,11 @@ import numpy as np
 EXTENSION_ID = "mpeg4_face"  # the manifest's id: installed, the add-on is the package bl_ext.<repo>.mpeg4_face
 RESOLUTIONS = (16, 8192)
 SHEET_FRAMES = (0, 100)
-MAX_CACHE_BYTES = 4 * 2**30  # the bake holds every baked frame in memory: (frames, vertices, 3) float32
+JOBS = (1, 64)
+ENGINES = ("WORKBENCH", "CYCLES")
+MAX_CACHE_BYTES = 4 * 2**30  # a point cache on disk beyond this is a mistaken frame range (frames 0 and 10**6), not a wish
 OUTPUT_SUFFIXES = (".pc2", ".abc", ".mp4", "_sheet.png")
+SCRATCH_SUFFIXES = ("_sheet.frame.png",)  # the contact sheet's one-frame renders
 
 
 class ConvertError(Exception):
@@ -86,7 +103,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help=f"preview height and width in pixels ({RESOLUTIONS[0]} to {RESOLUTIONS[1]})",
     )
     parser.add_argument("--frames", type=frame_range, help="stream frames to convert, FIRST:LAST, e.g. 0:100")
-    parser.add_argument("--engine", choices=("WORKBENCH", "CYCLES"), default="WORKBENCH")
+    parser.add_argument("--engine", choices=ENGINES, default=ENGINES[0])
     parser.add_argument("--no-video", action="store_true", help="skip the preview video")
     parser.add_argument(
         "--sheet",
@@ -94,7 +111,25 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         default=12,
         help=f"frames on the contact sheet (0: no sheet; at most {SHEET_FRAMES[1]})",
     )
+    parser.add_argument(
+        "--jobs",
+        type=_int_in(*JOBS),
+        default=1,
+        help="streams converted at once, each in a Blender process of its own (1: one after another, in this one)",
+    )
     return parser.parse_intermixed_args(argv)
+
+
+def stream_options(args) -> list[str]:
+    """The options that shape one stream's outputs, as this script's command line takes them."""
+    options = ["--resolution", str(args.resolution), "--engine", args.engine, "--sheet", str(args.sheet)]
+    if args.frames:
+        options.append("--frames=" + ":".join("" if end is None else str(end) for end in args.frames))
+    if args.object:
+        options.append(f"--object={args.object}")  # one argument, even for a name that starts with '-'
+    if args.no_video:
+        options.append("--no-video")
+    return options
 
 
 def script_argv() -> list[str]:
@@ -344,11 +379,145 @@ def save_png(pixels: np.ndarray, path: Path) -> None:
     bpy.data.images.remove(image)
 
 
-def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertices: int, written: list[Path]):
+class Progress:
+    """Progress on stderr: a bar redrawn in place on a terminal, else a line on passing 25, 50 and 75 %, so a
+    log gets a few lines per stream instead of one per frame."""
+
+    WIDTH = 24
+
+    def __init__(self, out):
+        self.out = out
+        self.tty = out.isatty()
+        self.start("")
+
+    def start(self, label: str, total: int = 1) -> None:
+        self.label, self.total, self.done = label, max(total, 1), 0
+        self.drawn = None  # the (percent, note) on the terminal
+        self.quarter = 0  # the last quarter written as a line
+
+    def expect(self, total: int) -> None:
+        """The number of units, once known."""
+        self.total = max(total, 1)
+
+    def advance(self, done: int, note: str = "") -> None:
+        self.done = min(done, self.total)
+        percent = 100 * self.done // self.total
+        if self.tty and self.drawn != (percent, note):
+            self.drawn = (percent, note)
+            filled = self.WIDTH * self.done // self.total
+            bar = f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {percent:3d} % {note}"
+            width = shutil.get_terminal_size().columns - 1  # a wrapped line could not be redrawn
+            self.out.write(f"\r{bar[:width]}\033[K")
+            self.out.flush()
+        elif not self.tty and self.quarter < percent // 25 * 25 < 100:  # at 100 % the stream's own line follows
+            self.quarter = percent // 25 * 25
+            self.out.write(f"{self.label}: {percent} % ({note})\n")
+            self.out.flush()
+
+    def clear(self) -> None:
+        """Take the bar off the terminal before a line goes to stdout."""
+        if self.drawn is not None:
+            self.out.write("\r\033[K")
+            self.out.flush()
+            self.drawn = None
+
+
+class CtrlC:
+    """Ctrl+C acted on between the steps of a conversion. Python raises KeyboardInterrupt wherever Python code
+    runs, and inside an operator or a handler Blender turns it into that operator's error or drops it; so where
+    Python handles SIGINT (the bpy module), a press is noted while Blender works and raised by `check()`. (The
+    Blender binary handles SIGINT itself: the first press breaks a render, the second ends Blender.)"""
+
+    def __init__(self):
+        self.pressed = False
+
+    def _note(self, *_args) -> None:
+        self.pressed = True
+
+    def check(self) -> None:
+        if self.pressed:
+            self.pressed = False
+            raise KeyboardInterrupt
+
+    @contextlib.contextmanager
+    def held(self):
+        if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+            yield
+            return
+        signal.signal(signal.SIGINT, self._note)
+        try:
+            yield
+        finally:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+        self.check()
+
+
+CTRL_C = CtrlC()
+
+
+@contextlib.contextmanager
+def counting(progress: Progress, handlers: list, units: int, note: str):
+    """Advance `progress` by one unit per call of a Blender handler list (a frame baked, exported, rendered);
+    a step of the conversion, where a noted Ctrl+C is raised."""
+    CTRL_C.check()
+    first = progress.done
+
+    def tick(*_args):
+        progress.advance(min(progress.done + 1, first + units), note)
+
+    progress.advance(first, note)
+    handlers.append(tick)
+    try:
+        yield
+    finally:
+        if tick in handlers:
+            handlers.remove(tick)
+    CTRL_C.check()
+    progress.advance(first + units, note)
+
+
+def _flush_c_stdio() -> None:
+    """Blender prints through the C library too; its buffer must be empty before the descriptors move."""
+    try:
+        libc = ctypes.CDLL("ucrtbase" if sys.platform == "win32" else None)
+        libc.fflush(None)
+    except (OSError, AttributeError):
+        pass
+
+
+@contextlib.contextmanager
+def blender_output_to(log: Path):
+    """Send everything written to this process's stdout and stderr while the block runs, Blender's C-level
+    lines included (`Fra:`, `Saved:`, "Append frame", one or more per rendered frame), to the file `log`."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    _flush_c_stdio()
+    saved = os.dup(1), os.dup(2)
+    try:
+        with log.open("wb") as sink:
+            os.dup2(sink.fileno(), 1)
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                sys.stdout.flush()
+                sys.stderr.flush()
+                _flush_c_stdio()
+                os.dup2(saved[0], 1)
+                os.dup2(saved[1], 2)
+    finally:
+        for fd in saved:
+            os.close(fd)
+
+
+def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertices: int, written: list[Path], progress):
     """Convert one stream; every file it starts writing is appended to `written` first."""
     stream = _addon("mpeg4.fap_file").read_fap(stream_path)
     first, last = stream_frames(stream, args.frames, vertices)
     fps, fps_base = scene_rate(stream.fps)  # a bad stream fails here, before the face is opened
+    frames = last - first + 1
+    tiles = min(args.sheet, frames)
+    progress.expect(2 * frames + (0 if args.no_video else frames) + tiles)
 
     face = open_face(face_file, args.object)
     scene = bpy.context.scene
@@ -359,21 +528,26 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertice
     bpy.ops.mpeg4.import_fap(filepath=str(stream_path), timing="SCENE", start_frame=0, set_frame_range=False)
     scene.frame_start, scene.frame_end = first, last
 
+    handlers = bpy.app.handlers
     cache, abc, video, sheet = (out_dir / f"{stream_path.stem}{suffix}" for suffix in OUTPUT_SUFFIXES)
     written.append(cache)
-    bpy.ops.mpeg4.bake(target="POINT_CACHE", filepath=str(cache))
+    with counting(progress, handlers.frame_change_post, frames, "bake"):
+        bpy.ops.mpeg4.bake(target="POINT_CACHE", filepath=str(cache))
     written.append(abc)
-    bpy.ops.wm.alembic_export(filepath=str(abc), start=first, end=last, selected=False, evaluation_mode="RENDER")
+    with counting(progress, handlers.frame_change_post, frames, "Alembic"):
+        bpy.ops.wm.alembic_export(filepath=str(abc), start=first, end=last, selected=False, evaluation_mode="RENDER")
     if not abc.exists():
         raise ConvertError("Alembic export wrote nothing")
     frame_face(scene, face, args.resolution)
     set_engine(scene, args.engine)
     if not args.no_video:
         written.append(video)
-        render_video(scene, video)
-    if args.sheet:
+        with counting(progress, handlers.render_post, frames, "video"):
+            render_video(scene, video)
+    if tiles:
         written.append(sheet)
-        contact_sheet(scene, sheet, args.sheet)
+        with counting(progress, handlers.render_post, tiles, "contact sheet"):
+            contact_sheet(scene, sheet, tiles)
 
 
 def _message(exc: BaseException) -> str:
@@ -383,7 +557,159 @@ def _message(exc: BaseException) -> str:
     return text if isinstance(exc, expected) else f"{type(exc).__name__}: {text}"
 
 
+def report(progress: Progress, i: int, streams: list[Path], outcome: str) -> None:
+    progress.clear()
+    print(f"[{i}/{len(streams)}] {streams[i - 1]}: {outcome}", flush=True)
+
+
+def remove_outputs(out_dir: Path, stream: Path) -> None:
+    """Whatever a conversion of `stream` that ended half-way may have left (not its log)."""
+    for suffix in OUTPUT_SUFFIXES + SCRATCH_SUFFIXES:
+        (out_dir / f"{stream.stem}{suffix}").unlink(missing_ok=True)
+
+
+def convert_here(face_file: Path, args, vertices: int, progress: Progress) -> int:
+    """Convert the streams one after another in this process; returns how many failed."""
+    out_dir = args.out.resolve()
+    failed = 0
+    with CTRL_C.held():
+        for i in range(1, len(args.streams) + 1):
+            CTRL_C.check()
+            failed += not convert_stream(face_file, i, args, out_dir, vertices, progress)
+    return failed
+
+
+def convert_stream(face_file: Path, i: int, args, out_dir: Path, vertices: int, progress: Progress) -> bool:
+    """Convert the i-th stream here and report it; False if it failed."""
+    stream = args.streams[i - 1]
+    start = time.perf_counter()
+    progress.start(f"[{i}/{len(args.streams)}] {stream}")
+    log = out_dir / f"{stream.stem}.log"
+    written: list[Path] = []
+    try:
+        with blender_output_to(log):
+            convert_one(face_file, stream.resolve(), out_dir, args, vertices, written, progress)
+        names = ", ".join(p.name for p in written)
+        outcome = f"ok in {time.perf_counter() - start:.1f} s -> {names}"
+    except Exception as exc:  # one bad stream must not stop the others
+        outcome = f"FAILED: {_message(exc)}"
+        for path in written:
+            path.unlink(missing_ok=True)
+    except BaseException:  # Ctrl+C: no half-written outputs
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
+    finally:
+        if log.exists() and log.stat().st_size == 0:  # the stream failed before Blender said anything
+            log.unlink()
+    report(progress, i, args.streams, outcome)
+    return outcome.startswith("ok")
+
+
+def child_command(face_file: Path, stream: Path, args) -> tuple[list[str], Path | None]:
+    """The command that converts `stream` alone in a new process, started the way this one was, and the folder
+    to start it in. Inside Blender that is the Blender binary (`sys.executable` is Blender's bundled Python
+    there, not Blender); with the bpy module it is this interpreter, running this module from its checkout
+    (`python -m scripts.convert`) or this file (a copy next to an installed extension)."""
+    options = ["--face", str(face_file), str(stream), "-o", str(args.out.resolve()), *stream_options(args)]
+    script = Path(__file__).resolve()
+    if bpy.app.binary_path:  # "" in the bpy module
+        blender = [bpy.app.binary_path, "--background", "--python-exit-code", "1", "--python", str(script), "--"]
+        return [*blender, *options], None
+    spec = globals().get("__spec__")  # None when run as a file
+    if spec is not None and spec.name:
+        return [sys.executable, "-m", spec.name, *options], script.parents[spec.name.count(".")]
+    return [sys.executable, str(script), *options], None
+
+
+class Child:
+    """One stream converting in a process of its own; its output goes to temporary files (no pipes to drain)."""
+
+    def __init__(self, stream: Path, command: list[str], cwd: Path | None):
+        self.stream = stream
+        self.crashed = False
+        self.stdout = tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace")
+        self.stderr = tempfile.TemporaryFile("w+", encoding="utf-8", errors="replace")
+        self.process = subprocess.Popen(
+            command, cwd=cwd, stdin=subprocess.DEVNULL, stdout=self.stdout, stderr=self.stderr
+        )
+
+    def outcome(self) -> str | None:
+        """`ok ...` or `FAILED: reason` once the process has ended, None before."""
+        status = self.process.poll()
+        if status is None:
+            return None
+        self.stdout.seek(0)
+        self.stderr.seek(0)
+        stdout, stderr = self.stdout.read(), self.stderr.read()
+        self.stdout.close()
+        self.stderr.close()
+        mine = f"[1/1] {self.stream}: "
+        for line in stdout.splitlines():
+            if line.startswith(mine):
+                return line.removeprefix(mine)
+        refusals = [line for line in stderr.splitlines() if line.startswith("convert.py: error: ")]
+        if refusals:  # e.g. the face file went away after this process checked it
+            return f"FAILED: {refusals[-1].removeprefix('convert.py: error: ')}"
+        self.crashed = True
+        how = f"exit status {status}"
+        if status < 0:
+            with contextlib.suppress(ValueError):
+                how += f", killed by {signal.Signals(-status).name}"
+        return f"FAILED: the process converting it ended without a result ({how})"
+
+    def stop(self) -> None:
+        """Ask the process to stop as Ctrl+C would (it cleans up after its current step), and end it if it has not
+        within a few seconds (a step such as the video can take minutes)."""
+        if self.process.poll() is None:
+            if sys.platform == "win32":
+                self.process.terminate()
+            else:
+                self.process.send_signal(signal.SIGINT)
+        try:
+            self.process.wait(timeout=3)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        self.stdout.close()
+        self.stderr.close()
+
+
+def convert_in_processes(face_file: Path, args, progress: Progress) -> int:
+    """Convert each stream in a process of its own, at most `--jobs` at once, reporting in stream order;
+    returns how many failed."""
+    streams, out_dir = args.streams, args.out.resolve()
+    outcomes: list[str | None] = [None] * len(streams)
+    waiting = list(range(len(streams)))
+    running: dict[int, Child] = {}
+    reported = 0
+    progress.start(f"{len(streams)} streams, {args.jobs} at once", len(streams))
+    try:
+        while reported < len(streams):
+            while waiting and len(running) < args.jobs:
+                i = waiting.pop(0)
+                running[i] = Child(streams[i].resolve(), *child_command(face_file, streams[i].resolve(), args))
+            for i, child in list(running.items()):
+                outcomes[i] = child.outcome()
+                if outcomes[i] is not None:
+                    del running[i]
+                    if child.crashed:
+                        remove_outputs(out_dir, streams[i])
+            while reported < len(streams) and outcomes[reported] is not None:
+                report(progress, reported + 1, streams, outcomes[reported])
+                reported += 1
+            done = sum(outcome is not None for outcome in outcomes)
+            progress.advance(done, f"{done} done, {len(running)} running")
+            time.sleep(0.05)
+    finally:  # only after Ctrl+C (or a bug here) is anything still running
+        for i, child in running.items():
+            child.stop()
+            remove_outputs(out_dir, streams[i])
+    return sum(outcome.startswith("FAILED") for outcome in outcomes)
+
+
 def main(argv: list[str] | None = None) -> int:
+    started = time.perf_counter()
     args = parse_args(script_argv() if argv is None else argv)
     try:
         face_file = check_arguments(args)
@@ -392,23 +718,21 @@ def main(argv: list[str] | None = None) -> int:
     except ConvertError as exc:
         print(f"convert.py: error: {exc}", file=sys.stderr, flush=True)
         return 2
-    out_dir = args.out.resolve()
-    failed = 0
-    for i, stream in enumerate(args.streams, 1):
-        start = time.perf_counter()
-        prefix = f"[{i}/{len(args.streams)}] {stream}"
-        written: list[Path] = []
-        try:
-            convert_one(face_file, stream.resolve(), out_dir, args, vertices, written)
-        except Exception as exc:  # one bad stream must not stop the others
-            failed += 1
-            for path in written:
-                path.unlink(missing_ok=True)
-            print(f"{prefix}: FAILED: {_message(exc)}", flush=True)
-            continue
-        names = ", ".join(p.name for p in written)
-        print(f"{prefix}: ok in {time.perf_counter() - start:.1f} s -> {names}", flush=True)
-    print(f"{len(args.streams) - failed} converted, {failed} failed")
+    # the terminal's stderr, kept apart from fd 2, which Blender's output goes to while a stream converts
+    progress = Progress(os.fdopen(os.dup(2), "w", encoding="utf-8", errors="replace"))
+    try:
+        if args.jobs > 1 and len(args.streams) > 1:
+            failed = convert_in_processes(face_file, args, progress)
+        else:
+            failed = convert_here(face_file, args, vertices, progress)
+    except KeyboardInterrupt:
+        progress.clear()
+        print("convert.py: interrupted", file=sys.stderr, flush=True)
+        return 130
+    finally:
+        progress.out.close()
+    converted = len(args.streams) - failed
+    print(f"{converted} converted, {failed} failed in {time.perf_counter() - started:.1f} s", flush=True)
     return 1 if failed else 0
 
 

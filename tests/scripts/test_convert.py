@@ -40,6 +40,7 @@ def short(tmp_path):
         ("--frames", "a:b", "argument --frames: 'a:b' is not FIRST:LAST in whole frame numbers, e.g. 0:100"),
         ("--frames", "9:3", "argument --frames: '9:3' ends before it starts"),
         ("--sheet", "-1", "argument --sheet: '-1' is not a whole number from 0 to 100"),
+        ("--jobs", "0", "argument --jobs: '0' is not a whole number from 1 to 64"),
     ],
 )
 def test_bad_options_stop_before_any_work(tmp_path, short, option, value, message):
@@ -160,18 +161,32 @@ def test_each_failing_stream_gives_one_line_and_the_good_one_converts(tmp_path, 
             )
         else:
             assert mine[0] == f"[{i}/5] {stream}: FAILED: {expected[i]}"
-    assert lines[-1] == "1 converted, 4 failed"
+    assert re.fullmatch(r"1 converted, 4 failed in [\d.]+ s", lines[-1])
     assert "Traceback" not in result.stderr
-    assert sorted(p.name for p in out.iterdir()) == ["short.abc", "short.pc2", "short_sheet.png"]
+    # the streams that failed before Blender said anything leave no log either
+    assert sorted(p.name for p in out.iterdir()) == ["short.abc", "short.log", "short.pc2", "short_sheet.png"]
 
 
 def test_convert_writes_alembic_cache_video_and_sheet(tmp_path, short):
     out = tmp_path / "out"
     result = run_convert("--face", FACE, short, "-o", out, "--resolution", "64", "--sheet", "4")
     assert result.returncode == 0, result.stdout + result.stderr
-    assert f"[1/1] {short}: ok" in result.stdout and "1 converted, 0 failed" in result.stdout
     for name in ("short.abc", "short.mp4", "short_sheet.png", "short.pc2"):
         assert (out / name).stat().st_size > 0
+    # Blender's lines per rendered frame go to the stream's log; stdout keeps the result, stderr a few lines of
+    # progress (stderr is not a terminal here)
+    lines = [line for line in result.stdout.splitlines() if "Read blend:" not in line]
+    assert len(lines) == 2, result.stdout
+    assert re.fullmatch(
+        rf"\[1/1\] {re.escape(str(short))}: ok in [\d.]+ s -> short.pc2, short.abc, short.mp4, short_sheet.png",
+        lines[0],
+    )
+    assert re.fullmatch(r"1 converted, 0 failed in [\d.]+ s", lines[1])
+    pattern = rf"\[1/1\] {re.escape(str(short))}: \d+ % \(.+\)"
+    assert 1 <= len([line for line in result.stderr.splitlines() if re.fullmatch(pattern, line)]) <= 3
+    assert "Video append" not in result.stdout + result.stderr and "Saved:" not in result.stdout + result.stderr
+    log = (out / "short.log").read_text()
+    assert log.count("Video append frame") == 8 and log.count("Saved:") == 4
 
 
 def test_convert_reads_arguments_after_the_double_dash(monkeypatch):
