@@ -51,7 +51,7 @@ RESOLUTIONS = (16, 8192)
 SHEET_FRAMES = (0, 100)
 JOBS = (1, 64)
 ENGINES = ("WORKBENCH", "CYCLES")
-MAX_CACHE_BYTES = 4 * 2**30  # a point cache on disk beyond this is a mistaken frame range (frames 0 and 10**6), not a wish
+MAX_CACHE_BYTES = 4 * 2**30  # a point cache on disk beyond this is a mistaken frame range, not a wish
 OUTPUT_SUFFIXES = (".pc2", ".abc", ".mp4", "_sheet.png")
 SCRATCH_SUFFIXES = ("_sheet.frame.png",)  # the contact sheet's one-frame renders
 
