@@ -20,6 +20,7 @@ class MPEG4_MT_object(bpy.types.Menu):
         layout.separator()
         layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Shape Keys").target = "SHAPE_KEYS"
         layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Point Cache").target = "POINT_CACHE"
+        layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Point Cache and Alembic").target = "ALEMBIC"
         layout.separator()
         layout.operator(ops.MPEG4_OT_remove_face.bl_idname)
 
