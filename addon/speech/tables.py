@@ -1,0 +1,376 @@
+"""The speech tables in `data/`, loaded and checked: viseme and expression shapes (FAP values in FAPU),
+co-articulation dominance per viseme, English phoneme -> viseme, Rhubarb mouth shape -> viseme.
+
+Every loader checks the whole file before it returns: a duplicate or missing entry, an unknown FAP, viseme or
+expression name, a value that is not a finite number, outside the FAP's range or negative on a
+unidirectional FAP, raises `SpeechError` naming the file and the entry. The default tables are loaded once
+and returned read-only.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+
+import numpy as np
+
+from ..mpeg4.faps import FAPS, N_FAPS, Expression, Viseme, fap
+from . import SpeechError
+
+DATA = Path(__file__).resolve().with_name("data")
+N_VISEMES = len(Viseme)
+N_EXPRESSIONS = len(Expression)
+
+# The standard's intra-frame range of each FAP in quantiser steps ("I max", research/mpeg4-fba.md section 3;
+# the research marks 29, 30, 41 and 42 as unverified). Times the FAP's quantiser step it is the largest
+# magnitude an I-frame can carry, in FAP units; the tables must stay within it.
+_I_MAX = (
+    (3, 1080), (4, 600), (5, 1860), (6, 600), (7, 600), (8, 600), (9, 600), (10, 1860), (11, 1860), (12, 600),
+    (13, 600), (14, 600), (15, 1080), (16, 1080), (17, 1080), (18, 420), (19, 1080), (20, 1080), (21, 600),
+    (22, 600), (23, 1200), (24, 1200), (25, 900), (26, 900), (27, 600), (28, 600), (29, 420), (30, 420),
+    *((n, 900) for n in range(31, 43)), *((n, 1080) for n in range(43, 47)), (47, 300), (48, 1860),
+    (49, 1860), (50, 1860), (51, 600), (52, 1860), (53, 600), (54, 600), (55, 600), (56, 600), (57, 1860),
+    (58, 1860), (59, 600), (60, 600), (61, 540), (62, 540), (63, 680), (64, 900), (65, 900), (66, 900),
+    (67, 900), (68, 900),
+)  # fmt: skip
+FAP_RANGE = np.zeros(N_FAPS)
+for _number, _i_max in _I_MAX:
+    FAP_RANGE[_number - 1] = _i_max * FAPS[_number - 1].quant_step
+FAP_RANGE.flags.writeable = False
+
+
+@dataclass(frozen=True, eq=False)
+class ShapeTable:
+    """One face shape per viseme (15 rows) or per expression (7 rows, row 0 = neutral = zeros).
+
+    `targets[i, k]` is FAP k+1 of shape i in FAPU (AU for angles); `faps` the FAP numbers the table drives
+    (the union of every shape's FAPs: a shape that does not list one of them holds it at 0, neutral).
+    """
+
+    names: tuple[str, ...]
+    targets: np.ndarray  # (S, 68) float64
+    faps: np.ndarray  # (K,) int, sorted FAP numbers
+    why: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class DominanceTable:
+    """Cohen & Massaro dominance parameters per viseme (rows) and FAP (68 columns).
+
+    D = alpha * exp(-theta * |tau|**exponent), tau = segment centre - t in seconds; theta_before applies
+    where tau >= 0 (before the centre), theta_after after it; theta in 1/s**exponent.
+    """
+
+    alpha: np.ndarray  # (15, 68)
+    theta_before: np.ndarray  # (15, 68)
+    theta_after: np.ndarray  # (15, 68)
+    exponent: np.ndarray  # (15, 68)
+    groups: Mapping[str, tuple[int, ...]]
+    why: tuple[str, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class PhonemeTable:
+    """Phoneme name -> the visemes of its parts (one for most, two or three for diphthongs; none for h)."""
+
+    visemes: Mapping[str, tuple[Viseme, ...]]
+    stress_marks: str = "',%=!"
+    pause_prefix: str = "_"
+
+    def lookup(self, label: str) -> tuple[Viseme, ...] | None:
+        """The visemes of a phoneme name (stress marks removed; '_...' is a pause), or None if unknown."""
+        name = label.lstrip(self.stress_marks)
+        if name in self.visemes:
+            return self.visemes[name]
+        if name.startswith(self.pause_prefix):
+            return (Viseme.NONE,)
+        return None
+
+
+# --- reading -------------------------------------------------------------------------------------------
+
+
+def _no_duplicates(source: str):
+    def hook(pairs):
+        keys = [key for key, _ in pairs]
+        for key in keys:
+            if keys.count(key) > 1:
+                raise SpeechError(f"{source}: key {key!r} appears twice in one object")
+        return dict(pairs)
+
+    return hook
+
+
+def _reject_constant(source: str):
+    def hook(name):
+        raise SpeechError(f"{source}: {name} is not a number a table may hold")
+
+    return hook
+
+
+def read_json(path: Path | str, what: str) -> object:
+    """A JSON document, strictly: UTF-8, no duplicate keys, no NaN/Infinity; SpeechError naming the file."""
+    source = str(path)
+    try:
+        text = Path(path).read_bytes().decode("utf-8")
+    except OSError as exc:
+        raise SpeechError(f"{source}: cannot read the {what}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError as exc:
+        raise SpeechError(f"{source}: the {what} is not UTF-8 text (byte {exc.start})") from None
+    try:
+        return json.loads(text, object_pairs_hook=_no_duplicates(source), parse_constant=_reject_constant(source))
+    except json.JSONDecodeError as exc:
+        raise SpeechError(f"{source}: line {exc.lineno}: the {what} is not valid JSON: {exc.msg}") from None
+
+
+def _object(value, keys: set[str], optional: set[str], where: str) -> dict:
+    if not isinstance(value, dict):
+        raise SpeechError(f"{where}: expected an object, found {type(value).__name__}")
+    missing = keys - value.keys()
+    unknown = value.keys() - keys - optional
+    if missing:
+        raise SpeechError(f"{where}: missing {', '.join(sorted(missing))}")
+    if unknown:
+        raise SpeechError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
+    return value
+
+
+def _list(value, where: str) -> list:
+    if not isinstance(value, list):
+        raise SpeechError(f"{where}: expected a list, found {type(value).__name__}")
+    return value
+
+
+def _text(value, where: str) -> str:
+    if not isinstance(value, str) or not value.strip():
+        raise SpeechError(f"{where}: expected a non-empty text")
+    return value
+
+
+def number(value, where: str) -> float:
+    """A JSON number as float (bool is not a number here); SpeechError otherwise."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise SpeechError(f"{where}: {value!r} is not a finite number")
+    return float(value)
+
+
+def _fap_values(faps, where: str) -> dict[int, float]:
+    """{FAP name: value} -> {FAP number: value}, each within the FAP's range and direction."""
+    if not isinstance(faps, dict):
+        raise SpeechError(f"{where}: 'faps' must be an object of FAP name: value")
+    out = {}
+    for name, value in faps.items():
+        try:
+            info = fap(name)
+        except KeyError:
+            raise SpeechError(f"{where}: unknown FAP {name!r}") from None
+        if info.fapu is None:
+            raise SpeechError(f"{where}: FAP {name!r} is high-level; a table holds low-level FAPs only")
+        value = number(value, f"{where}: FAP {name!r}")
+        limit = FAP_RANGE[info.number - 1]
+        if abs(value) > limit:
+            raise SpeechError(f"{where}: FAP {name!r} = {value:g} is outside the standard's range ±{limit:g}")
+        if not info.bidirectional and value < 0:
+            raise SpeechError(f"{where}: FAP {name!r} = {value:g} is negative but the FAP is unidirectional")
+        out[info.number] = value
+    return out
+
+
+def _shape_table(path, key: str, enum, first: int, extra: set[str]) -> ShapeTable:
+    source = str(path)
+    doc = _object(read_json(path, f"{key} table"), {"about", key}, set(), source)
+    entries = _list(doc[key], f"{source}: {key}")
+    rows = len(enum) - first
+    if len(entries) != rows:
+        raise SpeechError(f"{source}: {key} must list {rows} entries ({first}..{len(enum) - 1}), found {len(entries)}")
+    targets = np.zeros((len(enum), N_FAPS))
+    why = [""] * len(enum)
+    seen = set()
+    number_key = key[:-1]  # "visemes" -> "viseme"
+    for k, entry in enumerate(entries):
+        where = f"{source}: {key} entry {k + 1}"
+        entry = _object(entry, {number_key, "name", "why", "faps"} | extra, set(), where)
+        value = entry[number_key]
+        if isinstance(value, bool) or not isinstance(value, int) or not first <= value < len(enum):
+            raise SpeechError(f"{where}: {number_key} {value!r} is not one of {first}..{len(enum) - 1}")
+        if value in seen:
+            raise SpeechError(f"{where}: {number_key} {value} is listed twice")
+        seen.add(value)
+        member = enum(value)
+        if entry["name"] != member.name and entry["name"] != member.name.lower():
+            raise SpeechError(f"{where}: {number_key} {value} is {member.name}, not {entry['name']!r}")
+        where = f"{source}: {number_key} {member.name}"
+        why[value] = _text(entry["why"], f"{where}: 'why'")
+        for number_, fap_value in _fap_values(entry["faps"], where).items():
+            targets[value, number_ - 1] = fap_value
+    if first == 0 and np.any(targets[0]):
+        raise SpeechError(f"{source}: {enum(0).name} must be the neutral face (every FAP 0)")
+    targets.flags.writeable = False
+    faps = np.flatnonzero(np.any(targets != 0, axis=0)) + 1
+    faps.flags.writeable = False
+    return ShapeTable(tuple(m.name for m in enum), targets, faps, tuple(why))
+
+
+def load_visemes(path: Path | str | None = None) -> ShapeTable:
+    """The 15 viseme mouth shapes (0 = silence = neutral) from `path` or the bundled `data/visemes.json`."""
+    return _default_visemes() if path is None else _shape_table(path, "visemes", Viseme, 0, {"phonemes"})
+
+
+def load_expressions(path: Path | str | None = None) -> ShapeTable:
+    """The 6 expressions at intensity 63 (row 0 = neutral) from `path` or the bundled `data/expressions.json`."""
+    return _default_expressions() if path is None else _shape_table(path, "expressions", Expression, 1, set())
+
+
+_PARAMETERS = {"alpha", "theta_before", "theta_after"}
+
+
+def _parameters(value, where: str, required: set[str]) -> dict[str, float]:
+    value = _object(value, required, (_PARAMETERS | {"c"}) - required, where)
+    out = {}
+    for name, item in value.items():
+        out[name] = number(item, f"{where}: {name}")
+        if out[name] <= 0:
+            raise SpeechError(f"{where}: {name} = {out[name]:g} must be positive")
+    return out
+
+
+def load_dominance(path: Path | str | None = None) -> DominanceTable:
+    """Co-articulation parameters per viseme, from `path` or the bundled `data/dominance.json`."""
+    if path is None:
+        return _default_dominance()
+    source = str(path)
+    doc = _object(read_json(path, "dominance table"), {"about", "groups", "default", "visemes"}, set(), source)
+    groups: dict[str, tuple[int, ...]] = {}
+    owner: dict[int, str] = {}
+    if not isinstance(doc["groups"], dict) or not doc["groups"]:
+        raise SpeechError(f"{source}: 'groups' must be a non-empty object of group name: {{faps, why}}")
+    for name, group in doc["groups"].items():
+        where = f"{source}: group {name!r}"
+        group = _object(group, {"faps", "why"}, set(), where)
+        _text(group["why"], f"{where}: 'why'")
+        numbers = []
+        for item in _list(group["faps"], f"{where}: faps"):
+            if isinstance(item, bool) or not isinstance(item, int) or not 3 <= item <= N_FAPS:
+                raise SpeechError(f"{where}: {item!r} is not a low-level FAP number (3..{N_FAPS})")
+            if item in owner:
+                raise SpeechError(f"{where}: FAP {item} is already in group {owner[item]!r}")
+            owner[item] = name
+            numbers.append(item)
+        groups[name] = tuple(numbers)
+    default = _parameters(doc["default"], f"{source}: default", _PARAMETERS | {"c"})
+    arrays = {name: np.full((N_VISEMES, N_FAPS), value) for name, value in default.items()}
+    entries = _list(doc["visemes"], f"{source}: visemes")
+    names = [entry.get("name") if isinstance(entry, dict) else None for entry in entries]
+    for member in Viseme:
+        if names.count(member.name) != 1:
+            raise SpeechError(f"{source}: viseme {member.name} must be listed once, found {names.count(member.name)}")
+    why = [""] * N_VISEMES
+    for k, entry in enumerate(entries):
+        where = f"{source}: visemes entry {k + 1}"
+        entry = _object(entry, {"name", "why"}, set(groups), where)
+        try:
+            member = Viseme[entry["name"]]
+        except (KeyError, TypeError):
+            raise SpeechError(f"{where}: unknown viseme {entry['name']!r}") from None
+        where = f"{source}: viseme {member.name}"
+        why[member] = _text(entry["why"], f"{where}: 'why'")
+        for group, numbers in groups.items():
+            if group in entry:
+                for name, value in _parameters(entry[group], f"{where}: {group}", _PARAMETERS).items():
+                    arrays[name][member, [n - 1 for n in numbers]] = value
+    for array in arrays.values():
+        array.flags.writeable = False
+    return DominanceTable(
+        arrays["alpha"],
+        arrays["theta_before"],
+        arrays["theta_after"],
+        arrays["c"],
+        MappingProxyType(groups),
+        tuple(why),
+    )
+
+
+def _viseme_names(value, where: str) -> tuple[Viseme, ...]:
+    out = []
+    for name in _list(value, where):
+        try:
+            out.append(Viseme[name])
+        except (KeyError, TypeError):
+            raise SpeechError(f"{where}: unknown viseme {name!r} (known: {', '.join(Viseme.__members__)})") from None
+    return tuple(out)
+
+
+def load_phonemes(path: Path | str | None = None) -> PhonemeTable:
+    """Phoneme name -> visemes, from `path` or the bundled English table `data/phonemes_en.json`."""
+    if path is None:
+        return _default_phonemes()
+    source = str(path)
+    doc = _object(read_json(path, "phoneme table"), {"about", "groups"}, set(), source)
+    table: dict[str, tuple[Viseme, ...]] = {}
+    for k, group in enumerate(_list(doc["groups"], f"{source}: groups")):
+        where = f"{source}: groups entry {k + 1}"
+        group = _object(group, {"visemes", "phonemes", "why"}, set(), where)
+        _text(group["why"], f"{where}: 'why'")
+        visemes = _viseme_names(group["visemes"], f"{where}: visemes")
+        for name in _list(group["phonemes"], f"{where}: phonemes"):
+            if not isinstance(name, str) or not name or name != name.strip() or any(c.isspace() for c in name):
+                raise SpeechError(f"{where}: phoneme {name!r} must be a name without blanks")
+            if name[0] in PhonemeTable.stress_marks:
+                raise SpeechError(f"{where}: phoneme {name!r} starts with a stress mark, which look-ups remove")
+            if name in table:
+                raise SpeechError(f"{where}: phoneme {name!r} is listed twice")
+            table[name] = visemes
+    return PhonemeTable(MappingProxyType(table))
+
+
+RHUBARB_SHAPES = ("A", "B", "C", "D", "E", "F", "G", "H", "X")
+
+
+def load_rhubarb(path: Path | str | None = None) -> dict[str, Viseme]:
+    """Rhubarb Lip Sync mouth shape (A-H, X) -> viseme, from `path` or the bundled `data/rhubarb.json`."""
+    if path is None:
+        return dict(_default_rhubarb())
+    source = str(path)
+    doc = _object(read_json(path, "Rhubarb shape table"), {"about", "shapes"}, set(), source)
+    table = {}
+    for k, entry in enumerate(_list(doc["shapes"], f"{source}: shapes")):
+        where = f"{source}: shapes entry {k + 1}"
+        entry = _object(entry, {"shape", "viseme", "why"}, set(), where)
+        _text(entry["why"], f"{where}: 'why'")
+        if entry["shape"] not in RHUBARB_SHAPES or entry["shape"] in table:
+            raise SpeechError(f"{where}: shape {entry['shape']!r} is not a new one of {' '.join(RHUBARB_SHAPES)}")
+        (table[entry["shape"]],) = _viseme_names([entry["viseme"]], f"{where}: viseme")
+    if len(table) != len(RHUBARB_SHAPES):
+        missing = [shape for shape in RHUBARB_SHAPES if shape not in table]
+        raise SpeechError(f"{source}: shapes {' '.join(missing)} are missing")
+    return table
+
+
+@functools.cache
+def _default_visemes() -> ShapeTable:
+    return _shape_table(DATA / "visemes.json", "visemes", Viseme, 0, {"phonemes"})
+
+
+@functools.cache
+def _default_expressions() -> ShapeTable:
+    return _shape_table(DATA / "expressions.json", "expressions", Expression, 1, set())
+
+
+@functools.cache
+def _default_dominance() -> DominanceTable:
+    return load_dominance(DATA / "dominance.json")
+
+
+@functools.cache
+def _default_phonemes() -> PhonemeTable:
+    return load_phonemes(DATA / "phonemes_en.json")
+
+
+@functools.cache
+def _default_rhubarb() -> tuple[tuple[str, Viseme], ...]:
+    return tuple(load_rhubarb(DATA / "rhubarb.json").items())
