@@ -29,7 +29,7 @@ from pathlib import Path
 from ..mpeg4.faps import Viseme
 from . import SpeechError
 from .segments import Segment, TimedLabel, check_timing, describe, segments_from_labels
-from .tables import PhonemeTable, load_rhubarb, number, read_json
+from .tables import PhonemeTable, load_rhubarb, number, read_json, read_text
 
 _NUMBER = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?", re.ASCII)
 
@@ -37,13 +37,7 @@ _NUMBER = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?
 def _lines(path) -> list[tuple[int, list[str]]]:
     """(line number, fields) of each line that is neither blank nor a '#' comment."""
     source = str(path)
-    try:
-        text = Path(path).read_bytes().decode("utf-8")
-    except OSError as exc:
-        raise SpeechError(f"{source}: cannot read the file: {exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise SpeechError(f"{source}: not UTF-8 text (byte {exc.start})") from None
-    text = text.removeprefix("\ufeff")
+    text = read_text(path, "cue file")
     out = []
     for n, line in enumerate(text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), 1):
         fields = line.split()

@@ -12,6 +12,8 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
+import stat
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -113,15 +115,31 @@ def _reject_constant(source: str):
     return hook
 
 
+MAX_FILE_BYTES = 16 * 2**20  # a cue list or table this large is not one
+
+
+def read_text(path: Path | str, what: str) -> str:
+    """A small UTF-8 text file (a regular file, at most MAX_FILE_BYTES); SpeechError naming the file."""
+    source = str(path)
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            raise SpeechError(f"{source}: the {what} is not a regular file")
+        with open(path, "rb") as file:
+            data = file.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise SpeechError(f"{source}: cannot read the {what}: {exc.strerror or exc}") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise SpeechError(f"{source}: the {what} is larger than {MAX_FILE_BYTES // 2**20} MiB")
+    try:
+        return data.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as exc:
+        raise SpeechError(f"{source}: the {what} is not UTF-8 text (byte {exc.start})") from None
+
+
 def read_json(path: Path | str, what: str) -> object:
     """A JSON document, strictly: UTF-8, no duplicate keys, no NaN/Infinity; SpeechError naming the file."""
     source = str(path)
-    try:
-        text = Path(path).read_bytes().decode("utf-8")
-    except OSError as exc:
-        raise SpeechError(f"{source}: cannot read the {what}: {exc.strerror or exc}") from None
-    except UnicodeDecodeError as exc:
-        raise SpeechError(f"{source}: the {what} is not UTF-8 text (byte {exc.start})") from None
+    text = read_text(path, what)
     try:
         return json.loads(text, object_pairs_hook=_no_duplicates(source), parse_constant=_reject_constant(source))
     except json.JSONDecodeError as exc:

@@ -154,3 +154,14 @@ def test_wav_writer_round_trips_samples(tmp_path):
         write_wav(tmp_path / "b.wav", samples, 0)
     with pytest.raises(SpeechError, match="cannot write the audio"):
         write_wav(tmp_path / "missing" / "b.wav", samples, 22050)
+
+
+def test_a_cue_path_that_is_not_a_regular_file_is_refused_without_reading(tmp_path):
+    import os
+
+    fifo = tmp_path / "cues.tsv"
+    os.mkfifo(fifo)
+    with pytest.raises(SpeechError, match="not a regular file"):
+        read_cue_file(fifo)
+    with pytest.raises(SpeechError, match="not a regular file"):
+        read_cue_file("/dev/zero")
