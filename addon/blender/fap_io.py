@@ -23,8 +23,9 @@ from ..mpeg4.faps import N_FAPS
 from ..mpeg4.fapu import AU, Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
 from ..mpeg4.stream_timing import check_values, gain_and_clamp, scene_frames
+from ..speech.high_level import apply_high_level
 from . import animation, binding_store, face_data, head_motion
-from .reporting import Warn, progress
+from .reporting import progress
 
 REST_PROP = face_data.EMPTY_REST_PROP
 HEAD_FAPS = slice(47, 50)
@@ -89,11 +90,23 @@ def _check_reach(face, points: np.ndarray, neutral: np.ndarray, source: str) -> 
         )
 
 
-def import_fap(context, face, path, options: ImportOptions) -> list[str]:
+@dataclass
+class DecodedStream:
+    """A stream decoded onto one face and checked, ready to key: nothing in the scene has changed yet."""
+
+    source: str
+    name: str
+    frames: np.ndarray  # (F,) scene frames
+    points: np.ndarray  # (F, 84, 3) face-local FP positions
+    neutral: np.ndarray  # (84, 3)
+    head: tuple[np.ndarray, np.ndarray] | None  # per-frame delta rotation values and delta location
+    high_level: bool  # the stream carried FAP 1 or 2
+
+
+def decode_stream(context, face, stream: FapStream, options: ImportOptions, source: str) -> DecodedStream:
+    """Decode and check a stream for `face` (times, sizes, values, reach); raises Mpeg4Error, changes nothing."""
     empties = require_setup(face)
     fapu = face_fapu(face)
-    source = os.path.basename(path)
-    stream = read_fap(path)
     if len(stream.frame_numbers) == 0:
         raise Mpeg4Error(f"{source}: the stream has no frames")
     scene = context.scene
@@ -106,10 +119,14 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
         use_stream_fps=options.use_stream_fps,
         source=source,
     )
-    values = hold_missing(stream.mask, stream.values, options.fill_partners)
-    values = gain_and_clamp(values, stream.mask, options.gain, options.clamp)
-    check_values(values, stream.mask, source=source)
-    has_head = bool(stream.mask[:, HEAD_FAPS].any())
+    # FAP 1 (viseme) and 2 (expression) through the face tables; low-level FAPs of the same frame win
+    mask, values = apply_high_level(
+        stream.mask, stream.values, stream.viseme, stream.expression, frame_numbers=stream.frame_numbers
+    )
+    values = hold_missing(mask, values, options.fill_partners)
+    values = gain_and_clamp(values, mask, options.gain, options.clamp)
+    check_values(values, mask, source=source)
+    has_head = bool(mask[:, HEAD_FAPS].any())
     if has_head:
         head_motion.check_rotation_mode(face)
     head = values[:, HEAD_FAPS] * AU
@@ -117,12 +134,22 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
     neutral = neutral_positions(face, empties)
     points = fap_to_fp(neutral, values, fapu, eye_pivots=eye_pivots(face))
     _check_reach(face, points, neutral, source)
-    if has_head:
-        rotation, dloc = head_motion.to_delta(face, head, head_pivot(neutral))
-
-    # everything is checked: from here on the scene changes
+    head_delta = head_motion.to_delta(face, head, head_pivot(neutral)) if has_head else None
     name = os.path.splitext(source)[0]
-    streams = animation.StreamActions(name, source)
+    return DecodedStream(source, name, frames, points, neutral, head_delta, bool(stream.mask[:, :2].any()))
+
+
+def import_fap(context, face, path, options: ImportOptions) -> list[str]:
+    source = os.path.basename(path)
+    decoded = decode_stream(context, face, read_fap(path), options, source)
+    return key_stream(context, face, decoded, options)
+
+
+def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) -> list[str]:
+    """Key a decoded stream onto the face's FP empties (and head) as one action named after it."""
+    empties = require_setup(face)
+    frames, points, neutral = decoded.frames, decoded.points, decoded.neutral
+    streams = animation.StreamActions(decoded.name, decoded.source)
     with progress(context, len(empties) + 1) as step:
         for i, (fp_id, ob) in enumerate(empties.items()):
             k = fp_index(fp_id)
@@ -134,7 +161,8 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
             for axis in range(3):
                 animation.set_keys(fcurve("location", axis), frames, keyed[:, axis])
             step(i)
-        if has_head:
+        if decoded.head is not None:
+            rotation, dloc = decoded.head
             if options.add:
                 rotation, dloc = head_motion.compose_with_existing(face, frames, rotation, dloc)
             head_motion.remember_rest(face)
@@ -148,11 +176,14 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
             animation.clear_stream_motion(face)  # a new stream without head motion replaces the old head motion
             head_motion.restore_rest(face)
         step(len(empties) + 1)
-    notes = [f"keyed {len(empties)} feature points over {len(frames)} frames of {source} (action {name!r})"]
-    if has_head:
+    notes = [
+        f"keyed {len(empties)} feature points over {len(frames)} frames of {decoded.source} (action {decoded.name!r})"
+    ]
+    if decoded.head is not None:
         notes.append("keyed head rotation on the face's delta transform")
-    if stream.mask[:, :2].any():
-        notes.append(Warn("the stream's visemes/expressions (FAP 1, 2) are not applied yet"))
+    if decoded.high_level:
+        notes.append("played the stream's visemes and expressions (FAP 1, 2) through the face tables")
+    scene = context.scene
     last = int(np.ceil(frames[-1]))
     if options.set_frame_range and last > scene.frame_end:
         scene.frame_end = last
