@@ -22,6 +22,8 @@ Reading policy, chosen to read every producer we know of (XFace, Crystal.TTVS, G
 - Values are decimal numbers (integers or floats, optional exponent); NaN, infinities and overflowing
   numbers are rejected. Frame numbers are non-negative integers and must strictly increase (gaps and
   a start at 1 are fine): two frames at one time would have no defined order.
+- A path that is not a regular file (a FIFO, a device, a folder), a file over 256 MiB and a line over 8,192
+  characters are refused before anything is read or split.
 - Anything else (wrong flag count, a flag that is not 0/1, a non-numeric value, a value count that does
   not fit the mask, a mask line without its value line, an unknown version, an empty file, NUL bytes or
   bytes that are not UTF-8, an unreadable file) raises `FapFileError` naming the file and the line.
@@ -41,6 +43,7 @@ import math
 import os
 import re
 import secrets
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,6 +55,10 @@ from .faps import N_FAPS
 __all__ = ["N_FAPS", "FapFileError", "FapStream", "format_fap", "parse_fap", "read_fap", "write_fap"]
 
 KNOWN_VERSIONS = ("2.0", "2.1", "2.2")
+MAX_FILE_BYTES = 256 * 2**20  # 256 MiB: over a million frames of every FAP
+# The longest line a producer can write: a frame number and 78 values (68 + 4 + 6), each a long float,
+# or a header with a long name. A longer line is refused before it is split into tokens.
+MAX_LINE_CHARS = 8192
 VISEME_FIELDS = 4
 EXPRESSION_FIELDS = 6
 
@@ -152,9 +159,15 @@ def read_fap(path_or_text, *, source_name: str | None = None) -> FapStream:
         raise FapFileError(f"cannot read a .fap stream from a {type(path_or_text).__name__}")
     source = source_name or os.fspath(path_or_text)
     try:
-        data = Path(path_or_text).read_bytes()
+        # a FIFO, a device (/dev/zero) or a folder is refused before it is opened: opening a FIFO blocks
+        if not stat.S_ISREG(os.stat(path_or_text).st_mode):
+            raise FapFileError(f"{source}: not a regular file")
+        with open(path_or_text, "rb") as file:
+            data = file.read(MAX_FILE_BYTES + 1)  # never more, even if the file grows while it is read
     except (OSError, ValueError) as exc:  # ValueError: a path with a NUL character
         raise FapFileError(f"{source}: cannot read the file: {exc}") from None
+    if len(data) > MAX_FILE_BYTES:
+        raise FapFileError(f"{source}: larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs")
     return parse_fap(data, source)
 
 
@@ -178,6 +191,11 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
         numbers = range(1, len(lines) + 1)
     if not lines:
         raise _error(source, 1, "empty file: no header line")
+    longest = max(range(len(lines)), key=lambda i: len(lines[i]))
+    if len(lines[longest]) > MAX_LINE_CHARS:  # before any line is split into tokens
+        raise _error(
+            source, numbers[longest], f"{len(lines[longest])} characters long; a .fap line has at most {MAX_LINE_CHARS}"
+        )
     version, name, fps = _parse_header(lines[0], numbers[0], source)
     if len(lines) % 2 == 0:
         raise _error(source, numbers[-1], "truncated frame: mask line without a value line")
@@ -233,6 +251,8 @@ def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, so
     tokens = _TOKEN_RE.findall(text)
     if not _FRAME_RE.fullmatch(tokens[0]):
         return _error(source, line, f"frame number {tokens[0][:20]!r} is not a non-negative integer")
+    if len(tokens[0].lstrip("0")) > len(str(_EXACT_INTEGER)) or int(tokens[0]) >= _EXACT_INTEGER:
+        return _frame_too_large(source, line, tokens[0])
     for i, token in enumerate(tokens[1:], 1):
         number = float(token) if _NUMBER_RE.fullmatch(token) else None
         if number is None or not math.isfinite(number):
@@ -249,6 +269,11 @@ def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, so
         f"the mask on line {mask_line} needs {' or '.join(map(str, counts))} values after "
         f"the frame number, found {len(tokens) - 1}",
     )
+
+
+def _frame_too_large(source: str, line: int, token: str) -> FapFileError:
+    shown = token if len(token) <= 20 else f"{token[:12]}...({len(token)} digits)"
+    return _error(source, line, f"frame number {shown} is too large (at most {int(_EXACT_INTEGER) - 1})")
 
 
 def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) -> tuple:
@@ -296,7 +321,8 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
 
     too_large = np.flatnonzero(frame_numbers >= _EXACT_INTEGER)
     if too_large.size:
-        raise _error(source, value_numbers[too_large[0]], "frame number is too large")
+        i = too_large[0]
+        raise _frame_too_large(source, value_numbers[i], _TOKEN_RE.findall(value_texts[i])[0])
     frame_numbers = frame_numbers.astype(np.int64)
     not_increasing = np.flatnonzero(np.diff(frame_numbers) <= 0)
     if not_increasing.size:
