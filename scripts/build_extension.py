@@ -2,8 +2,10 @@
 
     .venv/bin/python -m scripts.build_extension [--out dist]
 
-Checks the manifest's required fields first and prints the zip's path. Nothing from tests/ or scripts/
-goes in; caches and byte code are left out.
+Checks the manifest's required fields first and prints the zip's path. The wheels the manifest lists go
+in under wheels/: the compiled kernel's, built first with this machine's C compiler by
+`scripts.build_kernel` (an error if there is none, or if the manifest lists a wheel for another platform
+that is not in wheels/). Nothing from tests/ or scripts/ goes in; caches and byte code are left out.
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ import sys
 import tomllib
 import zipfile
 from pathlib import Path
+
+from scripts import build_kernel
 
 ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
@@ -31,6 +35,7 @@ REQUIRED = (
     "blender_version_min",
 )
 SEMVER = re.compile(r"^\d+\.\d+\.\d+$")
+WHEEL = re.compile(r"^\./wheels/[\w.+]+(-[\w.+]+){4,5}\.whl$")  # the wheel file name spec
 
 
 class ManifestError(ValueError):
@@ -61,6 +66,9 @@ def check_manifest(path: Path = MANIFEST) -> dict:
         problems.append("type must be 'add-on'")
     if "license" in data and not (isinstance(data["license"], list) and data["license"]):
         problems.append("license must be a non-empty list")
+    wheels = data.get("wheels", [])
+    if not (isinstance(wheels, list) and all(isinstance(w, str) and WHEEL.match(w) for w in wheels)):
+        problems.append("wheels must be a list of paths like ./wheels/NAME-VERSION-PY-ABI-PLATFORM.whl")
     if problems:
         raise ManifestError(f"{path}: " + "; ".join(problems))
     return data
@@ -74,8 +82,20 @@ def package_files() -> list[Path]:
     )
 
 
+def wheel_files(manifest: dict) -> list[Path]:
+    """The manifest's wheels, the kernel's built (or found up to date) first; ManifestError if one is missing."""
+    wheels = [ROOT / name for name in manifest.get("wheels", [])]
+    if wheels:
+        build_kernel.build_wheel()
+    missing = [path.name for path in wheels if not path.is_file()]
+    if missing:
+        raise ManifestError(f"{MANIFEST}: wheels not in wheels/ (built on another platform?): {', '.join(missing)}")
+    return wheels
+
+
 def build(out_dir: Path) -> Path:
     manifest = check_manifest()
+    wheels = wheel_files(manifest)
     out_dir.mkdir(parents=True, exist_ok=True)
     target = out_dir / f"{manifest['id']}-{manifest['version']}.zip"
     partial = target.with_suffix(".zip.part")
@@ -83,6 +103,8 @@ def build(out_dir: Path) -> Path:
         zf.write(MANIFEST, "blender_manifest.toml")
         for path in package_files():
             zf.write(path, path.relative_to(PACKAGE).as_posix())
+        for path in wheels:
+            zf.write(path, path.relative_to(ROOT).as_posix())
     partial.replace(target)
     return target
 
@@ -93,7 +115,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         print(build(args.out))
-    except ManifestError as exc:
+    except (ManifestError, build_kernel.KernelBuildError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
     return 0

@@ -31,6 +31,8 @@ def test_zip_holds_manifest_and_package_at_the_root(built_zip):
     assert "blender_manifest.toml" in names and "__init__.py" in names
     assert "blender/registration.py" in names and "mpeg4/fap_file.py" in names and "deform/planar_bones.py" in names
     assert not any(n.startswith(("tests/", "scripts/", "addon/")) or "__pycache__" in n for n in names)
+    wheels = build_extension.check_manifest()["wheels"]  # the compiled kernel's
+    assert wheels and all(wheel.removeprefix("./") in names for wheel in wheels)
 
 
 def test_blenders_own_validator_accepts_the_zip(built_zip):
@@ -54,7 +56,7 @@ def test_manifest_checks_name_each_problem(tmp_path):
 
 
 INSTALL = textwrap.dedent("""
-    import sys, bpy, addon_utils
+    import importlib, sys, bpy, addon_utils
     zip_path = sys.argv[-1]
     bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
     module = "bl_ext.user_default.mpeg4_face"
@@ -65,6 +67,12 @@ INSTALL = textwrap.dedent("""
     assert hasattr(bpy.types, "MPEG4_PT_face") and hasattr(bpy.types.Object, "mpeg4_face")
     ours = lambda: [h for h in bpy.app.handlers.frame_change_post if h.__module__.startswith(module)]
     assert len(ours()) == 1
+    # Blender put the kernel's wheel where its extensions' wheels go, and that library loads
+    import glob, os
+    site = os.path.join(bpy.utils.user_resource("EXTENSIONS"), ".local", "lib", "python%d.%d" % sys.version_info[:2])
+    fused = importlib.import_module(module + ".deform.fused")
+    libraries = glob.glob(os.path.join(site, "site-packages", "mpeg4_face_kernel", "planar_bones_kernel.*"))
+    assert len(libraries) == 1 and fused.open_library(libraries[0]) is not None
     # the installed package works on its own (no checkout on sys.path): set up the sample and deform it
     assert "addon" not in sys.modules
     bpy.ops.wm.open_mainfile(filepath=sys.argv[-2])

@@ -30,6 +30,7 @@ def test_every_script_sits_in_a_package():
     assert {p.name for p in SCRIPTS.iterdir() if p.suffix == ".py"} == {
         "__init__.py",
         "build_extension.py",
+        "build_kernel.py",
         "convert.py",
     }
 

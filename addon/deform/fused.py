@@ -1,0 +1,263 @@
+"""The fast path of `planar_bones.evaluate`: one compiled pass over a per-vertex layout of the binding.
+
+Why this design (measured; README, "Fast path"): the numpy path spends most of a frame in thousands of
+small batched matrix products and in `bincount`'s scatter. A sparse product from a library (scipy)
+would still need the per-frame basis and the D/d factors of eq. 13–14 computed around it, a second pass,
+and a large wheel per platform and Python version. So the project compiles its own kernel,
+`native/planar_bones_kernel.c`: plain C with no Python C-API, loaded with `ctypes`, so one shared library
+per platform serves every Python version. `scripts/build_kernel.py` puts it in the wheel
+``mpeg4_face_kernel``, which the extension zip bundles (Blender installs it where the platform matches)
+and set-up installs into ``.venv``. Where it is missing, does not load or reports another ABI version,
+or where ``MPEG4_FACE_NO_KERNEL=1`` is set, `planar_bones.evaluate` runs its numpy reference instead.
+
+The layout (`build_layout`, once per binding, mode and output dtype) groups the pairs by vertex (CSR), so
+the kernel writes each output vertex once, with no scatter and no atomics. A face or edge pair (every
+pair in SoFFD mode) is a key (triangle, region) and four coefficients; an apex pair a key (triangle,
+corner), [w, h·w, a, b] and w·D, its D/d factor being computed per pair and frame. Each frame the kernel
+builds every triangle's basis and adds to ``base`` (the float64 reference result at the rest control
+positions, less the apex pairs' in-plane part at rest) each pair's coefficients times the change of its
+rows since rest, the mean translation of the control mesh taken apart and weighted by each vertex's exact
+weight sum. So a rounded coefficient only ever multiplies a motion less its translation: with float32
+coefficients (float32 output, as the add-on uses) the error is about 6e-8 × |coefficient| × |motion|,
+below the float32 rounding of the output on the sample faces; a float64 output uses float64
+coefficients and matches the reference to rounding. Sums are float64 either way. From PARALLEL_PAIRS
+pairs up a second thread helps, claiming chunks of vertices as they come, so a thread the system is slow
+to run leaves its share to the caller.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import importlib
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .inputs import DeformError
+from .regions import APEX, FACE, deformation_basis
+
+ABI_VERSION = 1  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
+DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
+THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
+THREADS = 2  # from PARALLEL_PAIRS pairs up; measured on 2 cores (README, "Fast path")
+PARALLEL_PAIRS = 50_000  # below this (the 4k sample head has 21k) a second thread costs more than it saves
+MAX_THREADS = 16  # PBK_MAX_THREADS
+PLAIN_REGIONS = 4  # FACE, EDGE + 0..2: key = triangle × 4 + region
+APEX_CORNERS = 3  # APEX + 0..2: key = triangle × 3 + corner
+
+_POINTER = ctypes.c_void_p
+_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 11, ctypes.c_int32, _POINTER]
+
+
+@dataclass(frozen=True, eq=False)
+class Layout:
+    """A binding's pairs for the kernel, in one mode and one coefficient dtype; see the module notes."""
+
+    dtype: type
+    control_rest: np.ndarray  # (M, 3) float64
+    triangles: np.ndarray  # (T, 3) int32
+    base: np.ndarray  # (N, 4) float64: the reference at rest (less the apex in-plane part), weight sum
+    plain_start: np.ndarray  # (N + 1,) int32: vertex v's face/edge pairs are plain_start[v]:plain_start[v + 1]
+    plain_key: np.ndarray  # (P,) int32
+    plain_coef: np.ndarray  # (P, 4)
+    apex_start: np.ndarray | None  # (N + 1,) int32; the apex arrays are None in SoFFD mode
+    apex_key: np.ndarray | None  # (A,) int32
+    apex_coef: np.ndarray | None  # (A, 4): w, h·w, a, b
+    apex_scale: np.ndarray | None  # (A,): w·D
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.base)
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.plain_key) + (0 if self.apex_key is None else len(self.apex_key))
+
+    @functools.cached_property
+    def arguments(self) -> tuple:
+        """The kernel's arguments between the control points and the thread count (the arrays stay alive
+        as long as the layout)."""
+        arrays = (self.control_rest, self.triangles, self.base, self.plain_start, self.plain_key, self.plain_coef)
+        apex = (self.apex_start, self.apex_key, self.apex_coef, self.apex_scale)
+        return (*(array.ctypes.data for array in arrays), *(None if a is None else a.ctypes.data for a in apex))
+
+
+def available() -> bool:
+    """True when the compiled kernel is loaded and ``MPEG4_FACE_NO_KERNEL`` does not switch it off."""
+    return os.environ.get(DISABLE, "") in ("", "0") and _kernel() is not None
+
+
+def library_path() -> Path | None:
+    """The shared library of the installed ``mpeg4_face_kernel`` package, or None."""
+    try:
+        return Path(importlib.import_module(PACKAGE).LIBRARY)
+    except (ImportError, AttributeError, TypeError):
+        return None
+
+
+def open_library(path: Path | None) -> ctypes.CDLL | None:
+    """The kernel at ``path`` with its functions declared, or None if it is missing, corrupt or of another ABI."""
+    if path is None:
+        return None
+    try:
+        library = ctypes.CDLL(str(path))
+        library.pbk_abi_version.restype = ctypes.c_int
+        if library.pbk_abi_version() != ABI_VERSION:
+            return None
+        for name in ("pbk_evaluate_f32", "pbk_evaluate_f64"):
+            function = getattr(library, name)
+            function.argtypes = _ARGUMENTS
+            function.restype = ctypes.c_int
+    except (OSError, AttributeError):
+        return None
+    return library
+
+
+@functools.cache
+def _kernel() -> ctypes.CDLL | None:
+    return open_library(library_path())
+
+
+def build_layout(
+    *,
+    mode: str,
+    dtype: type,
+    control_rest: np.ndarray,
+    triangles: np.ndarray,
+    pair_vertex: np.ndarray,
+    pair_triangle: np.ndarray,
+    pair_region: np.ndarray,
+    pair_weight: np.ndarray,
+    pair_face_local: np.ndarray,
+    pair_region_local: np.ndarray,
+    pair_apex_distance: np.ndarray,
+    base: np.ndarray,
+) -> Layout:
+    """The kernel's layout of a binding (``mode`` "planar_bones" or "soffd", ``dtype`` float32 or float64);
+    ``base`` (N, 3) is the reference result at ``control_rest``. Every index the kernel follows is checked
+    here: a binding that fails is a `DeformError`."""
+    n = len(base)
+    triangles = np.asarray(triangles)
+    vertex = np.asarray(pair_vertex, dtype=np.intp)
+    triangle = np.asarray(pair_triangle, dtype=np.intp)
+    region = np.asarray(pair_region, dtype=np.intp)
+    if not (
+        triangles.ndim == 2
+        and triangles.shape[1] == 3
+        and (triangles.size == 0 or 0 <= triangles.min() <= triangles.max() < len(control_rest))
+        and (
+            len(vertex) == 0
+            or (
+                0 <= vertex.min() <= vertex.max() < n
+                and 0 <= triangle.min() <= triangle.max() < len(triangles)
+                and 0 <= region.min() <= region.max() < APEX + APEX_CORNERS
+            )
+        )
+    ):
+        raise DeformError("inconsistent binding arrays")
+    if n >= 2**31 or len(vertex) >= 2**31:
+        raise DeformError("binding too large for the compiled kernel")
+    weight = np.asarray(pair_weight, dtype=np.float64)
+    face_local = np.asarray(pair_face_local, dtype=np.float64)
+    region_local = np.asarray(pair_region_local, dtype=np.float64)
+    # x, y, z of the reference at rest, and each vertex's exact weight sum, which multiplies the
+    # translation part of every motion in the kernel
+    base = np.concatenate([base, np.bincount(vertex, weight, minlength=n)[:, None]], axis=1, dtype=np.float64)
+    by_vertex = np.argsort(vertex, kind="stable")  # each vertex's pairs stay in binding order
+
+    soffd = mode == "soffd"
+    face = np.ones(len(vertex), dtype=bool) if soffd else region == FACE
+    x, y, h = (np.where(face, face_local[:, k], region_local[:, k]) for k in range(3))  # (α, β, h) on a face
+    plain = by_vertex if soffd else by_vertex[region[by_vertex] < APEX]
+    plain_key = (triangle * PLAIN_REGIONS + (0 if soffd else region))[plain].astype(np.int32)
+    plain_coef = _gathered((weight, x * weight, y * weight, h * weight), plain, dtype)  # eq. 1, eq. 12
+    apex_start = apex_key = apex_coef = apex_scale = None
+    if not soffd:  # eq. 13–14
+        apex = by_vertex[region[by_vertex] >= APEX]
+        apex_start = _starts(vertex[apex], n)
+        apex_key = (triangle * APEX_CORNERS + region - APEX)[apex].astype(np.int32)
+        apex_coef = _gathered((weight, h * weight, x, y), apex, dtype)
+        apex_scale = (weight * np.asarray(pair_apex_distance, dtype=np.float64))[apex].astype(dtype)
+        # the kernel adds the in-plane part as it is; its value at rest, from the same rounded numbers,
+        # comes off the base here once
+        rest_basis = deformation_basis(np.asarray(control_rest, dtype=np.float64)[triangles])
+        base[:, :3] -= _apex_in_plane(apex_coef, apex_scale, apex_key, rest_basis, vertex[apex], n)
+    return Layout(
+        dtype=dtype,
+        control_rest=np.ascontiguousarray(control_rest, dtype=np.float64),
+        triangles=np.ascontiguousarray(triangles, dtype=np.int32),
+        base=base,
+        plain_start=_starts(vertex[plain], n),
+        plain_key=plain_key,
+        plain_coef=plain_coef,
+        apex_start=apex_start,
+        apex_key=apex_key,
+        apex_coef=apex_coef,
+        apex_scale=apex_scale,
+    )
+
+
+def _apex_in_plane(
+    coef: np.ndarray, scale: np.ndarray, key: np.ndarray, basis: np.ndarray, vertex: np.ndarray, n: int
+) -> np.ndarray:
+    """(N, 3): per vertex, the sum of its apex pairs' w·D/d (a b_j + b b_{j−1}) (eq. 13) in ``basis``."""
+    edge_normals = basis[:, 4:7]
+    b_j = edge_normals.reshape(-1, 3)  # by key: triangle × 3 + corner
+    b_previous = edge_normals[:, [2, 0, 1]].reshape(-1, 3)
+    gram = np.einsum("ij,ij->i", b_j, b_previous)[key]
+    a, b = coef[:, 2].astype(np.float64), coef[:, 3].astype(np.float64)
+    d = np.sqrt(np.maximum(a * a + b * b + 2.0 * a * b * gram, 0.0))
+    ratio = np.divide(scale.astype(np.float64), d, out=np.zeros_like(d), where=d > 0.0)
+    a, b = a * ratio, b * ratio
+    sums = [np.bincount(vertex, a * b_j[key, k] + b * b_previous[key, k], minlength=n) for k in range(3)]
+    return np.stack(sums, axis=1)
+
+
+def _gathered(columns: tuple[np.ndarray, ...], pairs: np.ndarray, dtype: type) -> np.ndarray:
+    """(len(pairs), len(columns)) of ``dtype``: the columns' values at ``pairs``."""
+    result = np.empty((len(pairs), len(columns)), dtype=dtype)
+    for k, column in enumerate(columns):
+        result[:, k] = column[pairs]
+    return result
+
+
+def _starts(vertex: np.ndarray, n: int) -> np.ndarray:
+    """CSR offsets (N + 1,) int32 of pairs grouped by ``vertex`` (sorted)."""
+    start = np.zeros(n + 1, dtype=np.int32)
+    np.cumsum(np.bincount(vertex, minlength=n), out=start[1:])
+    return start
+
+
+def thread_count(layout: Layout) -> int:
+    """``MPEG4_FACE_KERNEL_THREADS`` if set to a number, else THREADS from PARALLEL_PAIRS pairs up, else 1."""
+    chosen = os.environ.get(THREADS_VARIABLE, "")
+    if chosen.isdigit() and int(chosen) > 0:
+        return int(chosen)
+    return THREADS if layout.n_pairs >= PARALLEL_PAIRS else 1
+
+
+def evaluate_into(layout: Layout, control: np.ndarray, out: np.ndarray, threads: int | None = None) -> bool:
+    """Write the deformed (N, 3) positions for the control points (M, 3) into ``out`` (C-contiguous, of the
+    layout's dtype) on ``threads`` threads (default: `thread_count`); False, with ``out`` untouched, where
+    the kernel is unavailable or refuses."""
+    kernel = _kernel() if available() else None
+    if (
+        kernel is None
+        or out.dtype != layout.dtype
+        or out.shape != (layout.n_vertices, 3)
+        or not out.flags.c_contiguous
+        or not out.flags.writeable
+        or control.shape != layout.control_rest.shape
+    ):
+        return False
+    control = np.ascontiguousarray(control, dtype=np.float64)
+    function = kernel.pbk_evaluate_f32 if layout.dtype == np.float32 else kernel.pbk_evaluate_f64
+    threads = max(1, min(thread_count(layout) if threads is None else threads, MAX_THREADS))
+    status = function(
+        layout.n_vertices, len(layout.triangles), control.ctypes.data, *layout.arguments, threads, out.ctypes.data
+    )
+    return status == 0

@@ -1,0 +1,57 @@
+/* The kernel's loop over a range of vertices, included by planar_bones_kernel.c once per coefficient type
+ * REAL (float or double; the output has the same type) and instruction set: the 4-wide loaders LOAD (of
+ * REALs) and LOAD64 (of doubles), the function attribute TARGET and the function name RANGE. A vertex sums
+ * its pairs lane by lane in double and adds the lanes up once at the end. */
+
+TARGET static void RANGE(int64_t v0, int64_t v1, const double *base, const int32_t *plain_start,
+                         const int32_t *plain_key, const void *plain_coefficients, const int32_t *apex_start,
+                         const int32_t *apex_key, const void *apex_coefficients, const void *apex_scales,
+                         Tables tables, void *output) {
+    const REAL *plain_coef = plain_coefficients, *apex_coef = apex_coefficients, *scale = apex_scales;
+    REAL *out = output;
+    const Quad shift = LOAD64(tables.shift);
+    double ratio[APEX_BLOCK];
+    for (int64_t v = v0; v < v1;) {
+        /* vertices [v, end) whose apex pairs [first, last) fit in one block: their r in one loop */
+        int64_t end = v + 1;
+        int32_t first = 0, last = 0;
+        if (apex_start) {
+            first = apex_start[v];
+            while (end < v1 && apex_start[end + 1] - first <= APEX_BLOCK) ++end;
+            last = apex_start[end];
+        }
+        int blocked = last - first <= APEX_BLOCK; /* else one vertex with more than a block: one by one */
+        if (blocked)
+            for (int32_t p = first; p < last; ++p) {
+                const REAL *c = apex_coef + 4 * (int64_t)p;
+                ratio[p - first] = apex_ratio(c[2], c[3], tables.gram[apex_key[p]], scale[p]);
+            }
+        for (; v < end; ++v) {
+            Quad x = {0.0, 0.0, 0.0, 0.0}, y = x, z = x;
+            for (int32_t p = plain_start[v]; p < plain_start[v + 1]; ++p) {
+                const Quad *rows = tables.plain + 3 * (int64_t)plain_key[p];
+                Quad c = LOAD(plain_coef + 4 * (int64_t)p);
+                x += c * rows[0];
+                y += c * rows[1];
+                z += c * rows[2];
+            }
+            if (apex_start) {
+                for (int32_t p = apex_start[v]; p < apex_start[v + 1]; ++p) {
+                    int64_t key = apex_key[p];
+                    const Quad *rows = tables.apex + 3 * key;
+                    const REAL *coef = apex_coef + 4 * (int64_t)p;
+                    double r = blocked ? ratio[p - first] : apex_ratio(coef[2], coef[3], tables.gram[key], scale[p]);
+                    Quad c = LOAD(coef) * (Quad){1.0, 1.0, r, r};
+                    x += c * rows[0];
+                    y += c * rows[1];
+                    z += c * rows[2];
+                }
+            }
+            Quad rest = LOAD64(base + 4 * v); /* x, y, z and the weight sum */
+            Quad sum = rest + rest[3] * shift + lane_sums(x, y, z);
+            out[3 * v] = (REAL)sum[0];
+            out[3 * v + 1] = (REAL)sum[1];
+            out[3 * v + 2] = (REAL)sum[2];
+        }
+    }
+}

@@ -1,0 +1,64 @@
+"""The compiled fast path on the sample faces' own bindings, and the add-on playing with it and without it."""
+
+import bpy
+import numpy as np
+import pytest
+
+from addon.blender import binding_store, live
+from addon.deform import fused
+from addon.deform.planar_bones import evaluate
+
+from ..core.test_fused import MODES, assert_matches, motions, needs_kernel, reference
+from .helpers import DEMO_FAP, ROOT, open_sample, positions, select
+
+SAMPLES = ("makehuman_head.blend", "makehuman_head_b.blend")
+
+
+def set_up(name: str = SAMPLES[0]):
+    head = open_sample(ROOT / "sample_blends" / name)
+    select(head)
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    return head
+
+
+def play(head, frame: int) -> np.ndarray:
+    bpy.context.scene.render.fps = 25
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    bpy.context.scene.frame_set(frame)
+    return positions(head.data).copy()
+
+
+def kernel_layouts(head) -> list:
+    return [key for key in binding_store.load(head)._evaluation if isinstance(key, tuple) and key[0] == "fused"]
+
+
+@needs_kernel
+@pytest.mark.parametrize("sample", SAMPLES)
+def test_fast_path_equals_the_numpy_reference_on_the_sample_faces(sample):
+    binding = binding_store.load(set_up(sample))
+    for mode in MODES:
+        for dtype in (np.float64, np.float32):
+            for control in motions(binding).values():
+                exact = reference(binding, control, mode)
+                assert_matches(evaluate(binding, control, mode, out=np.empty(exact.shape, dtype)), exact)
+
+
+@needs_kernel
+def test_the_add_on_plays_on_the_kernel_and_switched_off_shows_the_same_frame(monkeypatch):
+    head = set_up()
+    rest = positions(head.data).copy()
+    with_kernel = play(head, 40)
+    assert np.abs(with_kernel - rest).max() > 1e-3  # the face moves
+    assert kernel_layouts(head) == [("fused", "planar_bones", "float32")]
+    monkeypatch.setenv(fused.DISABLE, "1")
+    assert live.apply_face(head, force=True)
+    # the numpy float32 path rounds its products to about 1e-7 relative
+    np.testing.assert_allclose(positions(head.data), with_kernel, rtol=0.0, atol=1e-6)
+
+
+def test_the_add_on_plays_without_the_kernel(monkeypatch):
+    monkeypatch.setenv(fused.DISABLE, "1")
+    head = set_up()
+    rest = positions(head.data).copy()
+    assert np.abs(play(head, 40) - rest).max() > 1e-3
+    assert kernel_layouts(head) == []
