@@ -20,17 +20,21 @@ Reading policy, chosen to read every producer we know of (XFace, Crystal.TTVS, G
   fills select1 only. The form is chosen per frame by the value count; the counts a mask allows are all
   distinct, so this is never ambiguous.
 - Values are decimal numbers (integers or floats, optional exponent); NaN, infinities and overflowing
-  numbers are rejected. Frame numbers are non-negative integers and must strictly increase (gaps and
-  a start at 1 are fine): two frames at one time would have no defined order.
-- A path that is not a regular file (a FIFO, a device, a folder), a file over 256 MiB and a line over 8,192
-  characters are refused before anything is read or split.
+  numbers are rejected. Frame numbers are non-negative integers up to 2**53 - 1 (beyond it a float64, and
+  so a time, no longer holds every integer) and must strictly increase (gaps and a start at 1 are fine):
+  two frames at one time would have no defined order.
+- A path that is not a regular file (a FIFO, a device, a socket, a folder), a file over 256 MiB and a line
+  over 8,192 characters are refused before anything is read or split; no more than the cap is ever
+  read, even from a file that grows or misstates its size.
 - Anything else (wrong flag count, a flag that is not 0/1, a non-numeric value, a value count that does
   not fit the mask, a mask line without its value line, an unknown version, an empty file, NUL bytes or
-  bytes that are not UTF-8, an unreadable file) raises `FapFileError` naming the file and the line.
+  bytes that are not UTF-8, an unreadable file) raises `FapFileError` naming the file and the line, and
+  quoting at most 40 characters of what it found.
 
 Speed: per line there are only a few string operations (and a dictionary look-up of the mask); all value
 lines are checked and converted together on their bytes by `_scan_numbers`, so no Python object is made
-per value.
+per value. A value line with more tokens than any frame can hold (78) is malformed whatever they are, so
+only its frame number is converted: time and memory follow the number of lines, not of tokens.
 
 Writing uses the reference layout: the stream's version (2.1 for new streams), the name with blanks
 replaced by `_`, 68-flag masks, 4/6 values for FAP 1/2, integral values without a decimal point and
@@ -56,6 +60,7 @@ __all__ = ["N_FAPS", "FapFileError", "FapStream", "format_fap", "parse_fap", "re
 
 KNOWN_VERSIONS = ("2.0", "2.1", "2.2")
 MAX_FILE_BYTES = 256 * 2**20  # 256 MiB: over a million frames of every FAP
+MAX_FRAME_NUMBER = 2**53 - 1  # every integer up to here is an exact float64
 # The longest line a producer can write: a frame number and 78 values (68 + 4 + 6), each a long float,
 # or a header with a long name. A longer line is refused before it is split into tokens.
 MAX_LINE_CHARS = 8192
@@ -113,6 +118,8 @@ _HIGH_LEVEL_FORMS = {
     (True, True): [(VISEME_FIELDS, EXPRESSION_FIELDS), (VISEME_FIELDS, 1), (1, EXPRESSION_FIELDS), (1, 1)],
 }
 _MAX_HIGH_LEVEL = VISEME_FIELDS + EXPRESSION_FIELDS
+# The most tokens a value line can hold: the frame number, FAP 1 and 2 fields, FAPs 3..68 and a 69th.
+_MAX_VALUE_TOKENS = 1 + _MAX_HIGH_LEVEL + (N_FAPS + 1 - 2)
 # _FORM_BY_COUNT[2 * fap1 + fap2, n] = the form with n high-level values, or (-1, -1)
 _FORM_BY_COUNT = np.full((4, _MAX_HIGH_LEVEL + 1, 2), -1, np.intp)
 for (_fap1, _fap2), _forms in _HIGH_LEVEL_FORMS.items():
@@ -126,10 +133,25 @@ _POW10 = np.array([float(10**k) for k in range(23)])  # exact: 10**22 is the lar
 _EXACT_INTEGER = float(2**53)  # integers up to here are exact doubles
 _BLOCK_LINES = 8192
 _MAX_TOKEN = 24  # longer tokens (no producer writes them) are checked and converted one by one
+_QUOTE_CHARS = 40  # the most a message quotes of a token or line
 
 
 def _error(source: str, line: int, what: str) -> FapFileError:
     return FapFileError(f"{source}: line {line}: {what}")
+
+
+def _quote(text: str) -> str:
+    """`text` quoted for a message, cut to _QUOTE_CHARS characters."""
+    if len(text) <= _QUOTE_CHARS:
+        return repr(text)
+    return f"{text[:_QUOTE_CHARS]!r}... ({len(text)} characters)"
+
+
+def _count_tokens(text: str) -> int:
+    """The number of blank-separated tokens of one line, without an object per token."""
+    blank = np.frombuffer(text.encode("utf-8", errors="surrogatepass"), np.uint8)
+    blank = (blank == ord(" ")) | (blank == ord("\t"))
+    return int(np.count_nonzero(blank[:-1] & ~blank[1:])) + bool(len(blank) and not blank[0])
 
 
 def _line_of(data: bytes, offset: int) -> int:
@@ -158,17 +180,58 @@ def read_fap(path_or_text, *, source_name: str | None = None) -> FapStream:
     if not isinstance(path_or_text, str | os.PathLike):
         raise FapFileError(f"cannot read a .fap stream from a {type(path_or_text).__name__}")
     source = source_name or os.fspath(path_or_text)
+    return parse_fap(_read_regular_file(path_or_text, source), source)
+
+
+_FILE_KINDS = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+# O_NONBLOCK: should a FIFO take the file's place between the stat and the open, the open returns at once
+# (and fstat refuses it) instead of waiting for a writer. It changes nothing for a regular file.
+_OPEN_FLAGS = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NONBLOCK", 0)
+
+
+def _not_regular(mode: int, source: str) -> FapFileError:
+    kind = next((name for is_kind, name in _FILE_KINDS if is_kind(mode)), "a special file")
+    return FapFileError(f"{source}: not a regular file but {kind}")
+
+
+def _too_large(source: str) -> FapFileError:
+    return FapFileError(f"{source}: larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs")
+
+
+def _read_regular_file(path, source: str) -> bytes:
+    """The bytes of the regular file `path`, at most MAX_FILE_BYTES of them, else FapFileError."""
     try:
-        # a FIFO, a device (/dev/zero) or a folder is refused before it is opened: opening a FIFO blocks
-        if not stat.S_ISREG(os.stat(path_or_text).st_mode):
-            raise FapFileError(f"{source}: not a regular file")
-        with open(path_or_text, "rb") as file:
-            data = file.read(MAX_FILE_BYTES + 1)  # never more, even if the file grows while it is read
+        mode = os.stat(path).st_mode
+        # A FIFO (opening one waits for a writer), a device (/dev/zero never ends) or a folder is refused
+        # before it is opened.
+        fd = os.open(path, _OPEN_FLAGS) if stat.S_ISREG(mode) else None
     except (OSError, ValueError) as exc:  # ValueError: a path with a NUL character
         raise FapFileError(f"{source}: cannot read the file: {exc}") from None
+    if fd is None:
+        raise _not_regular(mode, source)
+    try:
+        with open(fd, "rb") as file:
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode):
+                raise _not_regular(info.st_mode, source)
+            if info.st_size > MAX_FILE_BYTES:
+                raise _too_large(source)
+            # The size is a hint only (the file may grow; /proc files claim 0): read one byte more than it
+            # promises, and only if that byte comes, on to one byte past the cap.
+            data = file.read(info.st_size + 1)
+            if len(data) > info.st_size:
+                data += file.read(MAX_FILE_BYTES + 1 - len(data))
+    except OSError as exc:
+        raise FapFileError(f"{source}: cannot read the file: {exc}") from None
     if len(data) > MAX_FILE_BYTES:
-        raise FapFileError(f"{source}: larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs")
-    return parse_fap(data, source)
+        raise _too_large(source)
+    return data
 
 
 def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
@@ -191,11 +254,9 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
         numbers = range(1, len(lines) + 1)
     if not lines:
         raise _error(source, 1, "empty file: no header line")
-    longest = max(range(len(lines)), key=lambda i: len(lines[i]))
-    if len(lines[longest]) > MAX_LINE_CHARS:  # before any line is split into tokens
-        raise _error(
-            source, numbers[longest], f"{len(lines[longest])} characters long; a .fap line has at most {MAX_LINE_CHARS}"
-        )
+    if max(map(len, lines)) > MAX_LINE_CHARS:  # before any line is split into tokens
+        i = next(i for i, line in enumerate(lines) if len(line) > MAX_LINE_CHARS)
+        raise _error(source, numbers[i], f"{len(lines[i])} characters long; a .fap line has at most {MAX_LINE_CHARS}")
     version, name, fps = _parse_header(lines[0], numbers[0], source)
     if len(lines) % 2 == 0:
         raise _error(source, numbers[-1], "truncated frame: mask line without a value line")
@@ -206,16 +267,16 @@ def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:
 def _parse_header(text: str, line: int, source: str) -> tuple[str, str, float]:
     spans = [match.span() for match in _TOKEN_RE.finditer(text)]
     if len(spans) < 4:
-        raise _error(source, line, f"header must be 'version name fps frames', found {text[:80]!r}")
+        raise _error(source, line, f"header must be 'version name fps frames', found {_quote(text)}")
     version, fps_token, count_token = (text[slice(*spans[i])] for i in (0, -2, -1))
     name = text[spans[0][1] : spans[-2][0]].strip(" \t")
     if version not in KNOWN_VERSIONS:
-        raise _error(source, line, f"unknown version {version!r} (known: {', '.join(KNOWN_VERSIONS)})")
+        raise _error(source, line, f"unknown version {_quote(version)} (known: {', '.join(KNOWN_VERSIONS)})")
     fps = float(fps_token) if _NUMBER_RE.fullmatch(fps_token) else math.nan
     if not (math.isfinite(fps) and fps > 0):
-        raise _error(source, line, f"fps must be a positive finite number, found {fps_token[:20]!r}")
+        raise _error(source, line, f"fps must be a positive finite number, found {_quote(fps_token)}")
     if not _FRAME_RE.fullmatch(count_token):
-        raise _error(source, line, f"frame count must be a non-negative integer, found {count_token[:20]!r}")
+        raise _error(source, line, f"frame count must be a non-negative integer, found {_quote(count_token)}")
     return version, name, fps
 
 
@@ -229,7 +290,7 @@ def _parse_mask(text: str) -> np.ndarray | str:
     if len(tokens) not in _MASK_LENGTHS:
         return f"mask line must have {N_FAPS} or {N_FAPS + 1} flags, found {len(tokens)}"
     bad = next(i for i, token in enumerate(tokens) if token not in ("0", "1"))
-    return f"mask flag {bad + 1} is {tokens[bad][:20]!r}, expected 0 or 1"
+    return f"mask flag {bad + 1} is {_quote(tokens[bad])}, expected 0 or 1"
 
 
 def _parse_masks(texts: list[str], numbers, source: str) -> np.ndarray:
@@ -250,9 +311,11 @@ def _parse_masks(texts: list[str], numbers, source: str) -> np.ndarray:
 def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, source: str) -> FapFileError:
     tokens = _TOKEN_RE.findall(text)
     if not _FRAME_RE.fullmatch(tokens[0]):
-        return _error(source, line, f"frame number {tokens[0][:20]!r} is not a non-negative integer")
-    if len(tokens[0].lstrip("0")) > len(str(_EXACT_INTEGER)) or int(tokens[0]) >= _EXACT_INTEGER:
-        return _frame_too_large(source, line, tokens[0])
+        return _error(source, line, f"frame number {_quote(tokens[0])} is not a non-negative integer")
+    digits = tokens[0].lstrip("0")  # int() refuses over 4,300 digits, and leading zeros count
+    if len(digits) > len(str(MAX_FRAME_NUMBER)) or int(digits or "0") > MAX_FRAME_NUMBER:
+        shown = tokens[0] if len(tokens[0]) <= 20 else f"{tokens[0][:12]}...({len(tokens[0])} digits)"
+        return _error(source, line, f"frame number {shown} is too large (at most {MAX_FRAME_NUMBER})")
     for i, token in enumerate(tokens[1:], 1):
         number = float(token) if _NUMBER_RE.fullmatch(token) else None
         if number is None or not math.isfinite(number):
@@ -260,7 +323,7 @@ def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, so
                 what = "not a finite number" if not math.isfinite(float(token)) else "not a number"
             except ValueError:
                 what = "not a number"
-            return _error(source, line, f"value {i} ({token[:20]!r}) is {what}")
+            return _error(source, line, f"value {i} ({_quote(token)}) is {what}")
     n_low = int(mask[2:].sum())
     counts = [n_low + sum(form) for form in _HIGH_LEVEL_FORMS[bool(mask[0]), bool(mask[1])]]
     return _error(
@@ -269,11 +332,6 @@ def _value_line_error(text: str, line: int, mask: np.ndarray, mask_line: int, so
         f"the mask on line {mask_line} needs {' or '.join(map(str, counts))} values after "
         f"the frame number, found {len(tokens) - 1}",
     )
-
-
-def _frame_too_large(source: str, line: int, token: str) -> FapFileError:
-    shown = token if len(token) <= 20 else f"{token[:12]}...({len(token)} digits)"
-    return _error(source, line, f"frame number {shown} is too large (at most {int(_EXACT_INTEGER) - 1})")
 
 
 def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) -> tuple:
@@ -292,7 +350,7 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
     n_low = masks[:, 2:].sum(axis=1)  # includes a 69th flag, whose value is read and dropped
     n_high = n_numbers - n_low
     form = _FORM_BY_COUNT[2 * masks[:, 0] + masks[:, 1], np.clip(n_high, 0, _MAX_HIGH_LEVEL)]
-    bad_line |= (form[:, 0] < 0) | (n_high < 0) | (n_high > _MAX_HIGH_LEVEL)
+    bad_line |= (form[:, 0] < 0) | (n_high < 0) | (n_high > _MAX_HIGH_LEVEL) | (frame_numbers > MAX_FRAME_NUMBER)
     if bad_line.any():
         i = int(np.argmax(bad_line))
         raise _value_line_error(value_texts[i], value_numbers[i], masks[i], mask_numbers[i], source)
@@ -319,10 +377,6 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
     values = np.zeros((n_frames, N_FAPS))
     values[:, 2:][masks[:, 2:N_FAPS]] = numbers  # row-major: each frame's values in FAP order
 
-    too_large = np.flatnonzero(frame_numbers >= _EXACT_INTEGER)
-    if too_large.size:
-        i = too_large[0]
-        raise _frame_too_large(source, value_numbers[i], _TOKEN_RE.findall(value_texts[i])[0])
     frame_numbers = frame_numbers.astype(np.int64)
     not_increasing = np.flatnonzero(np.diff(frame_numbers) <= 0)
     if not_increasing.size:
@@ -338,16 +392,35 @@ def _parse_frames(mask_texts, mask_numbers, value_texts, value_numbers, source) 
 
 def _scan_value_lines(texts: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Frame numbers (as float64), the other numbers of all lines in order, their count per line, and
-    whether a line holds a malformed token or a frame number that is not a non-negative integer."""
+    whether a line holds a malformed token or a frame number that is not a non-negative integer.
+
+    A line with more tokens than any value line can hold is bad: it is counted, but only its frame number
+    is scanned, and it adds no numbers.
+    """
     frame_numbers, numbers, n_numbers, bad_line = [], [], [], []
     # In blocks of lines, so that the per-token arrays stay in the processor's cache (twice as fast).
     for i in range(0, len(texts), _BLOCK_LINES):
         block = texts[i : i + _BLOCK_LINES]
-        tokens, well_formed, digits_only, line_of_token = _scan_numbers("\n".join(block))
+        text = "\n".join(block)
+        crowded = {}  # line in block -> token count, for lines with more tokens than a value line can hold
+        if text.count(" ") + text.count("\t") + len(block) > _MAX_VALUE_TOKENS * len(block):  # may hold some
+            crowded = {
+                j: n
+                for j, line in enumerate(block)
+                if line.count(" ") + line.count("\t") >= _MAX_VALUE_TOKENS
+                and (n := _count_tokens(line)) > _MAX_VALUE_TOKENS
+            }
+            if crowded:  # malformed whatever their tokens: scan their frame numbers only
+                text = "\n".join(_TOKEN_RE.match(line)[0] if j in crowded else line for j, line in enumerate(block))
+        tokens, well_formed, digits_only, line_of_token = _scan_numbers(text)
         n_tokens = np.bincount(line_of_token, minlength=len(block))
         first_token = np.cumsum(n_tokens) - n_tokens
         bad = ~digits_only[first_token]
         bad[line_of_token[~well_formed]] = True
+        if crowded:
+            rows = np.fromiter(crowded, np.intp, len(crowded))
+            bad[rows] = True
+            n_tokens[rows] = np.fromiter(crowded.values(), np.intp, len(crowded))
         bad_line.append(bad)
         frame_numbers.append(tokens[first_token])
         n_numbers.append(n_tokens - 1)

@@ -1,7 +1,10 @@
 """The ASCII .fap reader and writer: hand-made variants, real files, malformed input and round trips."""
 
 import math
+import os
 import re
+import socket
+import threading
 import tracemalloc
 from pathlib import Path
 
@@ -10,7 +13,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from addon.mpeg4 import fap_file
 from addon.mpeg4.fap_file import (
+    MAX_FRAME_NUMBER,
     N_FAPS,
     FapFileError,
     FapStream,
@@ -361,10 +366,184 @@ def test_missing_file_and_directory(tmp_path):
     missing = tmp_path / "no_such_file.fap"
     with pytest.raises(FapFileError, match="no_such_file.fap: cannot read the file"):
         read_fap(missing)
-    with pytest.raises(FapFileError, match="cannot read the file"):
+    with pytest.raises(FapFileError, match=rf"^{re.escape(str(tmp_path))}: not a regular file but a directory$"):
         read_fap(tmp_path)
     with pytest.raises(FapFileError, match="nul_in_name: cannot read the file"):
         read_fap("nul_in_name\x00.fap", source_name="nul_in_name")
+
+
+# --- what read_fap refuses to read, and how much it reads ---------------------------------------------
+
+
+def read_fap_within(path, seconds: float = 10.0):
+    """read_fap(path) in a thread, failing the test (not hanging it) if it has not ended in `seconds`."""
+    outcome = {}
+
+    def run():
+        try:
+            outcome["stream"] = read_fap(path)
+        except Exception as exc:  # handed to the test below
+            outcome["error"] = exc
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    if thread.is_alive():
+        os.close(os.open(path, os.O_WRONLY | os.O_NONBLOCK))  # a writer comes and goes: the blocked open ends
+        pytest.fail(f"read_fap({path}) blocked")
+    if "error" in outcome:
+        raise outcome["error"]
+    return outcome["stream"]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_a_fifo_is_refused_without_being_opened(tmp_path):
+    fifo = tmp_path / "stream.fap"
+    os.mkfifo(fifo)
+    with pytest.raises(FapFileError) as info:
+        read_fap_within(fifo)  # opening it would wait for a writer forever
+    assert str(info.value) == f"{fifo}: not a regular file but a named pipe (FIFO)"
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no named pipes here")
+def test_a_fifo_that_takes_the_files_place_after_the_check_is_refused_without_waiting(tmp_path, monkeypatch):
+    fifo = tmp_path / "swapped.fap"
+    os.mkfifo(fifo)
+    checks = []
+    real_is_regular = fap_file.stat.S_ISREG
+
+    def regular_at_first(mode):  # the path was a regular file when it was first looked at
+        checks.append(mode)
+        return len(checks) == 1 or real_is_regular(mode)
+
+    monkeypatch.setattr(fap_file.stat, "S_ISREG", regular_at_first)
+    with pytest.raises(FapFileError) as info:
+        read_fap_within(fifo)
+    assert str(info.value) == f"{fifo}: not a regular file but a named pipe (FIFO)"
+    assert len(checks) == 2
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/zero"), reason="no /dev/zero here")
+def test_dev_zero_is_refused_without_being_read():
+    with pytest.raises(FapFileError) as info:
+        read_fap_within("/dev/zero")  # it never ends
+    assert str(info.value) == "/dev/zero: not a regular file but a character device"
+
+
+@pytest.mark.skipif(not hasattr(socket, "AF_UNIX"), reason="no Unix sockets here")
+def test_a_socket_is_refused(tmp_path):
+    path = tmp_path / "s.fap"
+    with socket.socket(socket.AF_UNIX) as server:
+        server.bind(str(path))
+        with pytest.raises(FapFileError) as info:
+            read_fap_within(path)
+    assert str(info.value) == f"{path}: not a regular file but a socket"
+
+
+def test_the_size_cap_reads_a_file_of_the_cap_and_refuses_one_byte_more(tmp_path, monkeypatch):
+    content = f"2.1 capped 25 1\n{mask_line(3)}\n0 7\n".encode()
+    path = tmp_path / "capped.fap"
+    path.write_bytes(content)
+    monkeypatch.setattr(fap_file, "MAX_FILE_BYTES", len(content))
+    assert read_fap(path).values[0, 2] == 7
+    path.write_bytes(content + b"\n")
+    with pytest.raises(FapFileError, match=rf"^{re.escape(str(path))}: larger than 0 MiB, which no FAP stream needs$"):
+        read_fap(path)
+
+
+@pytest.mark.skipif(not os.path.isfile("/proc/self/status"), reason="no /proc here")
+def test_a_file_that_understates_its_size_is_read_whole_but_only_up_to_the_cap(monkeypatch):
+    assert os.stat("/proc/self/status").st_size == 0  # a regular file that claims to be empty, but is not
+    with pytest.raises(FapFileError, match=r"^/proc/self/status: line 1: header .*, found 'Name:\\t"):
+        read_fap("/proc/self/status")  # read beyond the one byte its size promises
+    monkeypatch.setattr(fap_file, "MAX_FILE_BYTES", 100)
+    with pytest.raises(FapFileError, match=r"^/proc/self/status: larger than 0 MiB"):
+        read_fap("/proc/self/status")
+
+
+# --- frame numbers and huge lines ------------------------------------------------------------------------
+
+
+def test_a_309_digit_frame_number_says_how_long_and_what_the_largest_is():
+    with pytest.raises(FapFileError) as info:
+        parse_fap(f"{GOOD_HEADER}{mask_line()}\n{'9' * 309}\n", "t.fap")
+    assert (
+        str(info.value)
+        == "t.fap: line 3: frame number 999999999999...(309 digits) is too large (at most 9007199254740991)"
+    )
+
+
+def test_frame_numbers_end_at_the_last_exact_double():
+    assert MAX_FRAME_NUMBER == 2**53 - 1
+    stream = parse_fap(f"{GOOD_HEADER}{mask_line()}\n{2**53 - 1}\n")
+    assert stream.frame_numbers[0] == 2**53 - 1
+    for number in (2**53, 2**53 + 1, "0" * 5000 + str(2**53)):
+        with pytest.raises(FapFileError) as info:
+            parse_fap(f"{GOOD_HEADER}{mask_line()}\n{number}\n", "t.fap")
+        assert str(info.value).startswith(f"t.fap: line 3: frame number {str(number)[:12]}"), str(info.value)
+        assert str(info.value).endswith("is too large (at most 9007199254740991)")
+
+
+def test_a_zero_padded_frame_number_on_a_bad_line_is_a_fap_error():
+    # int() refuses over 4,300 digits: the message must not depend on it
+    with pytest.raises(FapFileError, match=r"^t\.fap: line 3: value 1 \('x'\) is not a number$"):
+        parse_fap(f"{GOOD_HEADER}{mask_line(3)}\n{'0' * 5000}1 x\n", "t.fap")
+
+
+def test_the_first_bad_line_is_named_even_when_a_later_one_is_malformed_too():
+    text = f"{GOOD_HEADER}{mask_line(3)}\n{2**60} 1\n{mask_line(3)}\n{2**61} x\n"
+    with pytest.raises(FapFileError, match=r"^t\.fap: line 3: frame number 1152921504606846976 is too large"):
+        parse_fap(text, "t.fap")
+
+
+def test_the_first_line_over_the_cap_is_named():
+    text = f"{GOOD_HEADER}{mask_line(3)}\n0 {'1' * 9000}\n{mask_line(3)}\n1 {'1' * 20000}\n"
+    with pytest.raises(FapFileError, match=r"^t\.fap: line 3: 9002 characters long; a \.fap line has at most 8192$"):
+        parse_fap(text, "t.fap")
+
+
+def test_lines_with_too_many_values_are_refused_in_memory_bounded_by_lines_not_values():
+    crowded = " ".join(["1"] * 4000)  # under the line cap, but more values than any frame holds
+    text = GOOD_HEADER + "".join(f"{mask_line(3)}\n{i} {crowded}\n" for i in range(200))
+    tracemalloc.start()
+    try:
+        with pytest.raises(FapFileError) as info:
+            parse_fap(text, "t.fap")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert str(info.value) == "t.fap: line 3: the mask on line 2 needs 1 values after the frame number, found 4000"
+    assert peak < 8 * len(text)  # converting the 800,000 values would take over 60 times the text
+
+
+def test_a_crowded_line_among_good_ones_names_its_first_bad_value():
+    crowded = f"1 {' '.join(['2'] * 100)} x {' '.join(['3'] * 100)}"
+    text = f"{GOOD_HEADER}{mask_line(3)}\n0 1\n{mask_line(3)}\n{crowded}\n{mask_line(3)}\n2 1\n"
+    with pytest.raises(FapFileError, match=r"^t\.fap: line 5: value 101 \('x'\) is not a number$"):
+        parse_fap(text, "t.fap")
+
+
+LONG = "y" * 8000  # under the line cap
+SHORT_MESSAGES = [
+    ("version", f"{LONG} n 25 1\n", 1, f"unknown version '{'y' * 40}'... (8000 characters)"),
+    ("fps", f"2.1 n {LONG} 1\n", 1, f"fps must be a positive finite number, found '{'y' * 40}'... (8000 characters)"),
+    ("count", f"2.1 n 25 {LONG}\n", 1, f"frame count must be a non-negative integer, found '{'y' * 40}'..."),
+    ("header", f"2.1 {LONG}\n", 1, f"header must be 'version name fps frames', found '2.1 {'y' * 36}'..."),
+    ("flag", f"{GOOD_HEADER}{mask_line(3)} {LONG}\n0 1\n", 2, f"mask flag 69 is '{'y' * 40}'... (8000 characters)"),
+    ("value", f"{GOOD_HEADER}{mask_line(3)}\n0 {LONG}\n", 3, f"value 1 ('{'y' * 40}'... (8000 characters)) is not"),
+    ("frame", f"{GOOD_HEADER}{mask_line()}\n{LONG}\n", 3, f"frame number '{'y' * 40}'... (8000 characters) is not"),
+]
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "words"), [case[1:] for case in SHORT_MESSAGES], ids=[case[0] for case in SHORT_MESSAGES]
+)
+def test_messages_quote_at_most_40_characters(text, line, words):
+    with pytest.raises(FapFileError) as info:
+        parse_fap(text, "t.fap")
+    message = str(info.value)
+    assert message.startswith(f"t.fap: line {line}: ") and words in message, message
+    assert len(message) < 160, message
 
 
 def test_wrong_input_types():
@@ -584,6 +763,12 @@ def test_scan_numbers_matches_float(tokens):
         assert digits == token.isdigit(), token
         if ok:
             assert number == expected, token
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.text(alphabet=" \t1x\u00e9\u0663", max_size=40))
+def test_count_tokens_matches_splitting(text):
+    assert fap_file._count_tokens(text) == len(re.findall(r"[^ \t]+", text))
 
 
 def test_written_file_has_the_usual_permissions(tmp_path):

@@ -39,7 +39,7 @@ def reference_read(data):
     data = data.removeprefix("\ufeff")
     lines = [line.strip(" \t") for line in data.replace("\r\n", "\n").replace("\r", "\n").split("\n")]
     lines = [line for line in lines if line and not line.startswith("#")]
-    if not lines:
+    if not lines or any(len(line) > 8192 for line in lines):
         return None
     header = BLANKS.split(lines[0])
     if len(header) < 4 or header[0] not in ("2.0", "2.1", "2.2") or not DIGITS.fullmatch(header[-1]):
@@ -60,7 +60,10 @@ def reference_read(data):
         if len(flags) != length:
             return None
         tokens = BLANKS.split(value_text)
-        if not DIGITS.fullmatch(tokens[0]) or int(tokens[0]) >= 2**53:
+        if not DIGITS.fullmatch(tokens[0]) or len(tokens[0].lstrip("0")) > 16:
+            return None
+        frame = int(tokens[0].lstrip("0") or "0")  # int() takes at most 4,300 digits
+        if frame > 2**53 - 1:
             return None
         if not all(NUMBER.fullmatch(token) and math.isfinite(float(token)) for token in tokens[1:]):
             return None
@@ -78,7 +81,7 @@ def reference_read(data):
                 values[k] = value
         viseme = numbers[:n_viseme] + [0.0] * (4 - n_viseme)
         expression = numbers[n_viseme : n_viseme + n_expression] + [0.0] * (6 - n_expression)
-        frames.append((int(tokens[0]), mask[:N_FAPS], values, viseme, expression))
+        frames.append((frame, mask[:N_FAPS], values, viseme, expression))
     if any(b[0] <= a[0] for a, b in itertools.pairwise(frames)):
         return None
     columns = list(zip(*frames, strict=True)) or [[]] * 5
@@ -148,6 +151,9 @@ JUNK_TOKENS = [
     "\n",
     "9" * 30,
     "1" * 70,
+    "0" * 4400 + "7",  # more digits than int() converts
+    str(2**53 - 1),
+    str(2**53),
     "\x0c",
     "\u00a0",
     "\xff",
@@ -168,6 +174,7 @@ def mutated_files(draw):
                     "delete line",
                     "duplicate line",
                     "swap lines",
+                    "crowd line",
                     "truncate",
                     "insert",
                 ]
@@ -190,6 +197,8 @@ def mutated_files(draw):
             lines.insert(j, lines[j])
         elif op == "swap lines":
             lines[j], lines[k] = lines[k], lines[j]
+        elif op == "crowd line":  # around the most tokens a value line can hold (78)
+            lines[j] += draw(st.sampled_from([" 1", " x", "\t2.5"])) * draw(st.integers(50, 200))
         elif op == "truncate":
             data = data[: draw(st.integers(0, len(data)))]
         else:
@@ -253,3 +262,25 @@ def test_mutated_written_streams(seed, n_frames):
             np.frombuffer(b"0123456789 .-+e\nx\t\r#", np.uint8), 2
         ).tobytes()
         check(bytes(data))
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(
+        st.tuples(
+            st.sets(st.integers(1, N_FAPS), max_size=N_FAPS),
+            st.integers(0, 200),  # values after the frame number: 78 at most can be right
+            st.sampled_from(["1", "-2.5", "x", "1e999", "\t1"]),
+        ),
+        min_size=1,
+        max_size=4,
+    )
+)
+def test_value_lines_around_the_most_values_a_frame_holds(frames):
+    lines = ["2.1 crowded 25 1"]
+    for i, (faps, n_values, odd) in enumerate(frames):
+        values = ["1"] * n_values
+        if values:
+            values[n_values // 2] = odd
+        lines += [mask_text(faps), " ".join([str(i), *values])]
+    check("\n".join(lines) + "\n")
