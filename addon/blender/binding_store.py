@@ -34,6 +34,7 @@ BINDING_PROP = "mpeg4_binding"
 BINDING_KEY_PROP = "mpeg4_binding_key"
 # the dtypes a binding is made of; anything else in a file is refused
 LEGACY_MESH_PROPS = (BINDING_PROP, BINDING_KEY_PROP)
+COMPACT_FIELDS = ("pair_face_local", "pair_region_local", "pair_apex_distance")  # saved as float32
 STORED_DTYPES = frozenset({"<f8", "<f4", "<i8", "<i4", "<i2", "|i1", "|b1"})
 MAX_NDIM = 3
 
@@ -84,8 +85,10 @@ def save(face: bpy.types.Object, binding: Binding, key: str) -> None:
             continue
         value = getattr(binding, field.name)
         if isinstance(value, np.ndarray):
-            # ID property arrays hold int32, float32 and float64
+            # ID property arrays hold int32, float32 and float64; the ".dtype" says what to load them as
             stored = value.astype(np.int32) if value.dtype.kind in "iub" else value
+            if field.name in COMPACT_FIELDS:
+                stored = value.astype(np.float32)  # exact: `compact` rounded them already
             group[field.name] = np.ascontiguousarray(stored).ravel()
             group[field.name + ".shape"] = list(value.shape) or [0]
             group[field.name + ".dtype"] = value.dtype.str
@@ -99,6 +102,16 @@ def save(face: bpy.types.Object, binding: Binding, key: str) -> None:
     held[BINDING_KEY_PROP] = key
     face.mpeg4_face.binding_holder = held
     _cache[face.session_uid] = (key, binding)
+
+
+def stored_bytes(face: bpy.types.Object) -> int:
+    """How many bytes the face's saved binding arrays take in the .blend."""
+    held = holder(face)
+    group = held.get(BINDING_PROP) if held is not None else None
+    if group is None:
+        return 0
+    sizes = {"f": 4, "d": 8, "i": 4, "b": 1}
+    return sum(len(v) * sizes.get(v.typecode, 8) for v in group.values() if hasattr(v, "typecode"))
 
 
 def _stored_array(group, name: str) -> np.ndarray | None:
@@ -214,14 +227,28 @@ class BindInputs:
     key: str
 
     def bind(self) -> Binding:
-        return bind_face(
-            self.rest.astype(np.float64),
-            self.control_rest,
-            self.triangles,
-            vertex_masks=self.masks or None,
-            triangle_masks=self.triangle_masks if self.masks else None,
-            **self.params,
+        return compact(
+            bind_face(
+                self.rest.astype(np.float64),
+                self.control_rest,
+                self.triangles,
+                vertex_masks=self.masks or None,
+                triangle_masks=self.triangle_masks if self.masks else None,
+                **self.params,
+            )
         )
+
+
+def compact(binding: Binding) -> Binding:
+    """The binding with its per-pair local coordinates rounded to float32, as they are saved.
+
+    Rounding the local coordinates (eq. 1, 12-14: alpha, beta, h; the region frames' x, y, h; D_j) moves a
+    vertex by about 1e-7 of its triangle's size (about 1e-9 m on a face); the weights, the rest shape and
+    the control mesh stay float64, so the rest frame and the eq. 8 weight sums stay exact. The session uses
+    the rounded values too, so a saved and reopened file plays bit for bit the same.
+    """
+    rounded = {name: getattr(binding, name).astype(np.float32).astype(np.float64) for name in COMPACT_FIELDS}
+    return dataclasses.replace(binding, **rounded)
 
 
 def _masks(face, fresh: bool) -> dict[str, np.ndarray]:

@@ -77,6 +77,18 @@ def follow_gaze(eye, pupil, pivot: np.ndarray) -> None:
     eye[DRIVER_TAG] = pupil.get("mpeg4_fp", pupil.name)
 
 
+def _side(child) -> float:
+    """+1 on the face's left (+X), -1 on its right: from the name ('Eye L', 'eye.R', 'left_eye'), else from
+    where the child sits in the face's space (computed from its own transform, so it holds before Blender
+    has evaluated a freshly made scene)."""
+    words = set(child.name.lower().replace(".", " ").replace("_", " ").replace("-", " ").split())
+    if words & {"l", "left"}:
+        return 1.0
+    if words & {"r", "right"}:
+        return -1.0
+    return (child.matrix_parent_inverse @ child.matrix_basis).translation.x
+
+
 def find_followers(face) -> dict[str, bpy.types.Object | None]:
     """Guess the eyeballs, lower teeth and tongue among the face's children by name and side."""
     found = {"left_eye": None, "right_eye": None, "lower_teeth": None, "tongue": None}
@@ -85,7 +97,7 @@ def find_followers(face) -> dict[str, bpy.types.Object | None]:
         if child.type != "MESH":
             continue
         if "eye" in name and not any(word in name for word in ("lash", "brow", "lid")):
-            side = "left_eye" if child.matrix_local.translation.x > 0 else "right_eye"
+            side = "left_eye" if _side(child) > 0 else "right_eye"
             found[side] = found[side] or child
         elif "teeth" in name and ("lower" in name or "bottom" in name):
             found["lower_teeth"] = found["lower_teeth"] or child

@@ -20,7 +20,7 @@ from ..mpeg4.feature_points import FP_IDS, feature_point
 from . import face_data
 
 FP_NAME = re.compile(r"^FP (\d+\.\d+)(\.\d+)?$")
-ADOPTED_PROP = "mpeg4_adopted"  # what adoption changed: {"parent": name, "matrix": 16 floats, "tagged": bool}
+ADOPTED_PROP = "mpeg4_adopted"  # what adoption changed: parent, its inverse, the transform, the tag, the size
 DISPLAY_SIZE_PER_HEIGHT = 0.012  # an FP sphere is about 3 mm on a 25 cm head: large enough to grab
 
 
@@ -130,9 +130,12 @@ def adopt(face, empties: dict, planned: dict[str, np.ndarray], neutral: dict[str
     size = display_size(face)
     for fp_id, ob in empties.items():
         if ADOPTED_PROP not in ob and face_data.CREATED_PROP not in ob:
+            # the object's own data, not matrix_world: that is only valid once Blender has evaluated it
             ob[ADOPTED_PROP] = {
                 "parent": ob.parent.name if ob.parent else "",
-                "matrix": [v for row in ob.matrix_world for v in row],
+                "parent_type": ob.parent_type,
+                "parent_inverse": [v for row in ob.matrix_parent_inverse for v in row],
+                "basis": [v for row in ob.matrix_basis for v in row],
                 "tagged": face_data.FP_PROP in ob,
                 "size": ob.empty_display_size,
             }
@@ -160,10 +163,11 @@ def release(face) -> int:
     for ob in coll.all_objects:
         record = ob.get(ADOPTED_PROP)
         if record is not None:
-            parent = bpy.data.objects.get(record.get("parent", ""))
-            world = Matrix([list(record["matrix"][i : i + 4]) for i in range(0, 16, 4)])
-            ob.parent = parent
-            ob.matrix_world = world
+            if "basis" in record and "parent_inverse" in record:
+                ob.parent = bpy.data.objects.get(record.get("parent", ""))
+                ob.parent_type = record.get("parent_type", "OBJECT")
+                ob.matrix_parent_inverse = _matrix(record["parent_inverse"])
+                ob.matrix_basis = _matrix(record["basis"])
             ob.empty_display_size = record.get("size", ob.empty_display_size)
             if not record.get("tagged", False) and face_data.FP_PROP in ob:
                 del ob[face_data.FP_PROP]
@@ -173,6 +177,10 @@ def release(face) -> int:
     if face_data.CREATED_PROP in coll and not coll.all_objects:
         bpy.data.collections.remove(coll)
     return len(created)
+
+
+def _matrix(values) -> Matrix:
+    return Matrix([list(values[i : i + 4]) for i in range(0, 16, 4)])
 
 
 def place(face, fp_id: str, world_location, mirror: bool = False) -> list[bpy.types.Object]:

@@ -13,7 +13,7 @@ The two live in two scenes that share the FP empties, so a `frame_set` evaluates
 Every frame, in alternating order, each side runs `scene.frame_set(f)` and then reads the evaluated
 mesh back with `foreach_get` into a float32 buffer; each figure is the median over the frames after two
 warm-up frames. `kernel_ms` is `planar_bones.evaluate` alone on the same control positions (a footnote:
-it leaves out what Blender does around it). `bind_s` is Set Up Face; `binding_mb` the binding's arrays.
+it leaves out what Blender does around it). `bind_s` is Set Up Face; `binding_mb` the binding as saved in the .blend.
 """
 
 from __future__ import annotations
@@ -138,9 +138,7 @@ def measure(level: int, frames: int, stream: Path) -> dict:
             pb.append(timings["pb"])
             sd.append(timings["sd"])
             kernel.append(timings["kernel"])
-    binding_bytes = sum(
-        getattr(binding, f).nbytes for f in vars(binding) if isinstance(getattr(binding, f), np.ndarray)
-    )
+    binding_bytes = binding_store.stored_bytes(head)
     planar_bones_ms = 1000 * float(np.median(pb))
     surface_deform_ms = 1000 * float(np.median(sd))
     return {

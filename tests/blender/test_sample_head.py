@@ -166,3 +166,10 @@ def test_ground_truth_shape_keys_only_on_the_hidden_reference(head):
     opened = np.array([v.co for v in keys["mouth-open"].data])
     assert np.allclose(basis, [v.co for v in head.data.vertices], atol=1e-7)
     assert 0.01 < np.abs(opened - basis).max() < 0.05  # the jaw drops by centimetres
+
+
+def test_the_shipped_set_up_names_each_part_on_its_own_side(head):
+    s = head.mpeg4_face
+    assert (s.left_eye.name, s.right_eye.name) == ("Eye L", "Eye R")
+    assert s.left_eye.matrix_world.translation.x > s.right_eye.matrix_world.translation.x  # left is +X
+    assert (s.lower_teeth.name, s.tongue.name) == ("Teeth Lower", "Tongue")
