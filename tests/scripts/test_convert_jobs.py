@@ -74,6 +74,13 @@ def _children(parent: int) -> dict[int, list[str]]:
     return found
 
 
+def _descendants(pid: int) -> list[int]:
+    found = []
+    for child in _children(pid):
+        found += [child, *_descendants(child)]
+    return found
+
+
 def _wait_for_children(parent: subprocess.Popen, wanted, timeout: float = 120) -> dict[int, list[str]]:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline and parent.poll() is None:
@@ -96,6 +103,8 @@ def test_a_killed_child_is_its_streams_failed_line(tmp_path):
     parent = _start_convert("--face", FACE, good, victim, "-o", out, "--jobs", "2", *TINY)
     children = _wait_for_children(parent, lambda found: any(str(victim) in argv for argv in found.values()))
     (pid,) = [pid for pid, argv in children.items() if str(victim) in argv]
+    for descendant in _descendants(pid):  # whatever it started too, so nothing of it finishes the stream
+        os.kill(descendant, signal.SIGKILL)
     os.kill(pid, signal.SIGKILL)
     stdout, stderr = parent.communicate(timeout=600)
     assert parent.returncode == 1, stdout + stderr
