@@ -106,6 +106,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--engine", choices=ENGINES, default=ENGINES[0])
     parser.add_argument("--no-video", action="store_true", help="skip the preview video")
     parser.add_argument(
+        "--audio", type=Path, help="a sound file for the preview video, from the stream's frame 0 (one stream only)"
+    )
+    parser.add_argument(
         "--sheet",
         type=_int_in(*SHEET_FRAMES),
         default=12,
@@ -218,6 +221,10 @@ def check_arguments(args) -> Path:
     for stream in args.streams:
         check_input(stream, "stream")
     check_distinct_outputs(args.streams)
+    if args.audio is not None:
+        check_input(args.audio, "audio file")
+        if len(args.streams) > 1:
+            raise ConvertError(f"--audio is the sound of one stream, and {len(args.streams)} streams are given")
     check_output_folder(args.out)
     return face_file.resolve()
 
@@ -327,6 +334,12 @@ def _image_settings(scene, video: bool):
         scene.render.ffmpeg.format = "MPEG4"
         scene.render.ffmpeg.codec = "H264"
         scene.render.ffmpeg.constant_rate_factor = "MEDIUM"
+
+
+def add_audio(scene, path: Path):
+    """The sound plays from scene frame 0, where the stream's frame 0 is, and goes into the MP4 as AAC."""
+    _addon("blender.speech_ops").add_sound_strip(scene, path, 0)
+    scene.render.ffmpeg.audio_codec = "AAC"
 
 
 def render_video(scene, path: Path):
@@ -541,6 +554,8 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertice
     frame_face(scene, face, args.resolution)
     set_engine(scene, args.engine)
     if not args.no_video:
+        if args.audio is not None:
+            add_audio(scene, args.audio.resolve())
         written.append(video)
         with counting(progress, handlers.render_post, frames, "video"):
             render_video(scene, video)

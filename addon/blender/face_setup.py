@@ -19,7 +19,9 @@ from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
 from . import animation, bake, binding_store, face_data, followers, fp_empties, head_motion, live, rest_shape
+from .fitting_store import remove_fitting
 from .reporting import Warn
+from .speech_ops import remove_speech
 
 FOLLOWERS = (("left_eye", "3.5"), ("right_eye", "3.6"), ("lower_teeth", "9.11"), ("tongue", "6.2"))
 LOCK_INTERFACE_PROP = "mpeg4_locked_interface"  # on the scene: set-up turned Lock Interface on
@@ -222,6 +224,7 @@ def remove(face) -> list[str]:
     settings = face.mpeg4_face
     notes = []
     live.forget(face)
+    notes.extend(remove_fitting(face))
     mesh = face.data
     rest_shape.restore_rest(mesh)
     rest_shape.remove_own_shape_key(face)
@@ -230,6 +233,8 @@ def remove(face) -> list[str]:
     notes.extend(bake.remove_bakes(face))
     empties = face_data.fp_empties(face)
     removed_actions = animation.remove_streams([face, *empties.values()])
+    if remove_speech(face):
+        notes.append("removed the face's speech strips and their audio")
     head_motion.restore_rest(face)
     if removed_actions:
         notes.append(f"removed {removed_actions} imported FAP stream(s)")

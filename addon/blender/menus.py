@@ -3,7 +3,7 @@ a .fap file dropped on the 3D viewport."""
 
 import bpy
 
-from . import ops
+from . import fitting_ops, ops, speech_ops
 
 
 class MPEG4_MT_object(bpy.types.Menu):
@@ -17,6 +17,14 @@ class MPEG4_MT_object(bpy.types.Menu):
         layout.separator()
         layout.operator(ops.MPEG4_OT_import_fap.bl_idname)
         layout.operator(ops.MPEG4_OT_export_fap.bl_idname)
+        layout.operator(speech_ops.MPEG4_OT_speak_text.bl_idname, text="Speak Text…")
+        layout.operator(speech_ops.MPEG4_OT_import_cues.bl_idname, text="Import Lip-Sync Cues…")
+        layout.separator()
+        layout.operator(fitting_ops.MPEG4_OT_fit_to_feature_points.bl_idname)
+        layout.operator(fitting_ops.MPEG4_OT_import_fdp.bl_idname, text="Import FDP…")
+        layout.operator(fitting_ops.MPEG4_OT_export_fdp.bl_idname, text="Export FDP…")
+        layout.operator(fitting_ops.MPEG4_OT_fit_to_calibration_mesh.bl_idname)
+        layout.operator(fitting_ops.MPEG4_OT_fit_reset.bl_idname)
         layout.separator()
         layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Shape Keys").target = "SHAPE_KEYS"
         layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Point Cache").target = "POINT_CACHE"
@@ -40,10 +48,13 @@ class MPEG4_FH_fap(bpy.types.FileHandler):
 
 def menu_import(self, _context):
     self.layout.operator(ops.MPEG4_OT_import_fap.bl_idname, text="MPEG-4 FAP (.fap)")
+    self.layout.operator(fitting_ops.MPEG4_OT_import_fdp.bl_idname, text="MPEG-4 FDP (.json, XFace .fdp)")
+    self.layout.operator(speech_ops.MPEG4_OT_import_cues.bl_idname, text="Lip-Sync Cues (.tsv, .json)")
 
 
 def menu_export(self, _context):
     self.layout.operator(ops.MPEG4_OT_export_fap.bl_idname, text="MPEG-4 FAP (.fap)")
+    self.layout.operator(fitting_ops.MPEG4_OT_export_fdp.bl_idname, text="MPEG-4 FDP (.json)")
 
 
 def menu_object(self, _context):

@@ -69,6 +69,8 @@ class MPEG4_PT_face(bpy.types.Panel):
             col = layout.column(align=True)
             col.operator("mpeg4.import_fap", icon="IMPORT")
             col.operator("mpeg4.export_fap", icon="EXPORT")
+            col.operator("mpeg4.speak_text", text="Speak Text", icon="PLAY_SOUND")
+            col.operator("mpeg4.import_cues", text="Import Lip-Sync Cues", icon="SPEAKER")
             col.prop(context.scene.mpeg4, "fill_partners")
             col = layout.column(align=True)
             col.label(text="Bake the scene's frames:")
@@ -79,6 +81,16 @@ class MPEG4_PT_face(bpy.types.Panel):
             row.operator("mpeg4.bake", text="Bake Shape Keys").target = "SHAPE_KEYS"
             row.operator("mpeg4.bake", text="Bake Point Cache").target = "POINT_CACHE"
             col.operator("mpeg4.bake", text="Bake Point Cache + Alembic").target = "ALEMBIC"
+
+            box = layout.box()
+            box.label(text="Fitting", icon="SHAPEKEY_DATA")
+            col = box.column(align=True)
+            col.operator("mpeg4.fit_to_feature_points", icon="PIVOT_INDIVIDUAL")
+            col.operator("mpeg4.fit_to_calibration_mesh", icon="MOD_SHRINKWRAP")
+            row = col.row(align=True)
+            row.operator("mpeg4.import_fdp", text="Import FDP", icon="IMPORT")
+            row.operator("mpeg4.export_fdp", text="Export FDP", icon="EXPORT")
+            col.operator("mpeg4.fit_reset", icon="LOOP_BACK")
 
 
 CLASSES = (MPEG4_PT_face,)

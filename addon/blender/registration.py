@@ -2,9 +2,9 @@
 
 import bpy
 
-from . import live, menus, ops, panel, properties
+from . import fitting_ops, live, menus, ops, panel, properties, speech_ops
 
-CLASSES = (*properties.CLASSES, *ops.CLASSES, *menus.CLASSES, *panel.CLASSES)
+CLASSES = (*properties.CLASSES, *ops.CLASSES, *speech_ops.CLASSES, *fitting_ops.CLASSES, *menus.CLASSES, *panel.CLASSES)
 HANDLERS = (
     (bpy.app.handlers.frame_change_post, live.on_frame_change),
     (bpy.app.handlers.depsgraph_update_post, live.on_depsgraph_update),

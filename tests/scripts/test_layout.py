@@ -32,6 +32,7 @@ def test_every_script_sits_in_a_package():
         "build_extension.py",
         "build_kernel.py",
         "convert.py",
+        "say.py",
     }
 
 
