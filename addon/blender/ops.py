@@ -5,13 +5,14 @@ import os
 import time
 
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, IntProperty, StringProperty
 from bpy_extras import view3d_utils
 from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
 from . import bake, binding_store, face_data, face_setup, fap_io, fp_empties
+from .motion_options import GainAndClamp
 from .reporting import Mpeg4Operator, progress, report_outside_operator
 
 
@@ -164,7 +165,7 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
         return location if hit else None
 
 
-class MPEG4_OT_import_fap(Mpeg4Operator, bpy.types.Operator, ImportHelper):
+class MPEG4_OT_import_fap(GainAndClamp, Mpeg4Operator, bpy.types.Operator, ImportHelper):
     """Import an MPEG-4 FAP stream onto the active face: keys its feature points (and head turns) in one action
     named after the file"""
 
@@ -185,16 +186,6 @@ class MPEG4_OT_import_fap(Mpeg4Operator, bpy.types.Operator, ImportHelper):
         default="STREAM",
     )
     start_frame: IntProperty(name="Start Frame", default=1, description="The scene frame where the stream starts")
-    gain: FloatProperty(
-        name="Gain", default=1.0, min=0.0, soft_max=2.0, description="Scale the stream's motion (1: as recorded)"
-    )
-    clamp: FloatProperty(
-        name="Clamp",
-        default=0.0,
-        min=0.0,
-        soft_max=2000.0,
-        description="Limit each FAP value to this many FAP units after the gain (0: no limit)",
-    )
     mode: EnumProperty(
         name="Motion",
         items=(

@@ -42,6 +42,7 @@ from ..speech import coarticulation, cue_files, espeak, wav
 from ..speech.high_level import expression_values
 from . import binding_store, face_data, fap_io
 from .face_data import CREATED_PROP
+from .motion_options import GainAndClamp
 from .reporting import Mpeg4Operator
 
 FACE_PROP = "mpeg4_speech_face"  # on a strip: the face whose speech it is
@@ -320,23 +321,13 @@ _EXPRESSIONS = (("NONE", "None", "Speech only"),) + tuple(
 )
 
 
-class _SpeechOptions:
+class _SpeechOptions(GainAndClamp):
     """The options Speak Text and Import Lip-Sync Cues share with Import FAP Stream."""
 
     start_frame: IntProperty(name="Start Frame", description="The scene frame where the speech starts")
     expression: EnumProperty(name="Expression", items=_EXPRESSIONS, default="NONE")
     intensity: FloatProperty(
         name="Intensity", default=0.6, min=0.0, max=1.0, subtype="FACTOR", description="How strong the expression is"
-    )
-    gain: FloatProperty(
-        name="Gain", default=1.0, min=0.0, soft_max=2.0, description="Scale the mouth motion (1: as the tables say)"
-    )
-    clamp: FloatProperty(
-        name="Clamp",
-        default=0.0,
-        min=0.0,
-        soft_max=2000.0,
-        description="Limit each FAP value to this many FAP units after the gain (0: no limit)",
     )
     mode: EnumProperty(
         name="Motion",
