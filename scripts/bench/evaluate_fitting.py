@@ -13,7 +13,7 @@ generic head is fitted to the true face's FPs by
 - rbf: thin-plate RBF on the completed FPs' displacements (scipy's `RBFInterpolator`, degree 1);
 - none: the generic head as it is,
 
-once with all 84 FPs and once with half of them (the same random half for every face, `--seed`; the rest
+once with all FPs and once with half of them (the same random half for every face, `--seed`; the rest
 completed by `complete_feature_points`, §3.1.1). Errors are over all vertices of the head mesh, which is
 skin only (eyes, teeth and tongue are objects of their own; the bald mesh has no hair): the mean and the
 95th-percentile vertex error in mm, pooled over all faces, and the relative error = mean error / mean true
@@ -120,17 +120,20 @@ def evaluate(faces: list[TrueFace], binding: DffdBinding, generic_fps: dict[str,
 
 
 def figures(scored: dict, method: str) -> dict[str, float]:
-    """Pooled mean and p95 error (mm), pooled relative error and the median of the faces' relative errors."""
+    """Pooled mean and p95 error (mm), pooled relative error, the median of the faces' relative errors and the
+    number of faces it fits worse than not fitting at all (NaN and 0 when every face failed)."""
     if not scored:
-        return {"mean_mm": float("nan"), "p95_mm": float("nan"), "relative": float("nan"), "relative_median": 0.0}
+        empty = dict.fromkeys(("mean_mm", "p95_mm", "relative", "relative_median"), float("nan"))
+        return empty | {"worse_than_none": 0}
     errors = np.concatenate([e[method] for _, _, e in scored.values()])
     displacement = np.concatenate([d for _, d, _ in scored.values()])
-    relative = [e[method].mean() / d.mean() for _, d, e in scored.values()]
+    relative = np.array([e[method].mean() / d.mean() for _, d, e in scored.values()])
     return {
         "mean_mm": 1e3 * float(errors.mean()),
         "p95_mm": 1e3 * float(np.percentile(errors, 95)),
         "relative": float(errors.mean() / displacement.mean()),
         "relative_median": float(np.median(relative)),
+        "worse_than_none": int(np.count_nonzero(relative > 1.0)),
     }
 
 
@@ -138,17 +141,23 @@ def markdown(results: dict, command: str, n_faces: int) -> str:
     lines = [
         f"`{command}`",
         "",
-        f"{n_faces} faces; error over the head's skin vertices; relative = mean error / mean true displacement"
-        " (pooled; median over the faces in brackets).",
+        f"{n_faces} faces (those failed, below, left out); error over the head's skin vertices; relative = mean"
+        " error / mean true displacement,"
+        " pooled (the median over the faces in brackets); worse = faces fitted worse than not fitting.",
         "",
-        "| method | " + " | ".join(f"{label}: mean (mm) | p95 (mm) | relative" for label in CASES.values()) + " |",
-        "|---|" + "---:|---:|---:|" * len(CASES),
+        "| method | "
+        + " | ".join(f"{label}: mean (mm) | p95 (mm) | relative | worse" for label in CASES.values())
+        + " |",
+        "|---|" + "---:|---:|---:|---:|" * len(CASES),
     ]
     for method in METHODS:
         cells = []
         for case in CASES:
             f = figures(results[case]["scored"], method)
-            cells.append(f"{f['mean_mm']:.2f} | {f['p95_mm']:.2f} | {f['relative']:.2f} ({f['relative_median']:.2f})")
+            cells.append(
+                f"{f['mean_mm']:.2f} | {f['p95_mm']:.2f} | {f['relative']:.2f} ({f['relative_median']:.2f})"
+                f" | {f['worse_than_none']}"
+            )
         lines.append(f"| {method} | " + " | ".join(cells) + " |")
     groups = sorted({group for _, (group, _, _) in results["all_fps"]["scored"].items()})
     lines += [
@@ -206,7 +215,8 @@ def main() -> int:
     args = parser.parse_args()
     command = ".venv/bin/python -m scripts.bench.evaluate_fitting " + " ".join(sys.argv[1:])
     face = load_face(Path(args.face))
-    empties = {ob["mpeg4_fp"]: ob for ob in bpy.data.collections[f"{HEAD} FPs"].objects if "mpeg4_fp" in ob}
+    collection = bpy.data.collections[f"{HEAD} FPs"]
+    empties = {ob["mpeg4_fp"]: ob for ob in collection.objects if ob.type == "EMPTY" and "mpeg4_fp" in ob}
     positions = local_positions(face.head, empties)
     generic_fps = {fp_id: positions[fp_id] for fp_id in FP_IDS}
     binding = bind_dffd(face.rest, generic_fps)

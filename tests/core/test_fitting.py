@@ -5,6 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from addon.fitting.affine_fit import robust_affine_fit
 from addon.fitting.calibration import fit_to_calibration_mesh
 from addon.fitting.dffd import DffdBinding, bind_dffd, deform_dffd
 from addon.fitting.errors import (
@@ -96,21 +97,54 @@ def test_the_fps_not_moved_move_nothing(generic):
     np.testing.assert_array_equal(moved, generic["vertices"])
 
 
-def test_locality_a_vertex_follows_its_natural_neighbours_only(generic):
-    binding = generic["binding"]
-    n_fps = len(binding.fp_ids)
+def natural_neighbours_of(binding, fp_id: str) -> np.ndarray:
+    """(N,) whether each vertex has the FP among its natural neighbours."""
     coordinates = binding.coordinates
     used = np.arange(coordinates.indices.shape[1])[None, :] < coordinates.counts[:, None]
-    uses_box = np.any(used & (coordinates.indices >= n_fps), axis=1)
+    return np.any(used & (coordinates.indices == binding.fp_ids.index(fp_id)), axis=1)
+
+
+def test_locality_a_vertex_follows_its_natural_neighbours_only(generic):
+    binding = generic["binding"]
     moving = SKIN[0]
-    follows = np.any(used & (coordinates.indices == binding.fp_ids.index(moving)), axis=1)
+    follows = natural_neighbours_of(binding, moving)
     assert 0 < follows.sum() < len(follows) / 2  # a neighbourhood, not the whole head
     target = dict(generic["fps"])
     target[moving] = target[moving] + np.array([0.0, 0.0, 0.02])
     moved = deform_dffd(binding, target)
-    unaffected = ~follows & ~uses_box  # the box corners carry the FPs' affine part, which the move changes
-    np.testing.assert_array_equal(moved[unaffected], generic["vertices"][unaffected])
+    # one FP's motion is no affine motion of the face: the auxiliary sites stay, and so does every other vertex
+    np.testing.assert_array_equal(moved[~follows], generic["vertices"][~follows])
     assert np.all(np.linalg.norm(moved[follows] - generic["vertices"][follows], axis=1) > 0)
+
+
+def test_a_local_motion_on_top_of_an_affine_one_moves_the_rest_by_the_affine_map(generic):
+    binding = generic["binding"]
+    matrix, shift = np.diag([1.1, 0.95, 1.05]) + 0.05 * np.eye(3)[::-1], np.array([0.01, -0.02, 0.005])
+    local = SKIN[:3]  # three FPs side by side on the lowest ring of the egg, say a chin pushed forward
+    target = {fp_id: matrix @ p + shift for fp_id, p in generic["fps"].items()}
+    for fp_id in local:
+        target[fp_id] = target[fp_id] + np.array([0.0, -0.015, 0.0])
+    moved = deform_dffd(binding, target)
+    elsewhere = ~np.any([natural_neighbours_of(binding, fp_id) for fp_id in local], axis=0)
+    expected = generic["vertices"] @ matrix.T + shift
+    reach = np.linalg.norm(np.ptp(expected, axis=0))
+    assert np.max(np.abs(moved[elsewhere] - expected[elsewhere])) <= 1e-9 * reach
+    assert np.all(np.linalg.norm(moved[~elsewhere] - expected[~elsewhere], axis=1) > 0)
+
+
+def test_the_robust_affine_fit():
+    rng = np.random.default_rng(3)
+    rest = rng.normal(0.0, 0.05, (40, 3))
+    assert not np.any(robust_affine_fit(rest, np.zeros((40, 3))))
+    affine = np.vstack([np.eye(3) + 0.3 * rng.normal(size=(3, 3)), rng.normal(0.0, 0.02, 3)])
+    homogeneous = np.column_stack([rest, np.ones(40)])
+    motion = homogeneous @ affine
+    np.testing.assert_allclose(robust_affine_fit(rest, motion), affine, atol=1e-12)
+    outliers = motion.copy()
+    outliers[:12] += rng.normal(0.0, 0.02, (12, 3))  # 12 of 40 FPs moved on their own
+    np.testing.assert_allclose(robust_affine_fit(rest, outliers), affine, atol=1e-12)
+    least_squares, *_ = np.linalg.lstsq(homogeneous, outliers, rcond=None)
+    assert np.max(np.abs(least_squares - affine)) > 1e-3  # what the least-squares fit would have given
 
 
 def test_the_binding_saves_and_loads_as_plain_arrays_bit_for_bit(generic):
@@ -124,7 +158,8 @@ def test_the_binding_saves_and_loads_as_plain_arrays_bit_for_bit(generic):
 @pytest.mark.parametrize(
     ("name", "change", "message"),
     [
-        ("format_version", lambda a: np.array(2, np.int64), "format version"),
+        ("format_version", lambda a: np.array(1, np.int64), "format version"),  # 8 box corners, least squares
+        ("rest_auxiliary", lambda a: a[:8], "shape"),
         ("indices", lambda a: np.where(a == 0, 10_000, a).astype(np.int32), "site indices"),
         ("weights", lambda a: a * 1.01, "sum to"),
         ("weights", lambda a: np.where(a > 0.5, np.nan, a), "finite"),
@@ -215,10 +250,12 @@ def test_missing_fps_by_the_papers_formula_a_worked_example():
         np.testing.assert_array_equal(completed.positions[fp_id], given[fp_id])
 
 
-def test_missing_fps_off_the_unrolled_surface_follow_the_affine_fit():
+@pytest.mark.parametrize("local_motion", [0.0, 0.02])
+def test_missing_fps_off_the_unrolled_surface_follow_the_affine_fit(local_motion):
     fps = head_fps()
     matrix, shift = np.diag([1.1, 0.9, 1.2]), np.array([0.01, 0.0, -0.02])
     given = {fp_id: matrix @ p + shift for fp_id, p in fps.items() if fp_id not in ("7.1", "9.8")}
+    given[SKIN[0]] = given[SKIN[0]] + local_motion  # one FP of its own does not carry the FPs inside
     completed = complete_feature_points(fps, given)
     assert completed.affine == ("7.1", "9.8")  # inside the head: no cylinder sees them
     for fp_id in ("7.1", "9.8"):
