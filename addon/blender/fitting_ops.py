@@ -37,9 +37,8 @@ from ..fitting.texture import texture_coordinates
 from ..fitting.xface_fdp import XfaceFdp, read_xface_fdp
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.fapu import FapuError, compute_fapu
-from . import face_data, face_setup, fitting_store, followers, fp_empties, live, rest_shape
+from . import face_data, face_setup, fitting_store, followers, fp_empties, live, poll, rest_shape
 from .fitting_store import FaceShape, PartPose
-from .ops import _face, _no_face, _not_set_up
 from .reporting import Mpeg4Operator, Warn, progress
 
 AXES = BLENDER_FACE_AXES
@@ -502,7 +501,7 @@ def fit_to_calibration(context, face) -> list[str]:
 
 
 def _no_generic(context) -> str | None:
-    reason = _not_set_up(context)
+    reason = poll.not_set_up(context)
     if reason is None and not fitting_store.has_generic(face_data.active_face(context)):
         return f"{face_data.active_face(context).name} has not been fitted"
     return reason
@@ -518,10 +517,10 @@ class MPEG4_OT_fit_to_feature_points(Mpeg4Operator, bpy.types.Operator):
 
     @classmethod
     def unavailable(cls, context):
-        return _not_set_up(context)
+        return poll.not_set_up(context)
 
     def run(self, context):
-        return fit_to_feature_points(context, _face(context))
+        return fit_to_feature_points(context, poll.face(context))
 
 
 class MPEG4_OT_import_fdp(Mpeg4Operator, bpy.types.Operator, ImportHelper):
@@ -546,10 +545,10 @@ class MPEG4_OT_import_fdp(Mpeg4Operator, bpy.types.Operator, ImportHelper):
 
     @classmethod
     def unavailable(cls, context):
-        return _not_set_up(context)
+        return poll.not_set_up(context)
 
     def run(self, context):
-        return import_fdp(context, _face(context), self.filepath, self.xface_unit)
+        return import_fdp(context, poll.face(context), self.filepath, self.xface_unit)
 
 
 class MPEG4_OT_export_fdp(Mpeg4Operator, bpy.types.Operator, ExportHelper):
@@ -564,13 +563,13 @@ class MPEG4_OT_export_fdp(Mpeg4Operator, bpy.types.Operator, ExportHelper):
 
     @classmethod
     def unavailable(cls, context):
-        reason = _no_face(context)
+        reason = poll.no_face(context)
         if reason is None and not face_data.fp_empties(face_data.active_face(context)):
             return f"{face_data.active_face(context).name} has no feature point empties"
         return reason
 
     def run(self, context):
-        return export_fdp(_face(context), self.filepath)
+        return export_fdp(poll.face(context), self.filepath)
 
 
 class MPEG4_OT_fit_to_calibration_mesh(Mpeg4Operator, bpy.types.Operator):
@@ -583,10 +582,10 @@ class MPEG4_OT_fit_to_calibration_mesh(Mpeg4Operator, bpy.types.Operator):
 
     @classmethod
     def unavailable(cls, context):
-        return _not_set_up(context) or _target_reason(context, face_data.active_face(context))
+        return poll.not_set_up(context) or _target_reason(context, face_data.active_face(context))
 
     def run(self, context):
-        return fit_to_calibration(context, _face(context))
+        return fit_to_calibration(context, poll.face(context))
 
 
 class MPEG4_OT_fit_reset(Mpeg4Operator, bpy.types.Operator):
@@ -602,7 +601,7 @@ class MPEG4_OT_fit_reset(Mpeg4Operator, bpy.types.Operator):
         return _no_generic(context)
 
     def run(self, context):
-        return back_to_generic(context, _face(context))
+        return back_to_generic(context, poll.face(context))
 
 
 CLASSES = (

@@ -11,32 +11,9 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
-from . import bake, binding_store, face_data, face_setup, fap_io, fp_empties
+from . import bake, face_data, face_setup, fap_io, fp_empties, poll
 from .motion_options import GainAndClamp
 from .reporting import Mpeg4Operator, progress, report_outside_operator
-
-
-def _face(context):
-    face = face_data.active_face(context)
-    if face is None:
-        raise Mpeg4Error("select the face mesh (or one of its feature point empties) first")
-    return face
-
-
-def _no_face(context) -> str | None:
-    face = face_data.active_face(context)
-    if face is None:
-        return "Select the face mesh (or one of its feature point empties) first"
-    if face.mode != "OBJECT":
-        return f"{face.name} is in {face.mode.title().replace('_', ' ')} Mode: go back to Object Mode"
-    return None
-
-
-def _not_set_up(context) -> str | None:
-    reason = _no_face(context)
-    if reason is None and not binding_store.is_bound(face_data.active_face(context)):
-        return f"{face_data.active_face(context).name} is not set up: run Set Up Face first"
-    return reason
 
 
 class MPEG4_OT_setup_face(Mpeg4Operator, bpy.types.Operator):
@@ -49,10 +26,10 @@ class MPEG4_OT_setup_face(Mpeg4Operator, bpy.types.Operator):
 
     @classmethod
     def unavailable(cls, context):
-        return _no_face(context)
+        return poll.no_face(context)
 
     def run(self, context):
-        return face_setup.set_up(_face(context))
+        return face_setup.set_up(poll.face(context))
 
 
 class MPEG4_OT_remove_face(Mpeg4Operator, bpy.types.Operator):
@@ -64,10 +41,10 @@ class MPEG4_OT_remove_face(Mpeg4Operator, bpy.types.Operator):
 
     @classmethod
     def unavailable(cls, context):
-        return _not_set_up(context)
+        return poll.not_set_up(context)
 
     def run(self, context):
-        return face_setup.remove(_face(context))
+        return face_setup.remove(poll.face(context))
 
 
 def _fp_items(_self, _context):
@@ -86,10 +63,10 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
 
     @classmethod
     def unavailable(cls, context):
-        return _no_face(context)
+        return poll.no_face(context)
 
     def run(self, context):
-        face = _face(context)
+        face = poll.face(context)
         placed = fp_empties.place(face, self.fp_id, self.location, mirror=face.mpeg4_face.use_x_mirror)
         return [f"placed {', '.join(ob.name for ob in placed)}"]
 
@@ -205,7 +182,7 @@ class MPEG4_OT_import_fap(GainAndClamp, Mpeg4Operator, bpy.types.Operator, Impor
 
     @classmethod
     def unavailable(cls, context):
-        return _not_set_up(context)
+        return poll.not_set_up(context)
 
     def invoke(self, context, event):
         if not self.properties.is_property_set("start_frame"):
@@ -220,7 +197,7 @@ class MPEG4_OT_import_fap(GainAndClamp, Mpeg4Operator, bpy.types.Operator, Impor
         return [self.filepath]
 
     def run(self, context):
-        face = _face(context)
+        face = poll.face(context)
         paths = self._paths()
         if len(paths) != 1:
             raise Mpeg4Error(f"import one .fap stream at a time ({len(paths)} were given)")
@@ -250,13 +227,13 @@ class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):
 
     @classmethod
     def unavailable(cls, context):
-        return _not_set_up(context)
+        return poll.not_set_up(context)
 
     def run(self, context):
         scene = context.scene
         start = scene.frame_start if self.frame_start < 0 else self.frame_start
         end = scene.frame_end if self.frame_end < 0 else self.frame_end
-        return fap_io.export_fap(context, _face(context), self.filepath, start, end)
+        return fap_io.export_fap(context, poll.face(context), self.filepath, start, end)
 
 
 NAVIGATION_EVENTS = {
@@ -302,13 +279,13 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
 
     @classmethod
     def unavailable(cls, context):
-        reason = _not_set_up(context)
+        reason = poll.not_set_up(context)
         if reason is None and not face_data.active_face(context).mpeg4_face.enabled:
             return "Turn Deform on before baking"
         return reason
 
     def _bake(self, context) -> bake.Bake:
-        face = _face(context)
+        face = poll.face(context)
         scene = context.scene
         start = self.frame_start if self.properties.is_property_set("frame_start") else scene.frame_start
         end = self.frame_end if self.properties.is_property_set("frame_end") else scene.frame_end

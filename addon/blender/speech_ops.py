@@ -40,7 +40,7 @@ from ..mpeg4.faps import Expression
 from ..mpeg4.stream_timing import MAXFRAME
 from ..speech import coarticulation, cue_files, espeak, wav
 from ..speech.high_level import expression_values
-from . import binding_store, face_data, fap_io
+from . import fap_io, poll
 from .face_data import CREATED_PROP
 from .motion_options import GainAndClamp
 from .reporting import Mpeg4Operator
@@ -296,26 +296,6 @@ def import_cues(context, face, path, options, layer=Layer(), audio_file="") -> l
 # ----------------------------------------------------------------------------- operators
 
 
-def _set_up_face(context):
-    """The active face if it can speak now, else why not. (ops.py has the same checks, but importing it here would
-    close a circle: ops -> face_setup -> this module.)"""
-    face = face_data.active_face(context)
-    if face is None:
-        return "Select the face mesh (or one of its feature point empties) first"
-    if face.mode != "OBJECT":
-        return f"{face.name} is in {face.mode.title().replace('_', ' ')} Mode: go back to Object Mode"
-    if not binding_store.is_bound(face):
-        return f"{face.name} is not set up: run Set Up Face first"
-    return face
-
-
-def _face(context):
-    face = _set_up_face(context)
-    if isinstance(face, str):
-        raise Mpeg4Error(face)
-    return face
-
-
 _EXPRESSIONS = (("NONE", "None", "Speech only"),) + tuple(
     (e.name, e.name.title(), f"Hold {e.name.lower()} (FAP 2 table) over the speech") for e in Expression if e
 )
@@ -351,8 +331,7 @@ class _SpeechOptions(GainAndClamp):
 
     @classmethod
     def unavailable(cls, context):
-        face = _set_up_face(context)
-        return face if isinstance(face, str) else None
+        return poll.not_set_up(context)
 
     def _start(self, context) -> None:
         if not self.properties.is_property_set("start_frame"):
@@ -408,7 +387,7 @@ class MPEG4_OT_speak_text(_SpeechOptions, Mpeg4Operator, bpy.types.Operator):
     def run(self, context):
         return speak_text(
             context,
-            _face(context),
+            poll.face(context),
             self.text,
             self.voice,
             self.rate,
@@ -441,7 +420,9 @@ class MPEG4_OT_import_cues(_SpeechOptions, Mpeg4Operator, bpy.types.Operator, Im
         return ImportHelper.invoke(self, context, event)
 
     def run(self, context):
-        return import_cues(context, _face(context), self.filepath, self._options(), self._layer(), self.audio_filepath)
+        return import_cues(
+            context, poll.face(context), self.filepath, self._options(), self._layer(), self.audio_filepath
+        )
 
 
 CLASSES = (MPEG4_OT_speak_text, MPEG4_OT_import_cues)
