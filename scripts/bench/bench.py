@@ -51,8 +51,8 @@ def _operator(op, **kwargs) -> None:
         raise SystemExit(f"{op.idname()} did not finish")
 
 
-def prepare(level: int, stream: Path) -> tuple[bpy.types.Object, float]:
-    """Open the sample, subdivide the head, set it up and import the stream; returns (head, set-up time)."""
+def set_up_sample(level: int) -> tuple[bpy.types.Object, float]:
+    """Open the sample, subdivide the head `level` times (applied) and set it up; returns (head, set-up time)."""
     bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
     head = bpy.data.objects["Head"]
     _select(head)
@@ -63,7 +63,12 @@ def prepare(level: int, stream: Path) -> tuple[bpy.types.Object, float]:
         bpy.ops.object.modifier_apply(modifier=modifier.name)
     start = time.perf_counter()
     _operator(bpy.ops.mpeg4.setup_face)
-    bind_s = time.perf_counter() - start
+    return head, time.perf_counter() - start
+
+
+def prepare(level: int, stream: Path) -> tuple[bpy.types.Object, float]:
+    """The set-up head at `level` with the stream imported; returns (head, set-up time)."""
+    head, bind_s = set_up_sample(level)
     _operator(bpy.ops.mpeg4.import_fap, filepath=str(stream), start_frame=1)
     return head, bind_s
 

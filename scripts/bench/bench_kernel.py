@@ -19,18 +19,15 @@ import argparse
 import os
 import sys
 import time
-from pathlib import Path
 
-import bpy
 import numpy as np
 
 import addon
 from addon.blender import binding_store
 from addon.deform import fused
 from addon.deform.planar_bones import evaluate
+from scripts.bench.bench import set_up_sample
 
-ROOT = Path(__file__).resolve().parents[2]
-SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
 VARIANTS = {  # name: environment
     "numpy": {fused.DISABLE: "1"},
     "kernel, 1 thread": {fused.THREADS_VARIABLE: "1"},
@@ -41,17 +38,7 @@ VARIANTS = {  # name: environment
 
 def prepare(level: int):
     """The sample head subdivided at ``level`` and set up; its binding."""
-    bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
-    head = bpy.data.objects["Head"]
-    bpy.context.view_layer.objects.active = head
-    head.select_set(True)
-    bpy.ops.mpeg4.remove_face()
-    if level:
-        modifier = head.modifiers.new("Subdivision", "SUBSURF")
-        modifier.levels = level
-        bpy.ops.object.modifier_apply(modifier=modifier.name)
-    if bpy.ops.mpeg4.setup_face() != {"FINISHED"}:
-        raise SystemExit("Set Up Face did not finish")
+    head, _bind_s = set_up_sample(level)
     return binding_store.load(head)
 
 
