@@ -41,10 +41,10 @@ import numpy as np
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from .cylinder import FaceCylinder
-from .errors import CalibrationError, FoldError
+from .errors import CalibrationError
 from .expansion import Band, ExpandedTriangulation, expand_values
 from .feature_point_set import check_vertices, fp_array
-from .plane_triangulation import folded_triangles
+from .plane_triangulation import refuse_folds
 
 CANDIDATE_SLACK = 0.05  # barycentric slack for the triangle a point without a ray hit sits in
 HIT_SLACK = 1e-9  # barycentric slack of the exact ray-triangle test
@@ -107,13 +107,14 @@ def fit_to_calibration_mesh(
         "FPs shared by the generic face and the calibration mesh, unrolled",
     )
     originals = expanded.original_triangles()
-    folded = folded_triangles(generic_unrolled, mesh_fp_unrolled, originals)
-    if len(folded):
-        names = "; ".join(", ".join(ids[k] for k in originals[t]) for t in folded[:6])
-        raise FoldError(
-            f"the calibration mesh's FPs fold the face: triangle(s) {names} are mirrored relative to the generic "
-            "face (are left and right swapped, or a point placed on the wrong feature?)"
-        )
+    refuse_folds(
+        generic_unrolled,
+        mesh_fp_unrolled,
+        originals,
+        ids,
+        "the calibration mesh's FPs fold the face",
+        "the generic face (are left and right swapped, or a point placed on the wrong feature?)",
+    )
 
     # §3.3: the generic face's unrolled vertices mapped onto the calibration mesh's unrolled surface
     corners, weights = expanded.locate(generic_flat)

@@ -34,9 +34,9 @@ import numpy as np
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from .affine_fit import robust_affine_fit
 from .cylinder import FaceCylinder, on_outer_surface
-from .errors import CoincidentFeaturePointsError, FeaturePointError, FoldError
+from .errors import CoincidentFeaturePointsError, FeaturePointError
 from .feature_point_set import COINCIDENT_FRACTION, coincident_groups, extent, fp_array, require_spatial
-from .plane_triangulation import folded_triangles, locate, triangulate
+from .plane_triangulation import locate, refuse_folds, triangulate
 
 
 @dataclass(frozen=True)
@@ -85,14 +85,14 @@ def complete_feature_points(
     triangulation = triangulate(unrolled, nodes, "given FPs on the unrolled generic face")
     angles = unrolled[:, 0] / generic_cylinder.radius
     target_unrolled = target_cylinder.unwrap(target_cylinder.project(node_target), angles)
-    folded = folded_triangles(unrolled, target_unrolled, triangulation.simplices)
-    if len(folded):
-        names = "; ".join(", ".join(nodes[k] for k in triangulation.simplices[t]) for t in folded[:6])
-        more = f" and {len(folded) - 6} more" if len(folded) > 6 else ""
-        raise FoldError(
-            f"the given FPs fold the face: triangle(s) {names}{more} are mirrored relative to the generic face "
-            "(are left and right swapped, or a point placed on the wrong feature?)"
-        )
+    refuse_folds(
+        unrolled,
+        target_unrolled,
+        triangulation.simplices,
+        nodes,
+        "the given FPs fold the face",
+        "the generic face (are left and right swapped, or a point placed on the wrong feature?)",
+    )
 
     on_surface = [missing[row] for row in generic_cylinder.unrollable(missing, np.array([rest[f] for f in missing]))]
     interpolated, outside = [], []

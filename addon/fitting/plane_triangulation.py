@@ -11,7 +11,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.spatial import Delaunay, QhullError, cKDTree
 
-from .errors import CoincidentFeaturePointsError, FeaturePointError
+from .errors import CoincidentFeaturePointsError, FeaturePointError, FoldError
 
 # Points closer than this fraction of the set's extent are one point to the triangulation.
 SAME_POINT_FRACTION = 1e-9
@@ -62,6 +62,18 @@ def folded_triangles(reference: np.ndarray, points: np.ndarray, triangles: np.nd
     area = np.sign(reference_area) * signed_areas(points, triangles)
     shaped = np.abs(reference_area) >= SLIVER_FRACTION * _longest_squared(reference, triangles)
     return np.flatnonzero(shaped & (area < -FOLD_FRACTION * _longest_squared(points, triangles)))
+
+
+def refuse_folds(reference: np.ndarray, points: np.ndarray, triangles: np.ndarray, ids, what: str, why: str) -> None:
+    """FoldError naming (up to six of) the triangles folded in `points` relative to `reference`.
+
+    `what` says what folds ("the given FPs fold the face"), `why` what the triangles are mirrored relative to and
+    the likely cause ("the generic face (are left and right swapped, ...)")."""
+    folded = folded_triangles(reference, points, triangles)
+    if len(folded):
+        names = "; ".join(", ".join(ids[k] for k in triangles[t]) for t in folded[:6])
+        more = f" and {len(folded) - 6} more" if len(folded) > 6 else ""
+        raise FoldError(f"{what}: triangle(s) {names}{more} are mirrored relative to {why}")
 
 
 def _longest_squared(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:

@@ -24,10 +24,10 @@ import numpy as np
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from .cylinder import FaceCylinder
-from .errors import FeaturePointError, FoldError, TextureCoordinateError
+from .errors import FeaturePointError, TextureCoordinateError
 from .expansion import Band, ExpandedTriangulation
 from .feature_point_set import check_vertices, fp_array
-from .plane_triangulation import folded_triangles
+from .plane_triangulation import refuse_folds
 
 
 @dataclass(frozen=True)
@@ -63,13 +63,14 @@ def texture_coordinates(
     )
     used_uvs = uvs[usable]
     triangles = expanded.original_triangles()
-    folded = folded_triangles(unrolled, used_uvs, triangles)
-    if len(folded):
-        names = "; ".join(", ".join(used[k] for k in triangles[t]) for t in folded[:6])
-        raise FoldError(
-            f"the texture coordinates fold the texture: triangle(s) {names} are mirrored relative to the face "
-            "(is the picture flipped, or a point's UVs on the wrong feature?)"
-        )
+    refuse_folds(
+        unrolled,
+        used_uvs,
+        triangles,
+        used,
+        "the texture coordinates fold the texture",
+        "the face (is the picture flipped, or a point's UVs on the wrong feature?)",
+    )
     corners, weights = expanded.locate(unrolled_vertices)
     result = np.einsum("nk,nkd->nd", weights, used_uvs[corners % len(used)])
     unused = tuple(fp_id for fp_id in uv_ids if fp_id not in used)
