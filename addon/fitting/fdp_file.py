@@ -38,6 +38,7 @@ import numpy as np
 from ..errors import Mpeg4Error
 from ..mpeg4.fapu import Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
+from ..user_files import UserFileError, read_regular_file
 
 FORMAT = "mpeg4-face-fdp"
 VERSION = 1
@@ -67,10 +68,11 @@ class Fdp:
 def read_fdp(path: str | os.PathLike) -> Fdp:
     path = Path(path)
     try:
-        with open(path, "rb") as stream:
-            data = stream.read(MAX_BYTES + 1)
-    except OSError as error:
-        raise FdpFileError(f"{path}: cannot read: {error.strerror or error}") from None
+        data = read_regular_file(path, MAX_BYTES)
+    except UserFileError as error:
+        if error.too_large:
+            raise FdpFileError(f"{path}: larger than {MAX_BYTES} bytes; not an FDP file") from None
+        raise FdpFileError(f"{path}: {error.problem}") from None
     if len(data) > MAX_BYTES:
         raise FdpFileError(f"{path}: larger than {MAX_BYTES} bytes; not an FDP file")
     return parse_fdp(data, str(path))

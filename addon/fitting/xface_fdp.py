@@ -29,6 +29,7 @@ import numpy as np
 from ..errors import Mpeg4Error
 from ..mpeg4.fapu import Fapu
 from ..mpeg4.feature_points import FP_IDS
+from ..user_files import UserFileError, read_regular_file
 
 MAX_BYTES = 16 << 20
 VERSION = "0.2"
@@ -108,10 +109,11 @@ class XfaceFdp:
 def read_xface_fdp(path: str | os.PathLike) -> XfaceFdp:
     path = Path(path)
     try:
-        with open(path, "rb") as stream:
-            data = stream.read(MAX_BYTES + 1)
-    except OSError as error:
-        raise XfaceFdpError(f"{path}: cannot read: {error.strerror or error}") from None
+        data = read_regular_file(path, MAX_BYTES)
+    except UserFileError as error:
+        if error.too_large:
+            raise XfaceFdpError(f"{path}: larger than {MAX_BYTES} bytes; not an XFace FDP") from None
+        raise XfaceFdpError(f"{path}: {error.problem}") from None
     return parse_xface_fdp(data, str(path))
 
 

@@ -47,13 +47,13 @@ import math
 import os
 import re
 import secrets
-import stat
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import Mpeg4Error
+from ..user_files import UserFileError, read_regular_file
 from .faps import N_FAPS
 
 __all__ = ["N_FAPS", "FapFileError", "FapStream", "format_fap", "parse_fap", "read_fap", "write_fap"]
@@ -183,55 +183,16 @@ def read_fap(path_or_text, *, source_name: str | None = None) -> FapStream:
     return parse_fap(_read_regular_file(path_or_text, source), source)
 
 
-_FILE_KINDS = (
-    (stat.S_ISDIR, "a directory"),
-    (stat.S_ISFIFO, "a named pipe (FIFO)"),
-    (stat.S_ISCHR, "a character device"),
-    (stat.S_ISBLK, "a block device"),
-    (stat.S_ISSOCK, "a socket"),
-)
-# O_NONBLOCK: should a FIFO take the file's place between the stat and the open, the open returns at once
-# (and fstat refuses it) instead of waiting for a writer. It changes nothing for a regular file.
-_OPEN_FLAGS = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NONBLOCK", 0)
-
-
-def _not_regular(mode: int, source: str) -> FapFileError:
-    kind = next((name for is_kind, name in _FILE_KINDS if is_kind(mode)), "a special file")
-    return FapFileError(f"{source}: not a regular file but {kind}")
-
-
-def _too_large(source: str) -> FapFileError:
-    return FapFileError(f"{source}: larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs")
-
-
 def _read_regular_file(path, source: str) -> bytes:
     """The bytes of the regular file `path`, at most MAX_FILE_BYTES of them, else FapFileError."""
     try:
-        mode = os.stat(path).st_mode
-        # A FIFO (opening one waits for a writer), a device (/dev/zero never ends) or a folder is refused
-        # before it is opened.
-        fd = os.open(path, _OPEN_FLAGS) if stat.S_ISREG(mode) else None
-    except (OSError, ValueError) as exc:  # ValueError: a path with a NUL character
-        raise FapFileError(f"{source}: cannot read the file: {exc}") from None
-    if fd is None:
-        raise _not_regular(mode, source)
-    try:
-        with open(fd, "rb") as file:
-            info = os.fstat(fd)
-            if not stat.S_ISREG(info.st_mode):
-                raise _not_regular(info.st_mode, source)
-            if info.st_size > MAX_FILE_BYTES:
-                raise _too_large(source)
-            # The size is a hint only (the file may grow; /proc files claim 0): read one byte more than it
-            # promises, and only if that byte comes, on to one byte past the cap.
-            data = file.read(info.st_size + 1)
-            if len(data) > info.st_size:
-                data += file.read(MAX_FILE_BYTES + 1 - len(data))
-    except OSError as exc:
-        raise FapFileError(f"{source}: cannot read the file: {exc}") from None
-    if len(data) > MAX_FILE_BYTES:
-        raise _too_large(source)
-    return data
+        return read_regular_file(path, MAX_FILE_BYTES)
+    except UserFileError as exc:
+        if exc.too_large:
+            raise FapFileError(
+                f"{source}: larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs"
+            ) from None
+        raise FapFileError(f"{source}: {exc.problem}") from None
 
 
 def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:

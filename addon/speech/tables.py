@@ -12,8 +12,6 @@ from __future__ import annotations
 import functools
 import json
 import math
-import os
-import stat
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,6 +20,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ..mpeg4.faps import FAPS, N_FAPS, Expression, Viseme, fap
+from ..user_files import UserFileError, read_regular_file
 from . import SpeechError
 
 DATA = Path(__file__).resolve().with_name("data")
@@ -122,14 +121,11 @@ def read_text(path: Path | str, what: str) -> str:
     """A small UTF-8 text file (a regular file, at most MAX_FILE_BYTES); SpeechError naming the file."""
     source = str(path)
     try:
-        if not stat.S_ISREG(os.stat(path).st_mode):
-            raise SpeechError(f"{source}: the {what} is not a regular file")
-        with open(path, "rb") as file:
-            data = file.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise SpeechError(f"{source}: cannot read the {what}: {exc.strerror or exc}") from None
-    if len(data) > MAX_FILE_BYTES:
-        raise SpeechError(f"{source}: the {what} is larger than {MAX_FILE_BYTES // 2**20} MiB")
+        data = read_regular_file(path, MAX_FILE_BYTES)
+    except UserFileError as exc:
+        if exc.too_large:
+            raise SpeechError(f"{source}: the {what} is larger than {MAX_FILE_BYTES // 2**20} MiB") from None
+        raise SpeechError(f"{source}: the {what}: {exc.problem}") from None
     try:
         return data.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:

@@ -13,6 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from addon import user_files
 from addon.mpeg4 import fap_file
 from addon.mpeg4.fap_file import (
     MAX_FRAME_NUMBER,
@@ -410,13 +411,13 @@ def test_a_fifo_that_takes_the_files_place_after_the_check_is_refused_without_wa
     fifo = tmp_path / "swapped.fap"
     os.mkfifo(fifo)
     checks = []
-    real_is_regular = fap_file.stat.S_ISREG
+    real_is_regular = user_files.stat.S_ISREG
 
     def regular_at_first(mode):  # the path was a regular file when it was first looked at
         checks.append(mode)
         return len(checks) == 1 or real_is_regular(mode)
 
-    monkeypatch.setattr(fap_file.stat, "S_ISREG", regular_at_first)
+    monkeypatch.setattr(user_files.stat, "S_ISREG", regular_at_first)
     with pytest.raises(FapFileError) as info:
         read_fap_within(fifo)
     assert str(info.value) == f"{fifo}: not a regular file but a named pipe (FIFO)"

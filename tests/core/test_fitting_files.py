@@ -1,6 +1,7 @@
 """FDP files: the add-on's JSON FDP (round trip, strict checks) and XFace's .fdp XML (hand-made and real files)."""
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -263,3 +264,15 @@ def test_xface_song():
     assert lower_lip.control_vertex == 513
     assert [(i.fap, i.weight) for i in lower_lip.influences] == [(16, -0.1), (5, 0.25)]  # push_b_lip reversed
     assert {p.mesh for p in fdp.feature_points if p.fp_id == "2.1"} == {"song_head-FACES", "song_teeth_lower-FACES"}
+
+
+@pytest.mark.parametrize("reader", ["fdp", "xface"])
+def test_a_fifo_is_refused_without_waiting_for_a_writer(tmp_path, reader):
+    from addon.fitting.fdp_file import FdpFileError, read_fdp
+    from addon.fitting.xface_fdp import XfaceFdpError, read_xface_fdp
+
+    fifo = tmp_path / "face.fdp"
+    os.mkfifo(fifo)
+    read, error = (read_fdp, FdpFileError) if reader == "fdp" else (read_xface_fdp, XfaceFdpError)
+    with pytest.raises(error, match="face.fdp: not a regular file but a named pipe"):
+        read(fifo)

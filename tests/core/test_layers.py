@@ -5,7 +5,17 @@ from pathlib import Path
 
 ADDON = Path(__file__).resolve().parents[2] / "addon"
 # lower numbers sit lower: a module may import its own layer or lower ones only
-LAYERS = {"errors": 0, "geometry": 1, "formats": 1, "mpeg4": 2, "deform": 2, "speech": 3, "fitting": 3, "blender": 4}
+LAYERS = {
+    "errors": 0,
+    "user_files": 0,
+    "geometry": 1,
+    "formats": 1,
+    "mpeg4": 2,
+    "deform": 2,
+    "speech": 3,
+    "fitting": 3,
+    "blender": 4,
+}
 
 
 def _module(path: Path) -> str:

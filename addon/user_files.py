@@ -1,0 +1,64 @@
+"""Reading a file a user named, safely: only a regular file, and never more than a cap (no bpy).
+
+A FIFO (opening one waits for a writer), a device (/dev/zero never ends) or a folder is refused before it is
+opened; the open is non-blocking and re-checked with fstat, so a FIFO swapped in between cannot block either.
+The file's size is a hint only (a file may grow; /proc files claim 0): at most `max_bytes + 1` bytes are read.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+
+from .errors import Mpeg4Error
+
+_FILE_KINDS = (
+    (stat.S_ISDIR, "a directory"),
+    (stat.S_ISFIFO, "a named pipe (FIFO)"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
+# O_NONBLOCK changes nothing for a regular file; for a FIFO it makes the open return at once
+_OPEN_FLAGS = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NONBLOCK", 0)
+
+
+class UserFileError(Mpeg4Error):
+    """The file cannot be read; `problem` says why without naming the file, `too_large` marks the size cap
+    (each reader words that one itself)."""
+
+    def __init__(self, problem: str, too_large: bool = False):
+        super().__init__(problem)
+        self.problem = problem
+        self.too_large = too_large
+
+
+def _not_regular(mode: int) -> UserFileError:
+    kind = next((name for is_kind, name in _FILE_KINDS if is_kind(mode)), "a special file")
+    return UserFileError(f"not a regular file but {kind}")
+
+
+def read_regular_file(path, max_bytes: int) -> bytes:
+    """The bytes of the regular file `path`, at most `max_bytes` of them, else UserFileError."""
+    try:
+        mode = os.stat(path).st_mode
+        fd = os.open(path, _OPEN_FLAGS) if stat.S_ISREG(mode) else None
+    except (OSError, ValueError) as exc:  # ValueError: a path with a NUL character
+        raise UserFileError(f"cannot read the file: {exc}") from None
+    if fd is None:
+        raise _not_regular(mode)
+    try:
+        with open(fd, "rb") as file:
+            info = os.fstat(fd)
+            if not stat.S_ISREG(info.st_mode):
+                raise _not_regular(info.st_mode)
+            if info.st_size > max_bytes:
+                raise UserFileError("too large", too_large=True)
+            data = file.read(info.st_size + 1)
+            if len(data) > info.st_size:
+                data += file.read(max_bytes + 1 - len(data))
+    except OSError as exc:
+        raise UserFileError(f"cannot read the file: {exc}") from None
+    if len(data) > max_bytes:
+        raise UserFileError("too large", too_large=True)
+    return data
