@@ -87,6 +87,58 @@ def local_positions(face: bpy.types.Object, objects: dict[str, bpy.types.Object]
     return dict(zip(objects, np.array(rows, dtype=np.float64), strict=True))
 
 
+class FpReader:
+    """Face-local positions of chosen FP empties, read each frame in three `foreach_get` calls.
+
+    The FP collection's objects are read together (session ids, locations, world matrices); the row of each
+    wanted FP is cached and found again when the collection's objects change. A location is taken as the
+    face-local position when the world matrix agrees with `face.matrix_world @ location` (a plain child, the
+    usual case); any other empty (a constraint, another parent, a delta transform, a world matrix not yet
+    evaluated) goes through `local_positions`, one by one, as before.
+    """
+
+    def __init__(self, fp_ids: list[str]):
+        self.fp_ids = fp_ids
+        self._uids: np.ndarray | None = None
+        self._rows: np.ndarray | None = None
+
+    def _find_rows(self, face: bpy.types.Object, objects, uids: np.ndarray) -> None:
+        empties = fp_empties(face)
+        missing = [fp_id for fp_id in self.fp_ids if fp_id not in empties]
+        if missing:
+            raise LookupError(f"feature point empties missing: {', '.join(missing)}")
+        row_of = {ob.session_uid: row for row, ob in enumerate(objects)}
+        self._rows = np.array([row_of[empties[fp_id].session_uid] for fp_id in self.fp_ids], dtype=np.intp)
+        self._uids = uids.copy()
+
+    def read(self, face: bpy.types.Object) -> np.ndarray:
+        """(M, 3) float64 positions in `fp_ids` order; LookupError when an FP empty is missing."""
+        coll = fp_collection(face)
+        if coll is None:
+            raise LookupError("the face's FP collection is missing")
+        objects = coll.all_objects
+        n = len(objects)
+        uids = np.empty(n, dtype=np.int64)
+        objects.foreach_get("session_uid", uids)
+        if self._uids is None or not np.array_equal(uids, self._uids):
+            self._find_rows(face, objects, uids)
+        location = np.empty(n * 3, dtype=np.float32)
+        objects.foreach_get("location", location)
+        world = np.empty(n * 16, dtype=np.float32)
+        objects.foreach_get("matrix_world", world)
+        local = location.reshape(n, 3)[self._rows].astype(np.float64)
+        translation = world.reshape(n, 4, 4)[self._rows, 3, :3].astype(np.float64)  # column-major: row 3
+        face_world = np.array(face.matrix_world, dtype=np.float64)
+        expected = local @ face_world[:3, :3].T + face_world[:3, 3]
+        # float32 matrices: agreement to ~16 ulps of the largest term
+        scale = 1.0 + np.abs(face_world[:3, 3]).sum() + np.abs(local).sum(axis=1, keepdims=True)
+        other = np.flatnonzero(np.any(np.abs(expected - translation) > 1e-6 * scale, axis=1))
+        if len(other):
+            obs = {k: objects[int(self._rows[k])] for k in other}
+            local[other] = np.array(list(local_positions(face, obs).values()))
+        return local
+
+
 def neutral_array(positions: dict[str, np.ndarray]) -> np.ndarray:
     """(84, 3) in FP_IDS order, NaN for missing FPs."""
     out = np.full((len(FP_IDS), 3), np.nan)

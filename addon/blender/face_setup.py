@@ -146,6 +146,14 @@ def plan(face) -> Plan:
     return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes)
 
 
+def _hide(control) -> None:
+    """A new control mesh starts hidden, as a helper cage (Alt+H shows it; then it follows the FPs)."""
+    try:
+        control.hide_set(True)
+    except RuntimeError:  # not in the active view layer: nothing to hide there
+        pass
+
+
 def _write_control_object(face, coll, plan: Plan) -> bpy.types.Object:
     settings = face.mpeg4_face
     control = settings.control_object
@@ -163,6 +171,7 @@ def _write_control_object(face, coll, plan: Plan) -> bpy.types.Object:
         control.display_type = "WIRE"
         control.hide_render = True
         control.show_in_front = True
+        _hide(control)
         settings.control_object = control
     else:
         old = control.data

@@ -34,11 +34,11 @@ PAUSED_IN_EDIT_MODE = "Paused in Edit Mode (the rest shape is shown)"
 class _State:
     key: str
     binding: Binding
-    control_ids: list[str]
+    reader: face_data.FpReader  # the control FPs' empties, in the control mesh's vertex order
     out: np.ndarray
     on_shape_key: bool  # the mesh had shape keys when this state was made
-    names: list[str] | None = None  # object names of the control empties, looked up by name each frame
     last: np.ndarray | None = None
+    control_shown: np.ndarray | None = None  # the `last` the control mesh shows
     mode: str = ""
 
 
@@ -77,33 +77,14 @@ def _state(face) -> _State:
     control = face.mpeg4_face.control_object
     ids = list(control.data.get(face_data.FP_IDS_PROP, ()))
     out = np.empty((binding.n_vertices, 3), dtype=np.float32)
-    state = _State(key, binding, ids, out, mesh.shape_keys is not None)
+    state = _State(key, binding, face_data.FpReader(ids), out, mesh.shape_keys is not None)
     _states[face.session_uid] = state
     return state
 
 
-def control_empties(face, state: _State) -> dict:
-    """The control FPs' empties in the control mesh's vertex order (by cached name, rescanned if stale)."""
-    objects = bpy.data.objects
-    if state.names is not None:
-        found = [objects.get(name) for name in state.names]
-        if all(
-            ob is not None and ob.get(face_data.FP_PROP) == fp_id
-            for ob, fp_id in zip(found, state.control_ids, strict=True)
-        ):
-            return dict(zip(state.control_ids, found, strict=True))
-    empties = face_data.fp_empties(face)
-    missing = [fp_id for fp_id in state.control_ids if fp_id not in empties]
-    if missing:
-        state.names = None
-        raise LookupError(f"feature point empties missing: {', '.join(missing)}")
-    state.names = [empties[fp_id].name for fp_id in state.control_ids]
-    return {fp_id: empties[fp_id] for fp_id in state.control_ids}
-
-
 def control_positions(face, state: _State) -> np.ndarray:
     """(M, 3) face-local positions of the control FPs, in the control mesh's vertex order."""
-    return np.array(list(face_data.local_positions(face, control_empties(face, state)).values()))
+    return state.reader.read(face)
 
 
 def _posed_changed_mesh(face, state: _State | None) -> bool:
@@ -192,20 +173,29 @@ def apply_face(face, force: bool = False) -> bool:
         points = control_positions(face, state)
         mode = MODES[settings.mode]
         if not force and state.mode == mode and state.last is not None and np.array_equal(points, state.last):
+            _show_control(settings.control_object, state)
             return True
         if np.array_equal(points, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
         else:
             evaluate(state.binding, points, mode=mode, out=state.out)
         rest_shape.write_positions(face.data, state.out)
-        _write_control(settings.control_object, points)
         state.last, state.mode = points, mode
+        _show_control(settings.control_object, state)
     except (LookupError, Mpeg4Error) as exc:
         disable(face, f"Deformation turned off: {exc}")
         return False
     if settings.status:
         settings.status = ""
     return True
+
+
+def _show_control(control, state: _State) -> None:
+    """The control mesh follows the empties while it is visible; hidden (as set-up leaves it), it costs nothing
+    per frame (its re-evaluation was a tenth of a played frame) and catches up when next shown and applied."""
+    if control.visible_get() and state.control_shown is not state.last:
+        _write_control(control, state.last)
+        state.control_shown = state.last
 
 
 def _write_control(control, points: np.ndarray) -> None:
