@@ -9,11 +9,15 @@ Data is always looked up by name or pointer on each call: undo invalidates Pytho
 
 from __future__ import annotations
 
+import logging
+
 import bpy
 import numpy as np
 from mathutils import Matrix
 
 from ..mpeg4.feature_points import FP_IDS, fp_index
+
+log = logging.getLogger(__name__)
 
 FP_PROP = "mpeg4_fp"
 CREATED_PROP = "mpeg4_created"  # on data set-up, import or bake created (and Remove deletes)
@@ -148,13 +152,60 @@ def neutral_array(positions: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def group_weights(ob: bpy.types.Object, names) -> dict[str, np.ndarray]:
-    """(N,) weights of the vertex groups called `names` that `ob` has (0 where a vertex is not in one)."""
+    """(N,) weights of the vertex groups called `names` that `ob` has (0 where a vertex is not in one).
+
+    Read through a throw-away Geometry Nodes evaluation (about 20 ms at 68k vertices), which sees vertex
+    groups as attributes; a Python loop over the vertices (about 1 s at 68k) remains where that fails.
+    """
     index = {g.index: g.name for g in ob.vertex_groups if g.name in names}
+    if not index:
+        return {}
+    try:
+        return _group_weights_by_nodes(ob.data, list(index.values()))
+    except (RuntimeError, KeyError, AttributeError, TypeError) as exc:
+        log.info("reading vertex groups of %s one vertex at a time: %s", ob.name, exc)
     weights = {name: np.zeros(len(ob.data.vertices)) for name in index.values()}
-    if index:
-        for v in ob.data.vertices:
-            for g in v.groups:
-                name = index.get(g.group)
-                if name is not None:
-                    weights[name][v.index] = g.weight
+    for v in ob.data.vertices:
+        for g in v.groups:
+            name = index.get(g.group)
+            if name is not None:
+                weights[name][v.index] = g.weight
     return weights
+
+
+def _group_weights_by_nodes(mesh: bpy.types.Mesh, names: list[str]) -> dict[str, np.ndarray]:
+    """Each group stored as a point attribute by a temporary node tree on a temporary object sharing `mesh`
+    (the face's own modifiers stay out of it); both are removed before returning."""
+    tree = bpy.data.node_groups.new(".MPEG-4 read vertex groups", "GeometryNodeTree")
+    holder = None
+    try:
+        tree.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+        tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+        geometry = tree.nodes.new("NodeGroupInput").outputs[0]
+        for k, name in enumerate(names):
+            read = tree.nodes.new("GeometryNodeInputNamedAttribute")
+            read.data_type = "FLOAT"
+            read.inputs["Name"].default_value = name
+            store = tree.nodes.new("GeometryNodeStoreNamedAttribute")
+            store.data_type, store.domain = "FLOAT", "POINT"
+            store.inputs["Name"].default_value = f".mpeg4_group_{k}"
+            tree.links.new(geometry, store.inputs["Geometry"])
+            tree.links.new(read.outputs["Attribute"], store.inputs["Value"])
+            geometry = store.outputs["Geometry"]
+        tree.links.new(geometry, tree.nodes.new("NodeGroupOutput").inputs[0])
+        holder = bpy.data.objects.new(".MPEG-4 read vertex groups", mesh)
+        bpy.context.scene.collection.objects.link(holder)
+        holder.modifiers.new("read", "NODES").node_group = tree
+        evaluated = holder.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        if len(evaluated.vertices) != len(mesh.vertices):
+            raise RuntimeError("the evaluated mesh has another vertex count")
+        weights = {}
+        for k, name in enumerate(names):
+            values = np.empty(len(mesh.vertices), dtype=np.float32)
+            evaluated.attributes[f".mpeg4_group_{k}"].data.foreach_get("value", values)
+            weights[name] = values.astype(np.float64)
+        return weights
+    finally:
+        if holder is not None:
+            bpy.data.objects.remove(holder)
+        bpy.data.node_groups.remove(tree)

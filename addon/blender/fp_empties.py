@@ -94,12 +94,12 @@ def planned_locations(face, empties: dict, rest: np.ndarray) -> dict[str, np.nda
 
 
 def _surface(face, rest: np.ndarray) -> BVHTree:
-    polygons = face.data.polygons
-    loops = np.empty(len(face.data.loops), dtype=np.int32)
-    face.data.loops.foreach_get("vertex_index", loops)
-    starts = np.empty(len(polygons), dtype=np.int32)
-    polygons.foreach_get("loop_start", starts)
-    return BVHTree.FromPolygons(rest.tolist(), [p.tolist() for p in np.split(loops, starts[1:])])
+    """The rest surface as triangles: one (T, 3) array, not a list per polygon (0.1 s instead of 1 s at 68k)."""
+    mesh = face.data
+    mesh.calc_loop_triangles()
+    triangles = np.empty(len(mesh.loop_triangles) * 3, dtype=np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    return BVHTree.FromPolygons(rest.tolist(), triangles.reshape(-1, 3).tolist())
 
 
 def neutral_locations(empties: dict, planned: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
