@@ -7,9 +7,10 @@ process:
 - the add-on as a user has it: the head set up with Set Up Face (its own frame handler, its binding
   store), the stream imported onto the FP empties with Import FAP Stream;
 - the best peer, Blender's Surface Deform: a copy of the head at rest, bound to a copy of the add-on's
-  control mesh whose every vertex is hooked (a Hook modifier) to the same keyed FP empty, so the same
-  animation drives both.
-The two live in two scenes that share the FP empties, so a `frame_set` evaluates one of them only.
+  control mesh whose every vertex is hooked (a Hook modifier) to a copy of its FP empty keyed by the same
+  action, so the same animation drives both.
+The two live in two scenes that share no object (the peer's empties are copies keyed by the same actions,
+its eyes, teeth and tongue copies driven by them), so a `frame_set` evaluates one side only.
 Every frame, in alternating order, each side runs `scene.frame_set(f)` and then reads the evaluated
 mesh back with `foreach_get` into a float32 buffer; each figure is the median over the frames after two
 warm-up frames. `kernel_ms` is `planar_bones.evaluate` alone on the same control positions (a footnote:
@@ -74,12 +75,16 @@ def prepare(level: int, stream: Path) -> tuple[bpy.types.Object, float]:
 
 
 def peer_scene(head: bpy.types.Object) -> tuple[bpy.types.Scene, SurfaceDeform]:
-    """A second scene: Surface Deform on a copy of the head, through a hooked copy of the control mesh."""
+    """A second scene with the same content but Surface Deform in place of the add-on, sharing no object.
+
+    Copies of the head (at rest), of its FP empties (keyed by the same actions), of the control mesh (each
+    vertex hooked to its empty's copy) and of the eyes, teeth and tongue (their drivers retargeted to the
+    copies). Sharing objects would make each scene's depsgraph evaluate what the other one changed.
+    """
     settings = head.mpeg4_face
     scene = bpy.data.scenes.new("Surface Deform")
     scene.frame_start, scene.frame_end = bpy.context.scene.frame_start, bpy.context.scene.frame_end
     scene.render.fps, scene.render.fps_base = bpy.context.scene.render.fps, bpy.context.scene.render.fps_base
-    scene.collection.children.link(settings.fp_collection)  # the same keyed empties
     rest = copy_object(head, "Head (Surface Deform)")
     for coll in list(rest.users_collection):
         coll.objects.unlink(rest)
@@ -87,22 +92,37 @@ def peer_scene(head: bpy.types.Object) -> tuple[bpy.types.Scene, SurfaceDeform]:
     rest.property_unset("mpeg4_face")
     rest.animation_data_clear()
     rest.data.attributes["position"].data.foreach_set("vector", rest_shape.stored_rest(head.data).ravel())
+    copies = {}
+    for child in head.children:
+        if child == settings.control_object or child.type not in {"EMPTY", "MESH"}:
+            continue
+        copy = child.copy()  # shares the action: the same keys drive both
+        if child.type == "MESH":
+            copy.data = child.data.copy()
+        scene.collection.objects.link(copy)
+        copy.parent = rest
+        copy.matrix_parent_inverse = child.matrix_parent_inverse.copy()
+        copies[child] = copy
+    for copy in copies.values():  # the followers' drivers read the FP empties' copies
+        for driver in copy.animation_data.drivers if copy.animation_data else ():
+            for variable in driver.driver.variables:
+                for target in variable.targets:
+                    if target.id in copies:
+                        target.id = copies[target.id]
     control = settings.control_object.copy()
     control.data = settings.control_object.data.copy()
-    control.parent = head.parent
-    control.matrix_world = head.matrix_world
     scene.collection.objects.link(control)
-    rest.parent = None
-    rest.matrix_world = head.matrix_world
-    empties = face_data.fp_empties(head)
-    ids = list(control.data[face_data.FP_IDS_PROP])
-    for index, fp_id in enumerate(ids):
-        hook = control.modifiers.new(f"Hook {fp_id}", "HOOK")
-        hook.object = empties[fp_id]
-        hook.vertex_indices_set([index])
-        # identity at rest: the hook's inverse undoes the empty's rest transform in the control's space
-        hook.matrix_inverse = empties[fp_id].matrix_world.inverted() @ control.matrix_world
+    control.parent = rest
+    control.matrix_parent_inverse = settings.control_object.matrix_parent_inverse.copy()
+    empties = {ob.get(face_data.FP_PROP): ob for ob in copies.values() if ob.get(face_data.FP_PROP)}
     with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+        scene.view_layers[0].update()
+        for index, fp_id in enumerate(control.data[face_data.FP_IDS_PROP]):
+            hook = control.modifiers.new(f"Hook {fp_id}", "HOOK")
+            hook.object = empties[fp_id]
+            hook.vertex_indices_set([index])
+            # identity at rest: the hook's inverse undoes the empty's rest transform in the control's space
+            hook.matrix_inverse = empties[fp_id].matrix_world.inverted() @ control.matrix_world
         peer = SurfaceDeform.bind(rest, control, name="Surface Deform", report=print)
     return scene, peer
 
