@@ -4,14 +4,19 @@
 
 Checks the manifest's required fields first and prints the zip's path. The wheels the manifest lists go
 in under wheels/: the compiled kernel's, built first with this machine's C compiler by
-`scripts.build_kernel` (an error if there is none, or if the manifest lists a wheel for another platform
-that is not in wheels/). Nothing from tests/ or scripts/ goes in; caches and byte code are left out.
+`scripts.build_kernel` (an error if there is none, or if the manifest lists a kernel wheel for another
+platform that is not in wheels/), and scipy's for each platform, fetched by pip (`pip download
+scipy==<requirements.txt's pin> --only-binary=:all: --python-version 3.11 --platform <the file's tag>
+--no-deps`) unless already there; a manifest wheel of another scipy version than the pin is an error.
+Wheels go in stored (they are zips already). Nothing from tests/ or scripts/ goes in; caches and byte code
+are left out.
 """
 
 from __future__ import annotations
 
 import argparse
 import re
+import subprocess
 import sys
 import tomllib
 import zipfile
@@ -22,6 +27,9 @@ from scripts import build_kernel
 ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
 PACKAGE = ROOT / "addon"
+REQUIREMENTS = ROOT / "requirements.txt"
+FETCHED = ("scipy",)  # wheels pip downloads (Blender ships numpy, not scipy)
+PYTHON_VERSION = "3.11"  # Blender 4.2 to 5.0's Python
 
 REQUIRED = (
     "schema_version",
@@ -82,11 +90,39 @@ def package_files() -> list[Path]:
     )
 
 
+def pinned_version(project: str, requirements: Path = REQUIREMENTS) -> str:
+    """The version requirements.txt pins `project` to (`project==X`), or ManifestError."""
+    for line in requirements.read_text(encoding="utf-8").splitlines():
+        name, _, version = line.split("#")[0].strip().partition("==")
+        if name.strip().lower() == project and version.strip():
+            return version.strip()
+    raise ManifestError(f"{requirements}: no pinned version of {project} (a line {project}==X)")
+
+
+def fetch_wheel(path: Path) -> None:
+    """Download the wheel named `path` (one of FETCHED, at its pinned version) into its folder with pip."""
+    project, version, _, _, tag = path.stem.split("-")
+    pinned = pinned_version(project)
+    if version != pinned:
+        raise ManifestError(f"{MANIFEST}: wheel {path.name} is {project} {version}, requirements.txt pins {pinned}")
+    command = [sys.executable, "-m", "pip", "download", f"{project}=={pinned}", "--only-binary=:all:"]
+    command += ["--python-version", PYTHON_VERSION, "--no-deps", "-d", str(path.parent)]
+    for platform in tag.split("."):  # a compressed tag set: any of them selects the file
+        command += ["--platform", platform]
+    result = subprocess.run(command, capture_output=True, text=True)
+    if result.returncode != 0 or not path.is_file():
+        raise ManifestError(f"pip could not fetch {path.name}: {(result.stderr or result.stdout).strip()[-500:]}")
+
+
 def wheel_files(manifest: dict) -> list[Path]:
-    """The manifest's wheels, the kernel's built (or found up to date) first; ManifestError if one is missing."""
+    """The manifest's wheels, the kernel's built (or found up to date) and scipy's fetched first; ManifestError if
+    one is missing."""
     wheels = [ROOT / name for name in manifest.get("wheels", [])]
     if wheels:
         build_kernel.build_wheel()
+    for path in wheels:
+        if path.name.split("-")[0] in FETCHED and not path.is_file():
+            fetch_wheel(path)
     missing = [path.name for path in wheels if not path.is_file()]
     if missing:
         raise ManifestError(f"{MANIFEST}: wheels not in wheels/ (built on another platform?): {', '.join(missing)}")
@@ -104,7 +140,7 @@ def build(out_dir: Path) -> Path:
         for path in package_files():
             zf.write(path, path.relative_to(PACKAGE).as_posix())
         for path in wheels:
-            zf.write(path, path.relative_to(ROOT).as_posix())
+            zf.write(path, path.relative_to(ROOT).as_posix(), zipfile.ZIP_STORED)
     partial.replace(target)
     return target
 

@@ -6,5 +6,5 @@ the generic face, computed once and saved (`sibson`, `dffd`, §3.1) -> fitted re
 coordinates from the FPs' UVs (`texture`, §3.2); fitting onto a calibration mesh (`calibration`, §3.3).
 The unrolling cylinder, the 2D triangulations, the expanded triangulation and the robust affine fit of
 the FPs' motion are `cylinder`, `plane_triangulation`, `expansion` and `affine_fit`. scipy (Qhull) is used
-here only, at fitting time, never per frame.
+here only, imported by `spatial` when a fit starts, never per frame.
 """

@@ -29,3 +29,7 @@ class CalibrationError(FittingError):
 
 class BindingError(FittingError):
     """Saved Sibson coordinates (a DFFD binding) that are not what this add-on writes."""
+
+
+class ScipyMissingError(FittingError):
+    """scipy (Qhull), which fitting needs and Blender does not ship, is not installed."""

@@ -26,12 +26,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import Delaunay
 
 from .errors import FeaturePointError
 from .plane_triangulation import locate, triangulate
+
+if TYPE_CHECKING:
+    from scipy.spatial import Delaunay
 
 MARGIN = 0.1  # of the FPs' height range, between the highest (lowest) FP and the mirror line
 # (shift in periods, mirror) of each copy; mirror 0 = none, +1 = about the top line, -1 = the bottom one

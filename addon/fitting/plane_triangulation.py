@@ -7,11 +7,15 @@ Used by the missing-FP step (§3.1.1) on the given FPs and by the texture and ca
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from .errors import CoincidentFeaturePointsError, FeaturePointError, FoldError
+from .spatial import spatial
+
+if TYPE_CHECKING:
+    from scipy.spatial import Delaunay
 
 # Points closer than this fraction of the set's extent are one point to the triangulation.
 SAME_POINT_FRACTION = 1e-9
@@ -34,13 +38,14 @@ def triangulate(points: np.ndarray, labels: Sequence[str], what: str) -> Delauna
             f"{what}: {len(points)} point(s) ({', '.join(labels)}); at least 3 not on one line are needed"
         )
     span = float(np.linalg.norm(np.ptp(points, axis=0)))
-    pairs = sorted(cKDTree(points).query_pairs(SAME_POINT_FRACTION * span))
+    scipy_spatial = spatial()
+    pairs = sorted(scipy_spatial.cKDTree(points).query_pairs(SAME_POINT_FRACTION * span))
     if pairs:
         names = "; ".join(f"{labels[a]} and {labels[b]}" for a, b in pairs)
         raise CoincidentFeaturePointsError(f"{what}: these fall on the same point of the unrolled face: {names}")
     try:
-        triangulation = Delaunay(points)
-    except QhullError:
+        triangulation = scipy_spatial.Delaunay(points)
+    except scipy_spatial.QhullError:
         raise FeaturePointError(
             f"{what}: the points {', '.join(labels)} lie on one line of the unrolled face; nothing to triangulate"
         ) from None

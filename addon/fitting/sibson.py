@@ -46,9 +46,9 @@ from dataclasses import dataclass
 from itertools import permutations
 
 import numpy as np
-from scipy.spatial import Delaunay, QhullError, cKDTree
 
 from .errors import CoincidentFeaturePointsError, FeaturePointError, FittingError
+from .spatial import spatial
 
 FLAT_FRACTION = 1e-10  # |6 volume| / longest edge^3 below this: a flat tetrahedron
 SNAP_FRACTION = 1e-9  # of the sites' bounding-box diagonal
@@ -141,9 +141,10 @@ class _Tetrahedralisation:
     """The sites' Delaunay tetrahedra with what every insertion reuses: circumspheres and dual pieces."""
 
     def __init__(self, sites: np.ndarray):
+        scipy_spatial = spatial()
         try:
-            delaunay = Delaunay(sites)
-        except QhullError:
+            delaunay = scipy_spatial.Delaunay(sites)
+        except scipy_spatial.QhullError:
             raise FeaturePointError("the control points lie in one plane; no tetrahedra to interpolate in") from None
         if len(delaunay.coplanar):
             raise CoincidentFeaturePointsError(
@@ -229,7 +230,7 @@ def sibson_coordinates(sites: np.ndarray, points: np.ndarray, progress: Progress
     mesh = _Tetrahedralisation(sites)
     reach = float(np.linalg.norm(np.ptp(sites, axis=0)))
 
-    distance, nearest = cKDTree(sites).query(points)
+    distance, nearest = spatial().cKDTree(sites).query(points)
     snapped = distance <= SNAP_FRACTION * reach
     free = np.flatnonzero(~snapped)
     outside = free[mesh.delaunay.find_simplex(points[free]) < 0]

@@ -7,9 +7,9 @@ No Blender needed: the sample head is rebuilt from the MakeHuman data the sample
 the hm08 base mesh and its 84 FPs from the frozen FP table, in Blender's frame. Levels 1 and 2 split
 every quad into four (edge midpoints and face centres: the vertex counts of Catmull-Clark levels 1 and
 2, 17,063 and 68,157). Per level: `bind_dffd` (the Sibson coordinates of every vertex w.r.t. the FPs
-and the 8 auxiliary corners, with its progress callback), `deform_dffd` (a fit), the linear precision
-of the coordinates (max |sum lambda_i p_i - x| over the head's size; exact Sibson coordinates give 0 up
-to rounding) and the binding's size.
+and the 26 auxiliary sites of the shell around the head, with its progress callback), `deform_dffd` (a
+fit), the linear precision of the coordinates (max |sum lambda_i p_i - x| over the head's size; exact
+Sibson coordinates give 0 up to rounding) and the binding's size.
 """
 
 from __future__ import annotations

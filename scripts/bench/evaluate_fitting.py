@@ -14,10 +14,17 @@ generic head is fitted to the true face's FPs by
 - none: the generic head as it is,
 
 once with all FPs and once with half of them (the same random half for every face, `--seed`; the rest
-completed by `complete_feature_points`, §3.1.1). Errors are over all vertices of the head mesh, which is
-skin only (eyes, teeth and tongue are objects of their own; the bald mesh has no hair): the mean and the
-95th-percentile vertex error in mm, pooled over all faces, and the relative error = mean error / mean true
-displacement (1.0 = no better than not fitting), pooled and as the median over the faces. A face whose
+completed by `complete_feature_points`, §3.1.1). Errors are over two regions of the head mesh, which is
+skin only (eyes, teeth and tongue are objects of their own; the bald mesh has no hair): the whole head,
+and the part the FPs enclose (inside their convex hull: the face and the skin between FPs, where Dirichlet
+FFD interpolates the FPs alone and the paper's method is all there is); the sides and back of the skull, the
+neck and the underside of the chin bulge out of it, and there the auxiliary shell of `dffd` extrapolates.
+Per region: the mean and the 95th-percentile vertex error in mm, pooled over all faces, and the relative
+error = mean error / mean true displacement (1.0 = no better than not fitting), pooled and as the median
+over the faces. Each face also
+gets its FP share: the largest FP displacement over the largest vertex displacement. A shape narrower
+than the FPs' spacing (a dimple between FPs) has a small share, and no fit to FPs can recover it; the
+medians are also given for the faces whose FPs carry at least half of the largest motion. A face whose
 fit raises an `Mpeg4Error` (a fold, say) is reported as failed and left out of every method's figures for
 that FP set; a target that does not move the head is skipped.
 """
@@ -31,6 +38,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 from scipy.interpolate import RBFInterpolator
+from scipy.spatial import Delaunay
 
 from addon.blender.face_data import local_positions
 from addon.errors import Mpeg4Error
@@ -44,6 +52,8 @@ from scripts.sample.makehuman.targets import target_name
 METHODS = ("dffd", "rbf", "none")
 CASES = {"all_fps": "all FPs", "half_fps": "half the FPs"}
 ORIGIN_FP = "7.1"  # the sample builder puts each face's own 7.1 at the head's origin
+REGIONS = {"head": "whole head", "enclosed": "part the FPs enclose"}
+SEEN_SHARE = 0.5  # faces whose FPs carry at least this share of the largest vertex displacement
 
 
 @dataclasses.dataclass(frozen=True)
@@ -100,8 +110,16 @@ def fit_all(
     }
 
 
+@dataclasses.dataclass(frozen=True)
+class Scored:
+    group: str
+    displacement: np.ndarray  # (N,) true displacement of each vertex (m)
+    errors: dict[str, np.ndarray]  # method -> (N,) vertex errors (m)
+    fp_share: float  # largest FP displacement / largest vertex displacement
+
+
 def evaluate(faces: list[TrueFace], binding: DffdBinding, generic_fps: dict[str, np.ndarray], seed: int) -> dict:
-    """Per case: the FPs given, per face its true displacement and per method its vertex errors, and failures."""
+    """Per case: the FPs given, per face its `Scored`, and failures."""
     subsets = {"all_fps": tuple(generic_fps), "half_fps": half_of(tuple(generic_fps), seed)}
     results = {}
     for case, subset in subsets.items():
@@ -114,20 +132,23 @@ def evaluate(faces: list[TrueFace], binding: DffdBinding, generic_fps: dict[str,
                 continue
             displacement = np.linalg.norm(face.vertices - binding.rest_vertices, axis=1)
             errors = {method: np.linalg.norm(fitted[method] - face.vertices, axis=1) for method in METHODS}
-            scored[face.name] = (face.group, displacement, errors)
+            fp_motion = max(np.linalg.norm(face.fps[fp_id] - generic_fps[fp_id]) for fp_id in generic_fps)
+            scored[face.name] = Scored(face.group, displacement, errors, float(fp_motion / displacement.max()))
         results[case] = {"given": subset, "scored": scored, "failed": failed}
     return results
 
 
-def figures(scored: dict, method: str) -> dict[str, float]:
-    """Pooled mean and p95 error (mm), pooled relative error, the median of the faces' relative errors and the
-    number of faces it fits worse than not fitting at all (NaN and 0 when every face failed)."""
+def figures(scored: dict[str, Scored], method: str, region: np.ndarray | None = None) -> dict[str, float]:
+    """Over the vertices in `region` (all if None): pooled mean and p95 error (mm), pooled relative error, the
+    median of the faces' relative errors and the number of faces it fits worse than not fitting at all (NaN and
+    0 when every face failed; a face that does not move the region counts as neither better nor worse)."""
     if not scored:
         empty = dict.fromkeys(("mean_mm", "p95_mm", "relative", "relative_median"), float("nan"))
         return empty | {"worse_than_none": 0}
-    errors = np.concatenate([e[method] for _, _, e in scored.values()])
-    displacement = np.concatenate([d for _, d, _ in scored.values()])
-    relative = np.array([e[method].mean() / d.mean() for _, d, e in scored.values()])
+    keep = slice(None) if region is None else region
+    errors = np.concatenate([s.errors[method][keep] for s in scored.values()])
+    displacement = np.concatenate([s.displacement[keep] for s in scored.values()])
+    relative = np.array([relative_error(s, method, keep) for s in scored.values()])
     return {
         "mean_mm": 1e3 * float(errors.mean()),
         "p95_mm": 1e3 * float(np.percentile(errors, 95)),
@@ -137,45 +158,64 @@ def figures(scored: dict, method: str) -> dict[str, float]:
     }
 
 
-def markdown(results: dict, command: str, n_faces: int) -> str:
+def relative_error(scored: Scored, method: str, keep=slice(None)) -> float:
+    """Mean error / mean true displacement over `keep`; 1.0 where the true face does not move there."""
+    moved = scored.displacement[keep].mean()
+    return float(scored.errors[method][keep].mean() / moved) if moved > 0.0 else 1.0
+
+
+def region_figures(scored: dict[str, Scored], method: str, enclosed: np.ndarray) -> dict:
+    """`figures` over the whole head, with those over the part the FPs enclose under "enclosed"."""
+    return figures(scored, method) | {"enclosed": figures(scored, method, enclosed)}
+
+
+def markdown(results: dict, command: str, n_faces: int, enclosed: np.ndarray) -> str:
     lines = [
         f"`{command}`",
         "",
-        f"{n_faces} faces (those failed, below, left out); error over the head's skin vertices; relative = mean"
-        " error / mean true displacement,"
-        " pooled (the median over the faces in brackets); worse = faces fitted worse than not fitting.",
-        "",
-        "| method | "
-        + " | ".join(f"{label}: mean (mm) | p95 (mm) | relative | worse" for label in CASES.values())
-        + " |",
-        "|---|" + "---:|---:|---:|---:|" * len(CASES),
+        f"{n_faces} faces (those failed, below, left out); relative = mean error / mean true displacement, pooled"
+        " (the median over the faces in brackets); worse = faces fitted worse than not fitting.",
     ]
-    for method in METHODS:
-        cells = []
-        for case in CASES:
-            f = figures(results[case]["scored"], method)
-            cells.append(
-                f"{f['mean_mm']:.2f} | {f['p95_mm']:.2f} | {f['relative']:.2f} ({f['relative_median']:.2f})"
-                f" | {f['worse_than_none']}"
-            )
-        lines.append(f"| {method} | " + " | ".join(cells) + " |")
-    groups = sorted({group for _, (group, _, _) in results["all_fps"]["scored"].items()})
+    for region, label in REGIONS.items():
+        keep = enclosed if region == "enclosed" else None
+        count = len(enclosed) if keep is None else int(np.count_nonzero(enclosed))
+        lines += [
+            "",
+            f"Error over the {label} ({count} vertices):",
+            "",
+            "| method | "
+            + " | ".join(f"{case}: mean (mm) | p95 (mm) | relative | worse" for case in CASES.values())
+            + " |",
+            "|---|" + "---:|---:|---:|---:|" * len(CASES),
+        ]
+        for method in METHODS:
+            cells = []
+            for case in CASES:
+                f = figures(results[case]["scored"], method, keep)
+                cells.append(
+                    f"{f['mean_mm']:.2f} | {f['p95_mm']:.2f} | {f['relative']:.2f} ({f['relative_median']:.2f})"
+                    f" | {f['worse_than_none']}"
+                )
+            lines.append(f"| {method} | " + " | ".join(cells) + " |")
+    groups = sorted({s.group for s in results["all_fps"]["scored"].values()})
     lines += [
         "",
-        "Median relative error per folder (all FPs / half the FPs):",
+        "Median relative error over the whole head / the part the FPs enclose, all FPs given, by folder and FP share:",
         "",
-        "| folder | faces | true displacement (mm) | " + " | ".join(METHODS[:-1]) + " |",
+        "| faces | count | true displacement (mm) | " + " | ".join(METHODS[:-1]) + " |",
         "|---|---:|---:|" + "---:|" * (len(METHODS) - 1),
     ]
-    for group in groups:
-        per_case = {case: {name: s for name, s in results[case]["scored"].items() if s[0] == group} for case in CASES}
-        shown = per_case["all_fps"]
-        moved = 1e3 * np.mean([d.mean() for _, d, _ in shown.values()])
-        cells = [
-            " / ".join(f"{figures(per_case[case], method)['relative_median']:.2f}" for case in CASES)
-            for method in METHODS[:-1]
-        ]
-        lines.append(f"| {group} | {len(shown)} | {moved:.2f} | " + " | ".join(cells) + " |")
+    every = results["all_fps"]["scored"]
+    subsets = [(group, {n: s for n, s in every.items() if s.group == group}) for group in groups]
+    subsets += [
+        (f"FP share >= {SEEN_SHARE}", {n: s for n, s in every.items() if s.fp_share >= SEEN_SHARE}),
+        (f"FP share < {SEEN_SHARE}", {n: s for n, s in every.items() if s.fp_share < SEEN_SHARE}),
+    ]
+    for label, shown in subsets:
+        moved = 1e3 * np.mean([s.displacement.mean() for s in shown.values()])
+        medians = [(figures(shown, m), figures(shown, m, enclosed)) for m in METHODS[:-1]]
+        cells = [f"{head['relative_median']:.2f} / {inside['relative_median']:.2f}" for head, inside in medians]
+        lines.append(f"| {label} | {len(shown)} | {moved:.2f} | " + " | ".join(cells) + " |")
     for case, label in CASES.items():
         for name, message in results[case]["failed"].items():
             lines.append(f"\nFailed ({label}): {name}: {message}")
@@ -183,21 +223,24 @@ def markdown(results: dict, command: str, n_faces: int) -> str:
     return "\n".join(lines)
 
 
-def to_json(results: dict, command: str, n_faces: int) -> dict:
+def to_json(results: dict, command: str, n_faces: int, enclosed: np.ndarray) -> dict:
     return {
         "command": command,
-        "methods": {method: {case: figures(results[case]["scored"], method) for case in CASES} for method in METHODS},
+        "methods": {m: {case: region_figures(results[case]["scored"], m, enclosed) for case in CASES} for m in METHODS},
         "targets": n_faces,
+        "enclosed_vertices": int(np.count_nonzero(enclosed)),
         "failed": {case: results[case]["failed"] for case in CASES},
         "half_fps": list(results["half_fps"]["given"]),
         "per_target": {
             case: {
                 name: {
-                    "group": group,
-                    "displacement_mm": 1e3 * float(d.mean()),
-                    **{method: float(e[method].mean() / d.mean()) for method in METHODS},
+                    "group": s.group,
+                    "displacement_mm": 1e3 * float(s.displacement.mean()),
+                    "fp_share": s.fp_share,
+                    **{method: relative_error(s, method) for method in METHODS},
+                    "enclosed": {method: relative_error(s, method, enclosed) for method in METHODS},
                 }
-                for name, (group, d, e) in results[case]["scored"].items()
+                for name, s in results[case]["scored"].items()
             }
             for case in CASES
         },
@@ -221,10 +264,11 @@ def main() -> int:
     generic_fps = {fp_id: positions[fp_id] for fp_id in FP_IDS}
     binding = bind_dffd(face.rest, generic_fps)
     faces = true_faces(target_paths([p for group in args.targets for p in group]), face, generic_fps)
+    enclosed = Delaunay(np.array(list(generic_fps.values()))).find_simplex(face.rest) >= 0
     results = evaluate(faces, binding, generic_fps, args.seed)
-    print(markdown(results, command, len(faces)))
+    print(markdown(results, command, len(faces), enclosed))
     if args.json:
-        Path(args.json).write_text(json.dumps(to_json(results, command, len(faces)), indent=2) + "\n")
+        Path(args.json).write_text(json.dumps(to_json(results, command, len(faces), enclosed), indent=2) + "\n")
     return 0
 
 

@@ -1,5 +1,6 @@
 """The extension zip: built from the manifest and the package, installed into a fresh Blender session."""
 
+import importlib.util
 import shutil
 import subprocess
 import sys
@@ -31,8 +32,34 @@ def test_zip_holds_manifest_and_package_at_the_root(built_zip):
     assert "blender_manifest.toml" in names and "__init__.py" in names
     assert "blender/registration.py" in names and "mpeg4/fap_file.py" in names and "deform/planar_bones.py" in names
     assert not any(n.startswith(("tests/", "scripts/", "addon/")) or "__pycache__" in n for n in names)
-    wheels = build_extension.check_manifest()["wheels"]  # the compiled kernel's
+    wheels = build_extension.check_manifest()["wheels"]  # the compiled kernel's and scipy's
     assert wheels and all(wheel.removeprefix("./") in names for wheel in wheels)
+
+
+def _blender_ext():
+    """Blender's own extension tool as a module (its wheel-to-platform rules)."""
+    spec = importlib.util.spec_from_file_location("blender_ext", BLENDER_EXT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_scipy_comes_at_the_pinned_version_for_every_platform_that_has_a_wheel():
+    manifest = build_extension.check_manifest()
+    scipy = [Path(w).name for w in manifest["wheels"] if Path(w).name.startswith("scipy-")]
+    pinned = build_extension.pinned_version("scipy")
+    assert pinned == "1.13.1" and all(name.split("-")[1] == pinned for name in scipy)
+    assert all(name.split("-")[2:4] == ["cp311", "cp311"] for name in scipy)  # Blender 4.2 to 5.0: Python 3.11
+    ext = _blender_ext()
+    covered = {p for name in scipy for p in ext.blender_platforms_from_wheel_platform(name[:-4].split("-")[-1])}
+    # scipy 1.13.1 has no Windows-on-ARM wheel: there fitting says scipy is missing (tests/blender/test_fitting_blender)
+    assert covered == set(manifest["platforms"]) - {"windows-arm64"}
+
+
+def test_a_wheel_at_another_version_than_the_pin_is_refused_unfetched(tmp_path):
+    with pytest.raises(build_extension.ManifestError, match=r"scipy 1\.0\.0, requirements.txt pins 1\.13\.1"):
+        build_extension.fetch_wheel(tmp_path / "scipy-1.0.0-cp311-cp311-win_amd64.whl")
+    assert not any(tmp_path.iterdir())
 
 
 def test_blenders_own_validator_accepts_the_zip(built_zip):
@@ -73,6 +100,8 @@ INSTALL = textwrap.dedent("""
     fused = importlib.import_module(module + ".deform.fused")
     libraries = glob.glob(os.path.join(site, "site-packages", "mpeg4_face_kernel", "planar_bones_kernel.*"))
     assert len(libraries) == 1 and fused.open_library(libraries[0]) is not None
+    # and scipy's wheel for this platform, which fitting needs (Blender ships numpy only)
+    assert glob.glob(os.path.join(site, "site-packages", "scipy", "spatial", "_qhull.*"))
     # the installed package works on its own (no checkout on sys.path): set up the sample and deform it
     assert "addon" not in sys.modules
     bpy.ops.wm.open_mainfile(filepath=sys.argv[-2])

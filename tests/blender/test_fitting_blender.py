@@ -1,6 +1,9 @@
 """Fitting in Blender: Fit to Feature Points, rigid parts, Import/Export FDP, calibration mesh, Back to Generic,
 Remove, and bad input leaving the scene as it was."""
 
+import subprocess
+import sys
+import textwrap
 from pathlib import Path
 
 import bpy
@@ -14,7 +17,7 @@ from addon.fitting.fdp_file import Fdp, read_fdp, write_fdp
 from addon.geometry.face_axes import BLENDER_FACE_AXES
 from addon.mpeg4.fapu import compute_fapu
 
-from .helpers import DEMO_FAP, positions, select, set_up_sample
+from .helpers import DEMO_FAP, SAMPLE, positions, select, set_up_sample
 from .test_hardening import snapshot, unset_sample
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -393,3 +396,40 @@ def test_a_face_with_shape_keys_fits_its_reference_key_and_keeps_the_offsets_of_
     assert bpy.ops.mpeg4.fit_reset() == {"FINISHED"}
     for name, co in keys.items():
         np.testing.assert_array_equal(rest_shape.read_key(blocks[name]), co, err_msg=name)
+
+
+def test_without_scipy_a_fit_is_refused_with_a_message_and_nothing_changes(monkeypatch):
+    head = set_up_sample()
+    face_data.fp_empties(head)["9.3"].location.y -= 0.004
+    monkeypatch.setitem(sys.modules, "scipy.spatial", None)  # what `import scipy.spatial` meets without scipy
+    unchanged_by(head, bpy.ops.mpeg4.fit_to_feature_points, r"fitting needs scipy \(Qhull\)")
+
+
+# Blender ships numpy but not scipy: without the extension's scipy wheel the add-on must still load and play.
+# Fitting's part of scipy is blocked (Qhull, the k-d tree); the elastic rig imports scipy.sparse on its own.
+WITHOUT_SCIPY = textwrap.dedent("""
+    import sys
+    sys.modules["scipy.spatial"] = None  # no scipy.spatial in this Python
+    import bpy
+    import addon
+    addon.register()
+    bpy.ops.wm.open_mainfile(filepath=sys.argv[-1])
+    head = bpy.data.objects["Head"]
+    bpy.context.view_layer.objects.active = head
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    bpy.data.objects["FP 2.1"].location.z -= 0.01
+    try:
+        bpy.ops.mpeg4.fit_to_feature_points()
+    except RuntimeError as error:
+        print("REFUSED:", error)
+    assert not any(name.startswith("scipy.spatial") for name in sys.modules if sys.modules[name])
+    print("LOADED-WITHOUT-SCIPY")
+""")
+
+
+def test_the_add_on_loads_sets_up_and_refuses_a_fit_without_scipy():
+    result = subprocess.run(
+        [sys.executable, "-c", WITHOUT_SCIPY, str(SAMPLE)], capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
+    assert "LOADED-WITHOUT-SCIPY" in result.stdout, result.stdout[-3000:] + result.stderr[-3000:]
+    assert "REFUSED: Error: fitting needs scipy (Qhull), which Blender does not ship" in result.stdout, result.stdout

@@ -1,6 +1,7 @@
 """Fitting the generic face to a person (Escher et al.): missing FPs, Dirichlet FFD, texture, calibration."""
 
 import dataclasses
+import sys
 
 import numpy as np
 import pytest
@@ -15,6 +16,7 @@ from addon.fitting.errors import (
     FeaturePointError,
     FittingError,
     FoldError,
+    ScipyMissingError,
     TextureCoordinateError,
 )
 from addon.fitting.expansion import COPIES, Band, ExpandedTriangulation
@@ -208,6 +210,20 @@ def test_dffd_refuses_bad_fp_sets():
     binding = bind_dffd(vertices, fps)
     with pytest.raises(FeaturePointError, match=r"missing: .*9\.8"):
         deform_dffd(binding, {fp_id: p for fp_id, p in fps.items() if fp_id != "9.8"})
+
+
+@pytest.mark.parametrize("call", ["bind", "complete", "texture"])
+def test_without_scipy_fitting_refuses_with_a_message(generic, monkeypatch, call):
+    fps = generic["fps"]
+    moved = {fp_id: p for fp_id, p in fps.items() if fp_id != "9.8"}
+    calls = {
+        "bind": lambda: bind_dffd(generic["vertices"], fps),
+        "complete": lambda: complete_feature_points(fps, moved, BLENDER_FACE_AXES),
+        "texture": lambda: texture_coordinates(generic["vertices"], fps, front_uvs(fps)),
+    }
+    monkeypatch.setitem(sys.modules, "scipy.spatial", None)  # what `import scipy.spatial` meets without scipy
+    with pytest.raises(ScipyMissingError, match=r"fitting needs scipy \(Qhull\), which Blender does not ship"):
+        calls[call]()
 
 
 # --- Missing feature points (§3.1.1) ----------------------------------------------------------------
