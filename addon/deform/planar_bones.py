@@ -13,21 +13,24 @@ Choices where the paper leaves room (see also `regions.locate`):
   corner (the inner-lip points of a closed mouth) count as that corner, so they do not shrink the radius
   to zero; masks separate such lips instead. A triangle with no other control point starts at 0.
 * Coverage: every ``cover`` vertex outside all affection volumes raises the radius of its nearest
-  triangle (among those its masks allow) to ``(1 + RAISE_MARGIN)`` × its distance, so its raw eq. 9
+  triangle (among those its masks allow; all of them where several are equally near, so that the order
+  of the triangles does not matter) to ``(1 + RAISE_MARGIN)`` × its distance, so its raw eq. 9
   weight is at least about 4e-4 at n = 2 instead of vanishing; weights are normalised afterwards anyway.
   The paper covers "every vertex of the targeted face geometry"; on a whole head (scalp, neck, ears)
   covering every vertex raises border radii to the head's size and drags the scalp along with the face
   (and binds ~5x more pairs), so `cover_over_control_mesh` gives the face part: vertices near the control
-  mesh whose nearest point on it is not on its border.
+  mesh whose nearest point on it is not on its outline (the rims of its holes, the mouth and eye
+  openings, count as inside: the lips' and lids' inner sides are face too).
 * Partial coverage: with normalised weights (eq. 8) a vertex at the far edge of the union of the
   affection volumes takes the full motion of a triangle whose weight there is nearly 0, while its
   neighbour outside stays put, so the surface tears where the covered region ends. The paper avoids
   this by covering the whole face mesh; for a mesh the control mesh covers only in part (a whole
-  head), ``fade_below=τ`` divides the weights by max(Σw, τ) and gives the remainder to the rest
-  position: eq. 8 exactly wherever Σw ≥ τ (rigid motion reproduced exactly there), and a continuous
-  fade to rest where Σw falls from τ to 0 at the edge of the volumes. Raised radii then reach
-  π / arccos(2 τ^(1/n) − 1) times a covered vertex's distance, so that every ``cover`` vertex keeps
-  Σw ≥ τ (before masks).
+  head), ``fade_below=τ`` scales the eq. 8 weights by s(Σw / τ), with s the smoothstep 3x² − 2x³
+  (1 from x = 1 up), and gives the remainder to the rest position: eq. 8 exactly wherever Σw ≥ τ (rigid
+  motion reproduced exactly there), and a fade to rest where Σw falls from τ to 0 at the edge of the
+  volumes that is smooth at both ends (a linear ramp, Σw / τ, creases the skin where it starts). Raised
+  radii then reach π / arccos(2 τ^(1/n) − 1) times a covered vertex's distance, so that every ``cover``
+  vertex keeps Σw ≥ τ (before masks).
 * Zero-area control triangles (collinear or coincident corners) have no plane, so they are excluded
   from influence and counted in `Binding.n_excluded`.
 * At evaluation a control triangle collapsed to a line has no normal: its normal and edge normals are
@@ -63,6 +66,10 @@ RAISE_MARGIN = 0.1
 FLATNESS = 1e-10  # ‖cross‖ / (longest edge)² below this is a zero-area triangle
 CHUNK = 64  # pairs per batched product in `evaluate`; measured best of 32-1024 for 4k-68k vertices
 BOUND_SLACK = 1e-9  # relative rounding allowance when `distance_lower_bound` rules a point out
+# per-pair local coordinates (eq. 1, 12-14: alpha, beta, h; the region frames' x, y, h; D_j), which a saved
+# binding keeps in float32
+LOCAL_FIELDS = ("pair_face_local", "pair_region_local", "pair_apex_distance")
+TIE = 1e-6  # triangles this close (relative) to an uncovered vertex's nearest distance are all raised
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,6 +132,7 @@ def bind(
     triangle_masks: Sequence[str | None] | None = None,
     cover: np.ndarray | None = None,
     fade_below: float = 0.0,
+    local_float32: bool = False,
 ) -> Binding:
     """Bind (N, 3) rest vertices to the control mesh (M, 3) points / (T, 3) triangles.
 
@@ -134,8 +142,9 @@ def bind(
     must lie in at least one affection volume (default: all); one that every nearby triangle's mask
     excludes cannot be covered and stays at rest (counted in `Binding.n_static`). ``fade_below``
     (0 = the paper) normalises a vertex's weights by max(their sum, fade_below) and gives the remainder to
-    its rest position, for meshes the control mesh covers only in part (see the module notes). Raises
-    `DeformError` on bad input.
+    its rest position, for meshes the control mesh covers only in part (see the module notes).
+    ``local_float32`` rounds the per-pair local coordinates (``LOCAL_FIELDS``) to float32, as a saved
+    binding stores them, before the evaluation arrays are built (once). Raises `DeformError` on bad input.
     """
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
@@ -204,7 +213,8 @@ def bind(
     total = np.bincount(vertex, weight, minlength=len(rest))
 
     def stacked(key: str, shape: tuple[int, ...]) -> np.ndarray:
-        return np.concatenate([p[key] for p in ordered]) if ordered else np.zeros(shape)
+        out = np.concatenate([p[key] for p in ordered]) if ordered else np.zeros(shape)
+        return out.astype(np.float32).astype(np.float64) if local_float32 and out.dtype == np.float64 else out
 
     return Binding(
         rest_vertices=rest,
@@ -215,9 +225,9 @@ def bind(
         n_raised=len(raised),
         pair_vertex=vertex.astype(np.int32),
         pair_triangle=triangle.astype(np.int32),
-        pair_region=stacked("region", (0,)).astype(np.int8),
+        pair_region=np.concatenate([p["region"] for p in ordered]).astype(np.int8) if ordered else np.zeros(0, np.int8),
         # eq. 8 weights sum to 1 per vertex (less where the sum of raw weights is below fade_below)
-        pair_weight=weight / np.maximum(total, fade)[vertex],
+        pair_weight=weight * _fade(total, fade)[vertex],
         pair_face_local=stacked("face_local", (0, 3)),
         pair_region_local=stacked("region_local", (0, 3)),
         pair_apex_distance=stacked("apex_distance", (0,)),
@@ -230,9 +240,10 @@ def cover_over_control_mesh(
     """(N,) True for the vertices "of the targeted face geometry" (§3), as `bind`'s ``cover``.
 
     A vertex counts when the control mesh is at most ``max_distance`` away and its nearest point on the
-    control mesh is not on the mesh's border (a triangle's inside, an edge two triangles share, or a
-    control point with no border edge). Covering every vertex of a whole head instead raises the radii
-    of the border triangles until they reach the scalp and neck, which then follow the face.
+    control mesh is not on the mesh's outline (a triangle's inside, an edge two triangles share, a rim of
+    a hole such as the mouth opening, or a control point with no outline edge). Covering every vertex of
+    a whole head instead raises the radii of the outline triangles until they reach the scalp and neck,
+    which then follow the face.
     """
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
@@ -259,9 +270,10 @@ def cover_over_control_mesh(
 
     edges = np.sort(np.stack([tris, np.roll(tris, -1, axis=1)], axis=-1), axis=-1)  # (T, 3, 2): edge j
     unique_edges, edge_index, uses = np.unique(edges.reshape(-1, 2), axis=0, return_inverse=True, return_counts=True)
-    border_edge = (uses == 1)[edge_index.reshape(-1, 3)]  # (T, 3)
+    outline = _outline(unique_edges, uses == 1, control)
+    border_edge = outline[edge_index.reshape(-1, 3)]  # (T, 3)
     border_point = np.zeros(len(control), dtype=bool)
-    border_point[unique_edges[uses == 1].ravel()] = True
+    border_point[unique_edges[outline].ravel()] = True
     j = (nearest_region - 1) % 3
     on_border = np.select(
         [nearest_region == FACE, nearest_region < APEX],
@@ -269,6 +281,30 @@ def cover_over_control_mesh(
         border_point[tris[nearest_triangle, j]],
     )
     return (nearest <= reach) & ~on_border
+
+
+def _outline(edges: np.ndarray, border: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Which of the (E, 2) edges lie on the control mesh's outline: of the loops the ``border`` edges form,
+    the longest one. The others are holes in the mesh (the mouth and eye openings), and the skin just
+    inside them (the lips' and lids' inner sides) belongs to the face."""
+    parent = list(range(len(points)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    border_ids = np.flatnonzero(border)
+    for a, b in edges[border_ids].tolist():
+        parent[root(a)] = root(b)
+    loop = np.array([root(a) for a in edges[border_ids, 0].tolist()], dtype=np.intp)
+    length = np.linalg.norm(points[edges[border_ids, 0]] - points[edges[border_ids, 1]], axis=1)
+    outline = np.zeros(len(edges), dtype=bool)
+    if len(border_ids):
+        perimeter = np.bincount(loop, length, minlength=len(points))
+        outline[border_ids[loop == np.argmax(perimeter)]] = True
+    return outline
 
 
 def evaluate(
@@ -587,25 +623,35 @@ def _raised_radius(
     factor: float,
 ) -> np.ndarray:
     """Radii raised so each uncovered vertex lies inside its nearest allowed triangle's volume (§3), at
-    `factor` times its distance."""
+    `factor` times its distance.
+
+    Every triangle within `TIE` (relative) of the nearest distance counts as nearest and is raised, so the
+    result does not depend on the order of the triangles: on a mirror-symmetric face a vertex on the
+    mid-line raises both mirror-image triangles, not whichever comes first.
+    """
     raised = radius.copy()
     if len(uncovered) == 0 or len(active_ids) == 0:
         return raised
     points = rest[uncovered]
-    nearest = np.full(len(uncovered), -1)
+
+    def allowed(t: int) -> np.ndarray:
+        where = np.arange(len(uncovered))
+        return where if mask_values[t] is None else where[mask_values[t][uncovered] > 0.0]
+
     nearest_distance = np.full(len(uncovered), np.inf)
     for t in active_ids:
-        allowed = np.arange(len(uncovered))
-        if mask_values[t] is not None:
-            allowed = allowed[mask_values[t][uncovered] > 0.0]
-        bound = distance_lower_bound(frames, t, points[allowed])
-        near = allowed[bound < nearest_distance[allowed] * (1.0 + BOUND_SLACK)]  # the others cannot be closer
-        distance = locate(frames, t, points[near]).distance
-        closer = distance < nearest_distance[near]
-        nearest[near[closer]] = t
-        nearest_distance[near[closer]] = distance[closer]
-    reachable = nearest >= 0
-    np.maximum.at(raised, nearest[reachable], nearest_distance[reachable] * factor + tolerance)
+        candidates = allowed(t)
+        bound = distance_lower_bound(frames, t, points[candidates])
+        near = candidates[bound < nearest_distance[candidates] * (1.0 + BOUND_SLACK)]  # the others cannot be closer
+        np.minimum.at(nearest_distance, near, locate(frames, t, points[near]).distance)
+    limit = nearest_distance * (1.0 + TIE) + tolerance
+    for t in active_ids:
+        candidates = allowed(t)
+        candidates = candidates[distance_lower_bound(frames, t, points[candidates]) <= limit[candidates]]
+        distance = locate(frames, t, points[candidates]).distance
+        tied = distance <= limit[candidates]
+        if tied.any():
+            raised[t] = max(raised[t], float(distance[tied].max()) * factor + tolerance)
     return raised
 
 
@@ -637,6 +683,15 @@ def _triangle_mask_values(
             raise DeformError(f"vertex mask {name!r} must hold finite values in [0, 1]")
         checked[name] = values
     return [None if name is None else checked[name] for name in triangle_masks]
+
+
+def _fade(total: np.ndarray, fade_below: float) -> np.ndarray:
+    """Per vertex, the factor that turns raw eq. 9 weights adding up to ``total`` into eq. 8 weights: 1 / Σw
+    where Σw ≥ fade_below, and below it 1 / Σw times a smoothstep of Σw / fade_below, so the rest position's
+    share grows from 0 to 1 with no kink where it starts."""
+    total = np.asarray(total, dtype=np.float64)
+    s = np.minimum(total / fade_below, 1.0) if fade_below > 0.0 else np.ones_like(total)
+    return np.divide(s * s * (3.0 - 2.0 * s), total, out=np.zeros_like(total), where=total > 0.0)
 
 
 def _cover(cover: np.ndarray | None, n_vertices: int) -> np.ndarray:

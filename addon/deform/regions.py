@@ -27,6 +27,7 @@ class TriangleFrames:
     normals: np.ndarray  # (T, 3) n, eq. 3
     edge_normals: np.ndarray  # (T, 3, 3) b_j
     doubled_areas: np.ndarray  # (T,) ‖(M − L) × (N − L)‖
+    inverse_frames: np.ndarray  # (T, 3, 3) (A^OPQ)⁻¹ of eq. 2; zero for a zero-area triangle, which has none
 
 
 def unit(vectors: np.ndarray) -> np.ndarray:
@@ -40,13 +41,20 @@ def triangle_frames(corners: np.ndarray) -> TriangleFrames:
     edges = np.roll(corners, -1, axis=1) - corners
     cross = np.cross(edges[:, 0], corners[:, 2] - corners[:, 0])
     normals = unit(cross)
+    doubled_areas = np.linalg.norm(cross, axis=-1)
+    # all at once: one 3 x 3 inversion per call of `locate` costs more than the rest of it on large meshes
+    frames_a = np.stack([corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0], normals], axis=1)
+    inverse = np.zeros_like(frames_a)
+    has_plane = doubled_areas > 0.0  # det(A^OPQ) is the doubled area
+    inverse[has_plane] = np.linalg.inv(frames_a[has_plane])
     return TriangleFrames(
         corners=corners,
         edge_lengths=np.linalg.norm(edges, axis=-1),
         unit_edges=unit(edges),
         normals=normals,
         edge_normals=unit(np.cross(edges, normals[:, None, :])),
-        doubled_areas=np.linalg.norm(cross, axis=-1),
+        doubled_areas=doubled_areas,
+        inverse_frames=inverse,
     )
 
 
@@ -107,12 +115,10 @@ def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     """
     corners = frames.corners[t]
     origin = corners[0]
-    normal = frames.normals[t]
     unit_edges = frames.unit_edges[t]
     edge_normals = frames.edge_normals[t]
     lengths = frames.edge_lengths[t]
-    rows_a = np.stack([corners[1] - origin, corners[2] - origin, normal])  # A^OPQ, eq. 2
-    probes = np.concatenate([np.linalg.inv(rows_a), unit_edges.T, edge_normals.T], axis=1)  # (3, 9)
+    probes = np.concatenate([frames.inverse_frames[t], unit_edges.T, edge_normals.T], axis=1)  # (3, 9), eq. 2
     projected = (points - origin) @ probes
     face_local = projected[:, :3]
     offsets = corners - origin

@@ -3,10 +3,12 @@
 `CONTROL_TRIANGLES` are FP-id triples over the 57 skin FPs, the hairline points 11.1-11.3 that close the
 forehead (on a bald or short-haired head they lie on skin) and the points where the ears meet the head
 (10.1-10.4, 10.7, 10.8) that close the sides of the face, wound so that normals face out of the face
-(counter-clockwise seen from the front). No triangle bridges the mouth opening (the inner lip contour
-2.2-2.9 has upper-lip triangles above it and lower-lip triangles below it only) or an eye opening (the
-upper-lid triangles 3.11/3.1/3.13/3.7 and the lower-lid triangles 3.11/3.3/3.9/3.7 meet only at the eye
-corners), so the openings are holes in the mesh. `TRIANGLE_MASKS[t]` names the vertex group that limits
+(counter-clockwise seen from the front). The template is its own mirror image (every triangle's mirror,
+left and right FPs swapped, is a triangle with the same mask), so a symmetric face deforms symmetrically.
+No triangle bridges the mouth opening (the inner lip contour 2.2-2.9 has upper-lip triangles above it
+and lower-lip triangles below it only) or an eye opening (the upper-lid triangles 3.11/3.1/3.13/3.7 and
+the lower-lid triangles 3.11/3.3/3.9/3.7 meet only at the eye corners), so the openings are holes in the
+mesh. `TRIANGLE_MASKS[t]` names the vertex group that limits
 triangle t's influence: triangles touching an upper-lip FP (8.1, 8.5, 8.6, 8.9, 8.10, 2.2, 2.6, 2.7) use
 "upper_lip", the lower-lip ones (8.2, 8.7, 8.8, 2.3, 2.8, 2.9) "lower_lip", the eyelid ones
 "upper_eyelid" (3.1, 3.2, 3.13, 3.14) / "lower_eyelid" (3.3, 3.4, 3.9, 3.10); all others None.
@@ -66,8 +68,10 @@ _TEMPLATE: tuple[tuple[tuple[str, str, str], str | None], ...] = (
     (("3.10", "3.12", "5.4"), "lower_eyelid"),
     (("3.7", "5.3", "5.1"), None),
     (("3.12", "5.2", "5.4"), None),
-    (("4.5", "3.7", "5.1"), None),
-    (("4.6", "5.2", "3.12"), None),
+    # the temple: split along 3.7-10.3, not along 4.5-5.1, which passes just beside the eye corner and made
+    # a sliver that carried cheek motion up to the brow
+    (("4.5", "3.7", "10.3"), None),
+    (("4.6", "10.4", "3.12"), None),
     (("9.7", "9.12", "9.13"), None),
     (("9.6", "9.14", "9.12"), None),
     (("9.13", "9.12", "9.3"), None),
@@ -126,9 +130,13 @@ _TEMPLATE: tuple[tuple[tuple[str, str, str], str | None], ...] = (
     (("2.12", "2.1", "2.10"), None),
     (("2.11", "2.1", "2.13"), None),
     (("2.12", "2.14", "2.1"), None),
-    (("4.1", "4.2", "9.7"), None),
-    (("4.2", "9.6", "9.7"), None),
-    (("9.7", "9.6", "9.12"), None),
+    # under the jaw, from one jaw corner over the chin to the other, so that an opening jaw carries the
+    # skin under the chin with it instead of folding it against the neck
+    (("2.13", "2.1", "2.14"), None),
+    # the nose bridge: a fan from the mid-line point 9.12, so that the mesh is its own mirror image
+    (("4.1", "4.2", "9.12"), None),
+    (("4.1", "9.12", "9.7"), None),
+    (("4.2", "9.6", "9.12"), None),
     # the forehead, from the brows up to the hairline, so that raised brows stretch the forehead
     # instead of creasing it where the brow triangles' affection volumes end
     (("4.1", "11.1", "4.2"), None),
@@ -142,12 +150,12 @@ _TEMPLATE: tuple[tuple[tuple[str, str, str], str | None], ...] = (
     # the ear meets the head, so that cheek and lip-corner motion fades over the cheek, not in a crease
     (("11.3", "4.5", "10.1"), None),
     (("4.5", "10.3", "10.1"), None),
-    (("4.5", "5.1", "10.3"), None),
+    (("3.7", "5.1", "10.3"), None),
     (("5.1", "10.7", "10.3"), None),
     (("5.1", "2.13", "10.7"), None),
     (("4.6", "11.2", "10.2"), None),
     (("4.6", "10.2", "10.4"), None),
-    (("4.6", "10.4", "5.2"), None),
+    (("3.12", "10.4", "5.2"), None),
     (("5.2", "10.4", "10.8"), None),
     (("5.2", "10.8", "2.14"), None),
 )

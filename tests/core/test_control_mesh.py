@@ -45,12 +45,14 @@ def test_template_is_a_consistently_oriented_manifold():
     assert check_control_mesh(points, triangles) == []
 
 
-def test_template_is_mirror_symmetric_up_to_the_midline_quads():
+def test_template_is_its_own_mirror_image():
+    # a triangle split one way on one side only (as the nose bridge once was) moves the two brows differently
     mirror = {fp.id: fp.mirror or fp.id for fp in FEATURE_POINTS}
-    triangles = {frozenset(t) for t in CONTROL_TRIANGLES}
-    asymmetric = [t for t in triangles if frozenset(mirror[i] for i in t) not in triangles]
-    # Only the bridge between the brows and the nose bone (no midline FP there) is split one way.
-    assert all(t <= {"4.1", "4.2", "9.6", "9.7", "9.12"} for t in asymmetric)
+    masks = {frozenset(t): mask for t, mask in zip(CONTROL_TRIANGLES, TRIANGLE_MASKS, strict=True)}
+    for triangle, mask in masks.items():
+        image = frozenset(mirror[fp_id] for fp_id in triangle)
+        assert image in masks, sorted(triangle)
+        assert masks[image] == mask, sorted(triangle)  # mirror partners sit on the same side of an opening
 
 
 def test_masks_are_valid_and_match_the_lip_and_eyelid_fps():

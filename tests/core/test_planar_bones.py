@@ -388,6 +388,23 @@ def test_cover_over_control_mesh_keeps_vertices_over_the_inside():
     assert covered.tolist() == [True, True, False, False, False, True]
 
 
+def test_cover_over_control_mesh_keeps_the_rims_of_holes():
+    # a 3 x 3 square frame around a 1 x 1 hole (the mouth of a control mesh): 8 quads, 16 triangles in z = 0
+    grid = np.array([[x, y, 0.0] for y in range(4) for x in range(4)])
+    quads = [(x + 4 * y, x + 1 + 4 * y, x + 5 + 4 * y, x + 4 + 4 * y) for y in range(3) for x in range(3)]
+    triangles = np.array([t for i, (a, b, c, d) in enumerate(quads) if i != 4 for t in ((a, b, c), (a, c, d))])
+    rest = np.array(
+        [
+            [1.5, 1.05, -0.05],  # just inside the hole, beside its rim: the lips' inner side
+            [1.5, 1.5, 0.0],  # in the middle of the hole, 0.5 from the rim
+            [1.5, -0.05, 0.01],  # beside the outline
+            [1.5, 0.5, 0.05],  # over the inside
+        ]
+    )
+    covered = cover_over_control_mesh(rest, grid, triangles, max_distance=0.1)
+    assert covered.tolist() == [True, False, False, True]
+
+
 # ---------------------------------------------------------------- degenerate input
 
 
@@ -509,14 +526,20 @@ def test_fade_below_has_no_tear_at_the_edge_of_the_affection_volumes():
         reached = total > 0
         assert 0 < reached.sum() < len(walk) and np.all(lift[~reached] == 0.0)
         if fade:
-            # a pure lift moves each vertex by Σw / max(Σw, τ) of the raw weights, 0 at the volumes' edge
+            # a pure lift moves each vertex by s(Σw / τ) of the raw weights (s = smoothstep, 1 from Σw = τ up),
+            # 0 at the volumes' edge
             raw = np.zeros(len(walk))
             for t, r in enumerate(binding.affection_radius):
                 d = locate(triangle_frames(control[triangles[[t]]]), 0, walk).distance
                 raw += np.where(d < r, (0.5 * (1 + np.cos(np.pi * d / r))) ** 2, 0.0)  # eq. 9, n = 2
-            np.testing.assert_allclose(lift, raw / np.maximum(raw, fade), atol=1e-12)
+            x = np.minimum(raw / fade, 1.0)
+            np.testing.assert_allclose(lift, x * x * (3 - 2 * x), atol=1e-12)
             np.testing.assert_allclose(total, lift, atol=1e-12)
-            assert np.max(np.abs(np.diff(lift))) < 0.3  # continuous: no step of the full motion
+            step = np.abs(np.diff(lift))
+            assert step.max() < 0.3  # continuous: no step of the full motion
+            # and smooth: no kink where the fade starts (at Σw = τ); the linear ramp Σw / τ changes its step
+            # there by 0.6 (τ = 0.05) and 0.77 (τ = 0.5) of the largest step, the smoothstep by 0.24 and 0.09
+            assert np.abs(np.diff(np.diff(lift))).max() < 0.3 * step.max()
         else:
             np.testing.assert_allclose(lift[reached], 1.0, atol=1e-12)  # eq. 8 alone: full motion, then a jump
             assert np.max(np.abs(np.diff(lift))) == pytest.approx(1.0)
@@ -543,3 +566,25 @@ def test_fade_below_raises_radii_until_covered_vertices_reach_it():
     assert binding.affection_radius[0] >= 3.0 * np.pi / np.arccos(2 * 0.05**0.5 - 1) * (1 - 1e-9)
     with pytest.raises(DeformError, match="fade_below"):
         bind(far, control, np.array([[0, 1, 2]]), fade_below=1.5)
+
+
+def test_radius_raising_does_not_depend_on_triangle_order_and_keeps_mirror_symmetry():
+    # two mirror-image pairs of triangles; the vertex on the mid-line is equally near the apex (±1, 0, 0) of
+    # all four, outside their plain radii, so every one of them is raised (not the first found)
+    left = np.array([[-3.0, 0, 0], [-1.0, 0, 0], [-2.0, 1.0, 0], [-2.2, -0.6, 0]])
+    control = np.concatenate([left, left * [-1, 1, 1]])
+    mirror = np.array([4, 5, 6, 7, 0, 1, 2, 3])  # control point of each point's mirror image
+    triangles = np.array([[0, 1, 2], [0, 3, 1], [4, 6, 5], [4, 5, 7]])
+    rest = np.array([[0.0, 0.3, 0.2], [-2.0, 0.4, 0.1], [2.0, 0.4, 0.1], [-1.5, -0.2, -0.3], [1.5, -0.2, -0.3]])
+    plain = bind(rest, control, triangles, cover=np.zeros(len(rest), bool))
+    assert np.all(plain.affection_radius < np.linalg.norm(rest[0] - [1.0, 0, 0]))
+    for order in ([0, 1, 2, 3], [2, 3, 0, 1], [3, 1, 0, 2]):
+        binding = bind(rest, control, triangles[order])
+        assert binding.n_raised == 4
+        np.testing.assert_allclose(binding.affection_radius, binding.affection_radius[0], rtol=1e-12)
+        flip = np.array([-1.0, 1.0, 1.0])
+        motion = np.array([[0.1, 0.3, -0.2], [0.0, 0.2, 0.4], [0.3, -0.1, 0.0], [-0.2, 0.0, 0.1]] * 2)
+        motion[4:] = 0.0
+        moved = evaluate(binding, control + motion)
+        mirrored = evaluate(binding, control + motion[mirror] * flip)
+        np.testing.assert_allclose(mirrored, moved[[0, 2, 1, 4, 3]] * flip, atol=1e-12)
