@@ -9,6 +9,10 @@ The data path: `hold_missing` turns a stream's masked values into a dense (F, 68
 3. eyeball yaw/pitch (23-26) turn the pupils 3.5/3.6 about the eyeball centres;
 4. head pitch/yaw/roll (48-50) turn every point about 7.1, the top of the spine.
 
+Between 1 and 2, opposed points that close an opening (upper/lower eyelids, inner and outer lips) meet
+and stop there (`meet_at_closure`): values that together close more than the opening (a blink of 1024
+on both lids, a pout pressed past contact) would otherwise make the lids or lips cross.
+
 Readings chosen where the standard leaves the decoder free (research/mpeg4-fba.md sections 8, 13):
 - Masked-out FAPs hold their last transmitted value (0 = neutral before the first one), as Greta and
   VREng play them. Optionally a FAP missing in a frame first takes its left/right partner's value, then
@@ -35,6 +39,12 @@ JAW_RIDERS: dict[str, float] = {
     **dict.fromkeys("2.3 2.8 2.9 2.10 2.11 2.12 8.2 8.7 8.8 9.9 9.11 6.1 6.2 6.3 6.4".split(), 1.0),
     **dict.fromkeys(("2.4", "2.5", "8.3", "8.4"), 0.5),
 }
+# (upper FP, lower FP) across the eye openings and the mouth: the upper one must stay above the lower one
+CLOSING_PAIRS = (
+    ("3.1", "3.3"), ("3.2", "3.4"),
+    ("2.2", "2.3"), ("2.6", "2.8"), ("2.7", "2.9"),
+    ("8.1", "8.2"), ("8.5", "8.7"), ("8.6", "8.8"),
+)  # fmt: skip
 EYEBALL_RADIUS_PER_ES0 = 0.19  # default eye pivot: 12 mm behind a 63 mm-ES0 pupil, when no eyeball is given
 
 
@@ -54,6 +64,38 @@ def hold_missing(mask: np.ndarray, values: np.ndarray, fill_partners: bool = Fal
     last = np.maximum.accumulate(np.where(mask, frames, -1), axis=0)
     held = np.take_along_axis(values, np.maximum(last, 0), axis=0)
     return np.where(last >= 0, held, 0.0)
+
+
+def meet_at_closure(upper_down: np.ndarray, lower_up: np.ndarray, gap: float) -> tuple[np.ndarray, np.ndarray]:
+    """Closing motions of two opposed points -> the same motions stopped where the points meet.
+
+    `upper_down` and `lower_up` (any shape) are how far each point moves toward the other (negative: away),
+    `gap` >= 0 their distance at rest. Where together they would close more than the gap: if both close,
+    each keeps its share of the gap (a blink of both lids meets where their values say); if one moves
+    away, it keeps its motion and the other stops on it (a pout lifting both lips keeps the lift).
+    Continuous in both motions.
+    """
+    a = np.asarray(upper_down, dtype=np.float64)
+    b = np.asarray(lower_up, dtype=np.float64)
+    gap = max(float(gap), 0.0)
+    over = a + b > gap
+    both = over & (a > 0.0) & (b > 0.0)
+    share = gap / np.where(both, a + b, 1.0)
+    a_out = np.where(both, a * share, np.where(over & (b <= 0.0), gap - b, a))
+    b_out = np.where(both, b * share, np.where(over & (a <= 0.0), gap - a, b))
+    return a_out, b_out
+
+
+def _stop_at_closure(face_neutral: np.ndarray, pts: np.ndarray) -> None:
+    """Stop the opposed points of CLOSING_PAIRS where they meet (face frame: y up), in place."""
+    for upper, lower in CLOSING_PAIRS:
+        i, j = fp_index(upper), fp_index(lower)
+        if not np.all(np.isfinite(face_neutral[[i, j], 1])):
+            continue
+        rest_i, rest_j = face_neutral[i, 1], face_neutral[j, 1]
+        down, up = meet_at_closure(rest_i - pts[:, i, 1], pts[:, j, 1] - rest_j, rest_i - rest_j)
+        pts[:, i, 1] = rest_i - down
+        pts[:, j, 1] = rest_j + up
 
 
 def fap_scale(fapu: Fapu) -> np.ndarray:
@@ -120,6 +162,7 @@ def fap_to_fp(
     face_neutral = neutral @ axes.T
     disp = (values @ translation_basis(fapu).reshape(N_FAPS, -1)).reshape(n_frames, N_FEATURE_POINTS, 3)
     pts = face_neutral[None] + disp
+    _stop_at_closure(face_neutral, pts)
 
     tongue_body = pts[:, [fp_index("6.2")]]  # after its own translation (raise_tongue)
     for fp_id, sign in (("6.3", 1.0), ("6.4", -1.0)):

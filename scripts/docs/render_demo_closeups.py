@@ -17,6 +17,7 @@ import bpy
 import numpy as np
 
 from scripts import convert
+from scripts.docs.closeups import closeup_camera, open_sample
 from scripts.sample.make_demo_fap import FPS, SCENES
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,17 +46,10 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "demo_closeups.png")
     args = parser.parse_args(argv)
-    convert.addon_package()
-    bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / "makehuman_head.blend"))
-    scene, face = bpy.context.scene, bpy.data.objects["Head"]
-    convert.select_only(face)
+    scene, face = open_sample()
     scene.render.fps = 25
     bpy.ops.mpeg4.import_fap(filepath=str(ROOT / "sample_blends" / "demo.fap"))
-    convert.frame_face(scene, face, TILE)
-    convert.set_engine(scene, "WORKBENCH")
-    convert._image_settings(scene, video=False)
-    camera = scene.camera
-    camera.data.ortho_scale = 0.11
+    camera = closeup_camera(scene, face, TILE, 0.11)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for fp_id, offset, frames in ROWS:

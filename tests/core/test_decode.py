@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from addon.geometry.face_axes import BLENDER_FACE_AXES
-from addon.mpeg4.decode import JAW_RIDERS, fap_to_fp, hold_missing
+from addon.mpeg4.decode import CLOSING_PAIRS, JAW_RIDERS, fap_to_fp, hold_missing, meet_at_closure
 from addon.mpeg4.fapu import AU, Fapu
 from addon.mpeg4.feature_points import FP_IDS, fp_index
 
@@ -145,9 +145,12 @@ def test_encode_inverts_decode_exactly():
     values[:, [n - 1 for n in NOT_RECOVERED]] = 0
     values[:, 46] = np.abs(values[:, 46]) * 100  # tongue roll, unidirectional, in AU
     values[:, 22:26] *= 100  # eyeball angles up to ~0.6 rad
-    pivots = np.array([NEUTRAL[fp_index("3.5")] + [0.003, 0.012, 0.002], NEUTRAL[fp_index("3.6")] + [0, 0.011, 0]])
-    pts = fap_to_fp(NEUTRAL, values, FAPU, eye_pivots=pivots)
-    recovered = fp_to_fap(NEUTRAL, pts, FAPU, eye_pivots=pivots)
+    neutral = NEUTRAL.copy()
+    for upper, lower in CLOSING_PAIRS:  # openings wide enough that no value closes them (which would stop it)
+        neutral[fp_index(upper), 2] = neutral[fp_index(lower), 2] + 0.5
+    pivots = np.array([neutral[fp_index("3.5")] + [0.003, 0.012, 0.002], neutral[fp_index("3.6")] + [0, 0.011, 0]])
+    pts = fap_to_fp(neutral, values, FAPU, eye_pivots=pivots)
+    recovered = fp_to_fap(neutral, pts, FAPU, eye_pivots=pivots)
     np.testing.assert_allclose(recovered, values, atol=1e-6)
 
 
@@ -176,3 +179,60 @@ def test_head_pivot_falls_back_to_centroid_without_7_1():
     out = fap_to_fp(neutral, frames({49: 0.0}), FAPU)[0]
     known = np.all(np.isfinite(neutral), axis=1)
     np.testing.assert_allclose(out[known], neutral[known], atol=1e-15)
+
+
+def test_meet_at_closure_by_hand():
+    # 3 + 3 closes 6 over a gap of 4: each keeps its share (2, 2); 1 + 2 stays open; the upper point moving
+    # away by 1 keeps that and the lower stops on it (4 + 1); the lower moving away by 2 and the upper by 9
+    down, up = meet_at_closure(np.array([3.0, 1.0, -1.0, 9.0]), np.array([3.0, 2.0, 7.0, -2.0]), 4.0)
+    np.testing.assert_allclose(down, [2.0, 1.0, -1.0, 6.0])
+    np.testing.assert_allclose(up, [2.0, 2.0, 5.0, -2.0])
+
+
+def test_meet_at_closure_is_continuous_and_never_crosses():
+    a, b = np.meshgrid(np.linspace(-5, 9, 281), np.linspace(-5, 9, 281))
+    down, up = meet_at_closure(a, b, 4.0)
+    assert np.all(down + up <= 4.0 + 1e-12)
+    assert np.abs(np.diff(down, axis=0)).max() < 0.1 and np.abs(np.diff(down, axis=1)).max() < 0.1
+    assert np.abs(np.diff(up, axis=0)).max() < 0.1 and np.abs(np.diff(up, axis=1)).max() < 0.1
+
+
+def _eye_neutral():
+    neutral = NEUTRAL.copy()
+    neutral[fp_index("3.1")] = [0.03, -0.125, 0.036]  # upper lid 9 mm above the lower (Blender z up)
+    neutral[fp_index("3.3")] = [0.03, -0.124, 0.027]
+    neutral[fp_index("2.2")] = [0.0, -0.14, -0.04]  # closed mouth: inner lips 0.2 mm apart
+    neutral[fp_index("2.3")] = [0.0, -0.14, -0.0402]
+    return neutral
+
+
+@pytest.mark.parametrize("upper, lower", [(1024, 1024), (2000, 0), (0, 3000), (-300, 2000), (5000, 5000)])
+def test_eyelids_meet_and_never_cross(upper, lower):
+    neutral = _eye_neutral()
+    pts = fap_to_fp(neutral, frames({19: upper, 21: lower}), FAPU)[0]
+    top, bottom = pts[fp_index("3.1"), 2], pts[fp_index("3.3"), 2]
+    assert top >= bottom - 1e-12
+    closing = (upper + lower) * FAPU.unit("IRISD")
+    if closing >= 0.009:  # they would have crossed: they meet
+        assert top == pytest.approx(bottom, abs=1e-12)
+        if upper >= 0:  # each closing lid keeps its share of the closure
+            share = upper / (upper + lower)
+            assert neutral[fp_index("3.1"), 2] - top == pytest.approx(0.009 * share, abs=1e-12)
+        else:  # the upper lid opening keeps its motion; the lower one stops on it
+            assert neutral[fp_index("3.1"), 2] - top == pytest.approx(upper * FAPU.unit("IRISD"), abs=1e-12)
+
+
+def test_lids_that_do_not_meet_move_freely():
+    neutral = _eye_neutral()
+    pts = fap_to_fp(neutral, frames({19: 300, 21: 200}), FAPU)[0]
+    assert neutral[fp_index("3.1"), 2] - pts[fp_index("3.1"), 2] == pytest.approx(300 * FAPU.unit("IRISD"))
+    assert pts[fp_index("3.3"), 2] - neutral[fp_index("3.3"), 2] == pytest.approx(200 * FAPU.unit("IRISD"))
+
+
+def test_pressed_lips_stop_at_contact():
+    neutral = _eye_neutral()
+    pts = fap_to_fp(neutral, frames({4: 400, 5: 400}), FAPU)[0]
+    assert pts[fp_index("2.2"), 2] == pytest.approx(pts[fp_index("2.3"), 2], abs=1e-12)
+    # with the jaw open the same values leave the lips apart
+    pts = fap_to_fp(neutral, frames({3: 1024, 4: 400, 5: 400}), FAPU)[0]
+    assert pts[fp_index("2.2"), 2] - pts[fp_index("2.3"), 2] == pytest.approx(0.0002 + 0.030 - 800 * FAPU.unit("MNS"))

@@ -1,0 +1,94 @@
+"""The eyelids' turn over the eyeballs (deform/eyelids.py) on a set-up face, after Planar Bones.
+
+The rig is made once per binding from the rest face: the lids are where the eyelid masks say (the upper
+lid is where the lower-lid triangles may not reach, 1 - `lower_eyelid`, and the other way round), the
+eyes turn about their fitted centres (the part fields), or a default eyeball radius behind each pupil.
+Each frame the deformer gets the mid-lid FPs at rest (`hold`), then `apply` reads the lid and pupil FP
+empties (3.1-3.6) and turns the lids in the deformed positions.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..deform.eyelids import EYE_FPS, EyelidRig, apply_eyelids, bind_eyelids, hold_lids
+from ..deform.planar_bones import Binding
+from ..geometry.face_axes import BLENDER_FACE_AXES
+from ..mpeg4.decode import eye_centres
+from ..mpeg4.fapu import Fapu
+from ..mpeg4.feature_points import fp_index
+from . import binding_store, face_data, followers
+
+WATCHED = [fp_id for eye in EYE_FPS for fp_id in (eye[0], eye[1], eye[4])]  # the FPs whose motion the lids show
+_rigs: dict[int, tuple[Binding, EyelidRig | None, face_data.FpReader]] = {}
+_last: dict[int, np.ndarray] = {}
+
+
+def forget(face=None) -> None:
+    if face is None:
+        _rigs.clear()
+        _last.clear()
+    else:
+        _rigs.pop(face.session_uid, None)
+        _last.pop(face.session_uid, None)
+
+
+def _make_rig(face, binding: Binding) -> EyelidRig | None:
+    masks = binding_store.vertex_masks(face)
+    if "upper_eyelid" not in masks or "lower_eyelid" not in masks:
+        return None
+    empties = face_data.fp_empties(face)
+    neutral = face_data.neutral_array(
+        {fp_id: np.array(ob.get(face_data.EMPTY_REST_PROP, ob.location)) for fp_id, ob in empties.items()}
+    )
+    settings = face.mpeg4_face
+    centres = eye_centres(neutral @ BLENDER_FACE_AXES.T, Fapu(*settings.fapu), None, BLENDER_FACE_AXES)
+    centres = centres @ BLENDER_FACE_AXES
+    for k, eye in enumerate((settings.left_eye, settings.right_eye)):
+        if eye is not None:
+            centres[k] = followers.eye_centre(face, eye)
+    pupils = neutral[[fp_index(eye[4]) for eye in EYE_FPS]]
+    radii = np.linalg.norm(pupils - centres, axis=1)
+    if not np.all(np.isfinite(radii) & (radii > 0)):
+        return None
+    upper, lower = 1.0 - masks["lower_eyelid"], 1.0 - masks["upper_eyelid"]
+    return bind_eyelids(binding.rest_vertices, upper, lower, neutral, centres, radii)
+
+
+def _rig(face, binding: Binding) -> tuple[EyelidRig | None, face_data.FpReader]:
+    cached = _rigs.get(face.session_uid)
+    if cached is None or cached[0] is not binding:
+        present = [fp_id for fp_id in WATCHED if fp_id in face_data.fp_empties(face)]
+        cached = (binding, _make_rig(face, binding), face_data.FpReader(present))
+        _rigs[face.session_uid] = cached
+        _last.pop(face.session_uid, None)
+    return cached[1], cached[2]
+
+
+def _read(face, binding: Binding) -> tuple[EyelidRig | None, np.ndarray]:
+    rig, reader = _rig(face, binding)
+    fps = np.full((84, 3), np.nan)
+    if rig is not None and reader.fp_ids:
+        fps[[fp_index(fp_id) for fp_id in reader.fp_ids]] = reader.read(face)
+    return rig, fps
+
+
+def hold(face, binding: Binding, control_ids, points: np.ndarray) -> np.ndarray:
+    """The control points for the deformer: the mid-lid FPs at rest when the lids are rigged (`apply` turns them)."""
+    rig, _reader = _rig(face, binding)
+    return points if rig is None else hold_lids(control_ids, points, binding.control_rest)
+
+
+def still(face, binding: Binding) -> bool:
+    """True when the lid and pupil FPs are where they were at the last `apply` (nothing for the lids to do)."""
+    rig, fps = _read(face, binding)
+    last = _last.get(face.session_uid)
+    return rig is None or (last is not None and np.array_equal(fps, last, equal_nan=True))
+
+
+def apply(face, binding: Binding, out: np.ndarray) -> None:
+    """Turn the lids of the deformed positions `out` (N, 3) by their FPs' motion and the gaze, in place."""
+    rig, fps = _read(face, binding)
+    if rig is not None:
+        apply_eyelids(rig, out, fps)
+        _last[face.session_uid] = fps

@@ -1,0 +1,112 @@
+"""Lip and eyelid masks made from the feature points, for a face that has none (no bpy, no scipy).
+
+The masks say which side of an opening a vertex is on (paper 000, section 3: the texture masks that keep
+control triangles from moving skin across the mouth and eye openings), with the meaning the hand-made
+ones have: `lower_lip` is the jaw side of the mouth, `upper_lip` = 1 - `lower_lip`; `upper_eyelid` is 0
+on the lower lids and 1 elsewhere, `lower_eyelid` 0 on the upper lids.
+
+A vertex's side is decided by geodesic distance along the mesh's edges to the FPs on each side of the
+opening: where the mouth or an eye is an opening in the mesh, paths between the two sides must go
+round its corners, so the sides part along the opening itself. The sides blend over a band of
+`SIDE_BAND` (x the opening's width) so the masks are soft, and a lid's membership fades out between
+`LID_REACH` x the eye's width from its lid FPs (the skin of a lid ends at its crease).
+"""
+
+from __future__ import annotations
+
+import heapq
+
+import numpy as np
+
+from ..mpeg4.control_mesh import MASK_SETS
+from ..mpeg4.feature_points import fp_index
+
+SIDE_BAND = 0.15  # x mouth or eye width: the band over which a vertex goes from one side to the other
+LID_REACH = (0.35, 0.7)  # x eye width: a lid's membership is 1 up to the first, 0 past the second
+EYE_WIDTH_FPS = (("3.7", "3.11"), ("3.8", "3.12"))
+MOUTH_WIDTH_FPS = ("2.4", "2.5")
+
+
+def geodesic_distance(vertices: np.ndarray, edges: np.ndarray, sources: np.ndarray) -> np.ndarray:
+    """(N,) length of the shortest edge path from each vertex to the nearest of `sources` (inf: unreached)."""
+    vertices = np.asarray(vertices, dtype=np.float64)
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    order = np.argsort(np.concatenate([edges[:, 0], edges[:, 1]]), kind="stable")
+    nbr = np.concatenate([edges[:, 1], edges[:, 0]])[order].tolist()
+    wgt = np.concatenate([length, length])[order].tolist()
+    start = np.searchsorted(np.concatenate([edges[:, 0], edges[:, 1]])[order], np.arange(len(vertices) + 1)).tolist()
+    dist = [np.inf] * len(vertices)
+    heap = []
+    for s in np.unique(np.asarray(sources, dtype=np.intp)).tolist():
+        dist[s] = 0.0
+        heap.append((0.0, s))
+    heapq.heapify(heap)
+    while heap:
+        d, v = heapq.heappop(heap)
+        if d > dist[v]:
+            continue
+        for k in range(start[v], start[v + 1]):
+            nd = d + wgt[k]
+            u = nbr[k]
+            if nd < dist[u]:
+                dist[u] = nd
+                heapq.heappush(heap, (nd, u))
+    return np.array(dist)
+
+
+def _smoothstep(t: np.ndarray) -> np.ndarray:
+    t = np.clip(t, 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)
+
+
+def nearest_vertices(vertices: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Index of the vertex nearest each point."""
+    d = np.linalg.norm(np.asarray(vertices)[None] - np.asarray(points)[:, None], axis=2)
+    return np.argmin(d, axis=1)
+
+
+def _side(vertices, edges, neutral, upper_ids, lower_ids, band):
+    """(N,) how far each vertex is on the lower side (0..1), and its distance to the lower side's FPs."""
+    seeds = {}
+    for name, ids in (("upper", upper_ids), ("lower", lower_ids)):
+        points = [neutral[fp_index(f)] for f in sorted(ids) if np.all(np.isfinite(neutral[fp_index(f)]))]
+        seeds[name] = nearest_vertices(vertices, np.array(points)) if points else np.array([], dtype=np.intp)
+    d_up = geodesic_distance(vertices, edges, seeds["upper"])
+    d_low = geodesic_distance(vertices, edges, seeds["lower"])
+    with np.errstate(invalid="ignore"):
+        lower = _smoothstep(0.5 + (d_up - d_low) / band)
+    return np.where(np.isfinite(d_up) | np.isfinite(d_low), np.nan_to_num(lower, nan=0.0), 0.0), d_low, d_up
+
+
+def _width(neutral, pair) -> float:
+    a, b = (neutral[fp_index(f)] for f in pair)
+    return float(np.linalg.norm(a - b)) if np.all(np.isfinite(a)) and np.all(np.isfinite(b)) else np.nan
+
+
+def make_masks(vertices: np.ndarray, edges: np.ndarray, neutral: np.ndarray) -> dict[str, np.ndarray]:
+    """The four masks of a rest mesh ((N, 3) vertices, (E, 2) edges) from its (84, 3) neutral FPs.
+
+    A mask whose FPs are missing (no inner-lip or eyelid points, or no mouth or eye corners to measure
+    the opening's width) is left out.
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    masks = {}
+    mouth = _width(neutral, MOUTH_WIDTH_FPS)
+    if np.isfinite(mouth) and mouth > 0:
+        jaw, _d, _u = _side(vertices, edges, neutral, MASK_SETS["upper_lip"], MASK_SETS["lower_lip"], SIDE_BAND * mouth)
+        masks["upper_lip"] = 1.0 - jaw
+        masks["lower_lip"] = jaw
+    widths = [w for w in (_width(neutral, pair) for pair in EYE_WIDTH_FPS) if np.isfinite(w)]
+    eye = float(np.mean(widths)) if widths else np.nan
+    if np.isfinite(eye) and eye > 0:
+        lower, d_low, d_up = _side(
+            vertices, edges, neutral, MASK_SETS["upper_eyelid"], MASK_SETS["lower_eyelid"], SIDE_BAND * eye
+        )
+        near, far = LID_REACH[0] * eye, LID_REACH[1] * eye
+        lower_lid = lower * _smoothstep((far - d_low) / (far - near))
+        upper_lid = (1.0 - lower) * _smoothstep((far - d_up) / (far - near))
+        masks["upper_eyelid"] = 1.0 - lower_lid
+        masks["lower_eyelid"] = 1.0 - upper_lid
+    return masks

@@ -1,0 +1,31 @@
+"""What the close-up renders share: the sample head opened with the add-on, and a Workbench camera on it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import bpy
+
+from scripts import convert
+
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
+
+
+def open_sample() -> tuple[bpy.types.Scene, bpy.types.Object]:
+    """The sample head with the add-on registered, its face selected and active: (scene, face)."""
+    convert.addon_package()
+    bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
+    scene, face = bpy.context.scene, bpy.data.objects["Head"]
+    convert.select_only(face)
+    return scene, face
+
+
+def closeup_camera(scene, face, tile: int, ortho_scale: float) -> bpy.types.Object:
+    """Square `tile`-pixel Workbench stills through the face's front camera, `ortho_scale` metres across."""
+    convert.frame_face(scene, face, tile)
+    convert.set_engine(scene, "WORKBENCH")
+    convert._image_settings(scene, video=False)
+    camera = scene.camera
+    camera.data.ortho_scale = ortho_scale
+    return camera

@@ -1,0 +1,95 @@
+"""Masks made from the FPs by geodesic distance: sides of an opening, soft bands, lids that end."""
+
+import numpy as np
+import pytest
+
+from addon.deform.auto_masks import LID_REACH, geodesic_distance, make_masks
+from addon.mpeg4.feature_points import fp_index
+
+
+def test_geodesic_distance_by_hand():
+    # a square 0-1-2-3 with a diagonal 0-2 and a tail 3-4, unit sides
+    verts = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 2, 0], [9, 9, 9]], float)
+    edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [0, 2], [3, 4]])
+    d = geodesic_distance(verts, edges, np.array([0]))
+    np.testing.assert_allclose(d[:5], [0, 1, np.sqrt(2), 1, 2])
+    assert d[5] == np.inf  # in no edge: never reached
+    np.testing.assert_allclose(geodesic_distance(verts, edges, np.array([1, 4]))[:5], [1, 0, 1, 1, 0])
+
+
+def _slit_grid(n=61, size=0.1, slit=0.03):
+    """A flat face (x across, z up) with a horizontal slit of half-width `slit` at z = 0: no edge crosses it."""
+    xs = np.linspace(-size / 2, size / 2, n)
+    zs = np.linspace(-size / 2, size / 2, n + 1)  # even row count: z = 0 falls between two rows
+    verts = np.array([[x, 0.0, z] for z in zs for x in xs])
+    edges = []
+    for r in range(n + 1):
+        for c in range(n):
+            k = r * n + c
+            if c + 1 < n:
+                edges.append((k, k + 1))
+            if r + 1 <= n:
+                crosses = zs[r] < 0 < zs[r + 1] and abs(xs[c]) < slit
+                if not crosses:
+                    edges.append((k, k + n))
+    return verts, np.array(edges)
+
+
+def _mouth_fps(slit):
+    neutral = np.full((84, 3), np.nan)
+    for fp_id, x, z in (
+        ("2.2", 0.0, 0.001), ("2.6", 0.01, 0.001), ("2.7", -0.01, 0.001),
+        ("2.3", 0.0, -0.001), ("2.8", 0.01, -0.001), ("2.9", -0.01, -0.001),
+        ("2.4", slit, 0.0), ("2.5", -slit, 0.0),
+    ):  # fmt: skip
+        neutral[fp_index(fp_id)] = [x, 0.0, z]
+    return neutral
+
+
+def test_mouth_sides_part_along_the_opening():
+    verts, edges = _slit_grid()
+    masks = make_masks(verts, edges, _mouth_fps(0.03))
+    jaw = masks["lower_lip"]
+    np.testing.assert_allclose(masks["upper_lip"], 1.0 - jaw)
+    x, z = verts[:, 0], verts[:, 2]
+    # right at the slit the sides are sharp: just below is jaw, just above is not
+    below = (np.abs(x) < 0.02) & (z < 0) & (z > -0.002)
+    above = (np.abs(x) < 0.02) & (z > 0) & (z < 0.002)
+    assert np.all(jaw[below] == 1.0) and np.all(jaw[above] == 0.0)
+    # between the corners the opening parts the sides all the way (paths round the corners are long)
+    inside = np.abs(x) < 0.02
+    assert np.all(jaw[inside & (z < -0.02)] == 1.0) and np.all(jaw[inside & (z > 0.02)] == 0.0)
+    assert set(masks) == {"upper_lip", "lower_lip"}  # no eyelid FPs: no eyelid masks
+
+
+def test_sides_blend_softly_beyond_the_corners():
+    verts, edges = _slit_grid()
+    jaw = make_masks(verts, edges, _mouth_fps(0.03))["lower_lip"]
+    row = np.isclose(verts[:, 0], verts[np.argmin(np.abs(verts[:, 0] - 0.045)), 0])  # a column past the corner
+    column = jaw[row][np.argsort(verts[row, 2])]
+    assert np.all(np.diff(column) <= 1e-12)  # from jaw below to not-jaw above, monotone
+    assert np.any((column > 0.05) & (column < 0.95))  # through a soft band
+
+
+def _eye_fps():
+    neutral = np.full((84, 3), np.nan)
+    for fp_id, x, z in (
+        ("3.1", 0.0, 0.002), ("3.13", 0.005, 0.002), ("3.3", 0.0, -0.002), ("3.9", 0.005, -0.002),
+        ("3.7", 0.013, 0.0), ("3.11", -0.013, 0.0),
+    ):  # fmt: skip
+        neutral[fp_index(fp_id)] = [x, 0.0, z]
+    return neutral
+
+
+def test_eyelid_masks_cover_the_lids_and_end_past_them():
+    verts, edges = _slit_grid(slit=0.013)
+    masks = make_masks(verts, edges, _eye_fps())
+    upper_lid, lower_lid = 1.0 - masks["lower_eyelid"], 1.0 - masks["upper_eyelid"]
+    x, z = verts[:, 0], verts[:, 2]
+    width = 0.026
+    assert np.all(upper_lid[(np.abs(x) < 0.005) & (z > 0) & (z < 0.005)] == pytest.approx(1.0))
+    assert np.all(lower_lid[(np.abs(x) < 0.005) & (z < 0) & (z > -0.005)] == pytest.approx(1.0))
+    inside = np.abs(x) < 0.008  # between the corners, each lid stays on its own side of the opening
+    assert np.all(upper_lid[inside & (z < 0)] < 1e-9) and np.all(lower_lid[inside & (z > 0)] < 1e-9)
+    far = np.hypot(x, z) > LID_REACH[1] * width + 0.01
+    assert np.all(upper_lid[far] == 0.0) and np.all(lower_lid[far] == 0.0)

@@ -1,0 +1,174 @@
+"""Eyelids turning over the eyeball: closure, no crossing, no V, gaze follow (synthetic eye, face frame)."""
+
+import numpy as np
+import pytest
+
+from addon.deform.eyelids import (
+    LOWER_FOLLOWS_PITCH,
+    UPPER_FOLLOWS_PITCH,
+    apply_eyelids,
+    bind_eyelids,
+    elevation,
+    hold_lids,
+    lid_profile,
+)
+from addon.mpeg4.feature_points import fp_index
+
+AXES = np.eye(3)  # mesh = face frame here: x left, y up, z forward
+R_EYE, R_LID = 0.012, 0.013
+# the opening is traced from the mesh, one margin vertex per bin, linearly between: 2 mrad (0.03 mm) off
+TRACE = 0.003
+CORNER = 0.011  # corners at x = +-11 mm from the eye centre, on the horizontal plane
+UP0, LOW0 = np.radians(25.0), np.radians(-20.0)  # mid-lid margins at rest
+CENTRES = np.array([[0.032, 0.0, 0.0], [-0.032, 0.0, 0.0]])
+XS = np.linspace(-0.0125, 0.0125, 51)
+INSIDE = np.abs(XS) < CORNER  # between the eye corners
+
+
+def _on_shell(centre, x, angle, radius=R_LID):
+    """Points at lateral offset x and elevation `angle` on a sphere of `radius` about `centre`."""
+    x, angle = np.broadcast_arrays(x, angle)
+    rho = np.sqrt(radius**2 - x**2)
+    return centre + np.stack([x, rho * np.sin(angle), rho * np.cos(angle)], axis=-1)
+
+
+def _eye():
+    """Lids on a shell over two eyeballs: rows of vertices from each margin outward; FPs on the margins."""
+    verts, upper, lower, margins = [], [], [], {}
+    neutral = np.full((84, 3), np.nan)
+    for e, centre in enumerate(CENTRES):
+        s = lid_profile(XS, -CORNER, 0.0, CORNER)  # the opening narrows to the corners like the profile
+        up_margin, low_margin = s * UP0, s * LOW0
+        for k, (start, end, member) in enumerate(
+            ((up_margin, np.radians(70), upper), (low_margin, -np.radians(70), lower))
+        ):
+            rows = [_on_shell(centre, XS, start + f * (end - start)) for f in np.linspace(0, 1, 8)]
+            first = sum(len(v) for v in verts)
+            margins[(e, k)] = np.arange(first, first + len(XS))
+            for row in rows:
+                verts.append(row)
+                member.append(np.ones(len(row)))
+                (lower if member is upper else upper).append(np.zeros(len(row)))
+        ids = (("3.1", "3.3", "3.11", "3.7", "3.5"), ("3.2", "3.4", "3.8", "3.12", "3.6"))[e]
+        sign = 1.0 if e == 0 else -1.0  # inner corner toward the nose (x = 0)
+        neutral[fp_index(ids[0])] = _on_shell(centre, 0.0, UP0)
+        neutral[fp_index(ids[1])] = _on_shell(centre, 0.0, LOW0)
+        neutral[fp_index(ids[2])] = _on_shell(centre, -sign * CORNER, 0.0)
+        neutral[fp_index(ids[3])] = _on_shell(centre, sign * CORNER, 0.0)
+        neutral[fp_index(ids[4])] = _on_shell(centre, 0.0, 0.0, R_EYE)
+    rest = np.concatenate(verts)
+    return rest, np.concatenate(upper), np.concatenate(lower), neutral, margins
+
+
+REST, UPPER, LOWER, NEUTRAL, MARGINS = _eye()
+RIG = bind_eyelids(REST, UPPER, LOWER, NEUTRAL, CENTRES, np.array([R_EYE, R_EYE]), AXES)
+
+
+def _turned_fp(fps, fp_id, eye, angle):
+    """Turn an FP about its eye centre by `angle` (radians, + up)."""
+    p = fps[fp_index(fp_id)] - CENTRES[eye]
+    c, s = np.cos(angle), np.sin(angle)
+    fps[fp_index(fp_id)] = CENTRES[eye] + [p[0], c * p[1] + s * p[2], c * p[2] - s * p[1]]
+
+
+def _pose(upper_turn=0.0, lower_turn=0.0, pitch=0.0):
+    fps = NEUTRAL.copy()
+    for e, (up, low, pupil) in enumerate((("3.1", "3.3", "3.5"), ("3.2", "3.4", "3.6"))):
+        _turned_fp(fps, up, e, upper_turn)
+        _turned_fp(fps, low, e, lower_turn)
+        _turned_fp(fps, pupil, e, pitch)
+    out = REST.copy()  # the deformer left everything at rest: all motion here is the lids' own
+    apply_eyelids(RIG, out, fps)
+    return out
+
+
+def _margin_angles(out, eye, lid):
+    return elevation(out[MARGINS[(eye, lid)]], CENTRES[eye])
+
+
+def test_profile_by_hand():
+    s = lid_profile(np.array([-2.0, -1.0, 0.0, 0.5, 1.0, 2.0]), -1.0, 0.0, 1.0)
+    np.testing.assert_allclose(s, [0.0, 0.0, 1.0, np.sin(np.pi * 0.75), 0.0, 0.0], atol=1e-15)
+
+
+def test_rest_stays_rest():
+    np.testing.assert_allclose(_pose(), REST, atol=1e-15)
+
+
+@pytest.mark.parametrize("eye", [0, 1])
+def test_full_blink_closes_along_the_whole_lid(eye):
+    out = _pose(upper_turn=LOW0 - UP0)  # the upper mid-lid FP turned down onto the lower one
+    up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
+    np.testing.assert_allclose(up[INSIDE], low[INSIDE], atol=TRACE)
+    assert np.all(low[INSIDE] < 0.0)  # closed where the lower lid is, not half-way
+
+
+@pytest.mark.parametrize("upper_turn, lower_turn", [(-2.0, 0.0), (-1.5, 1.0), (0.1, 2.5), (-3.0, 3.0)])
+def test_overlapping_values_meet_and_never_cross(upper_turn, lower_turn):
+    out = _pose(upper_turn, lower_turn)
+    for eye in (0, 1):
+        up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
+        assert np.all(up >= low - TRACE)
+        np.testing.assert_allclose(up[INSIDE], low[INSIDE], atol=TRACE)
+
+
+def test_half_blink_has_no_v():
+    out = _pose(upper_turn=0.5 * (LOW0 - UP0))
+    up = _margin_angles(out, 0, 0)
+    mid = len(XS) // 2
+    slope = np.diff(up) / np.diff(XS)
+    # smooth at the mid-lid point: the slopes either side nearly match; a V (the mid-lid point pulled down
+    # alone, the corners fixed) flips them by 2 x 22.5 deg / 11 mm; the traced opening leaves a few percent
+    v_kink = 2 * np.radians(22.5) / CORNER
+    assert abs(slope[mid] - slope[mid - 1]) < 0.1 * v_kink
+    # the margin stays a single arch: rising to the middle, falling after it
+    left = (XS[:-1] > -CORNER) & (XS[1:] < 0.0)
+    right = (XS[:-1] > 0.0) & (XS[1:] < CORNER)
+    assert np.all(slope[left] >= -0.05 * v_kink) and np.all(slope[right] <= 0.05 * v_kink)
+
+
+def test_lids_slide_on_the_eyeball():
+    out = _pose(upper_turn=-0.6, lower_turn=0.2, pitch=-0.3)
+    eye = np.argmin(np.linalg.norm(REST[:, None] - CENTRES[None], axis=2), axis=1)
+    np.testing.assert_allclose(
+        np.linalg.norm(out - CENTRES[eye], axis=1), np.linalg.norm(REST - CENTRES[eye], axis=1), atol=1e-12
+    )
+
+
+def test_lids_follow_the_gaze_partly():
+    pitch = np.radians(-20.0)  # looking down
+    out = _pose(pitch=pitch)
+    mid = len(XS) // 2
+    assert _margin_angles(out, 0, 0)[mid] - UP0 == pytest.approx(UPPER_FOLLOWS_PITCH * pitch, abs=TRACE)
+    assert _margin_angles(out, 0, 1)[mid] - LOW0 == pytest.approx(LOWER_FOLLOWS_PITCH * pitch, abs=TRACE)
+
+
+def test_missing_lid_points_give_no_rig():
+    neutral = NEUTRAL.copy()
+    neutral[fp_index("3.3")] = np.nan
+    assert bind_eyelids(REST, UPPER, LOWER, neutral, CENTRES, np.array([R_EYE, R_EYE]), AXES) is None
+
+
+def test_hold_lids_keeps_the_mid_lid_points_at_rest_only():
+    ids = ["3.1", "4.1", "3.4", "3.13"]
+    rest = np.zeros((4, 3))
+    points = np.arange(12.0).reshape(4, 3)
+    held = hold_lids(ids, points, rest)
+    np.testing.assert_array_equal(held[[0, 2]], 0.0)
+    np.testing.assert_array_equal(held[[1, 3]], points[[1, 3]])
+    np.testing.assert_array_equal(hold_lids(["4.1"], points[:1], rest[:1]), points[:1])
+
+
+@pytest.mark.parametrize("upper_turn, lower_turn, pitch", [(-0.8, 0.0, 0.0), (-0.8, 0.8, -0.4), (0.5, -0.5, 0.4)])
+def test_no_skin_folds_whatever_the_turn(upper_turn, lower_turn, pitch):
+    """Along each column of the lid skin, the vertices keep their order: no row passes the one above it."""
+    out = _pose(upper_turn, lower_turn, pitch)
+    rows = len(XS)
+    for eye in (0, 1):
+        for lid in (0, 1):
+            first = MARGINS[(eye, lid)][0]
+            column = np.arange(first, first + 8 * rows, rows)  # 8 rows outward from the margin, one column
+            for k in range(rows):
+                angles = elevation(out[column + k], CENTRES[eye])
+                step = np.diff(angles) * (1 if lid == 0 else -1)
+                assert np.all(step > 0.0)
