@@ -51,8 +51,9 @@ RESOLUTIONS = (16, 8192)
 SHEET_FRAMES = (0, 100)
 JOBS = (1, 64)
 ENGINES = ("WORKBENCH", "CYCLES")
+FACE_ENGINES = {"planar": "PLANAR_BONES", "elastic": "ELASTIC_BONES"}  # --engine-face -> Object.mpeg4_face.engine
 MAX_CACHE_BYTES = 4 * 2**30  # a point cache on disk beyond this is a mistaken frame range, not a wish
-OUTPUT_SUFFIXES = (".pc2", ".abc", ".mp4", "_sheet.png")
+OUTPUT_SUFFIXES = (".pc2", ".abc", ".mp4", "_sheet.png", ".glb")
 SCRATCH_SUFFIXES = ("_sheet.frame.png",)  # the contact sheet's one-frame renders
 
 
@@ -103,7 +104,18 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         help=f"preview height and width in pixels ({RESOLUTIONS[0]} to {RESOLUTIONS[1]})",
     )
     parser.add_argument("--frames", type=frame_range, help="stream frames to convert, FIRST:LAST, e.g. 0:100")
-    parser.add_argument("--engine", choices=ENGINES, default=ENGINES[0])
+    parser.add_argument("--engine", choices=ENGINES, default=ENGINES[0], help="the preview's render engine")
+    parser.add_argument(
+        "--engine-face",
+        choices=tuple(FACE_ENGINES),
+        default="planar",
+        help="what moves the face: Planar Bones (baked to a point cache) or Elastic Bones (a skeleton, baked to keys)",
+    )
+    parser.add_argument(
+        "--glb",
+        action="store_true",
+        help="also write STEM.glb: face, skeleton and animation (with --engine-face elastic)",
+    )
     parser.add_argument("--no-video", action="store_true", help="skip the preview video")
     parser.add_argument(
         "--audio", type=Path, help="a sound file for the preview video, from the stream's frame 0 (one stream only)"
@@ -126,6 +138,10 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
 def stream_options(args) -> list[str]:
     """The options that shape one stream's outputs, as this script's command line takes them."""
     options = ["--resolution", str(args.resolution), "--engine", args.engine, "--sheet", str(args.sheet)]
+    if args.engine_face != "planar":
+        options += ["--engine-face", args.engine_face]
+    if args.glb:
+        options.append("--glb")
     if args.frames:
         options.append("--frames=" + ":".join("" if end is None else str(end) for end in args.frames))
     if args.object:
@@ -225,6 +241,8 @@ def check_arguments(args) -> Path:
         check_input(args.audio, "audio file")
         if len(args.streams) > 1:
             raise ConvertError(f"--audio is the sound of one stream, and {len(args.streams)} streams are given")
+    if args.glb and args.engine_face != "elastic":
+        raise ConvertError("--glb exports a skeleton and its keys: add --engine-face elastic")
     check_output_folder(args.out)
     return face_file.resolve()
 
@@ -530,27 +548,35 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertice
     fps, fps_base = scene_rate(stream.fps)  # a bad stream fails here, before the face is opened
     frames = last - first + 1
     tiles = min(args.sheet, frames)
-    progress.expect(2 * frames + (0 if args.no_video else frames) + tiles)
+    elastic = args.engine_face == "elastic"
+    progress.expect((1 if elastic else 2) * frames + (0 if args.no_video else frames) + tiles + args.glb * frames)
 
     face = open_face(face_file, args.object)
     scene = bpy.context.scene
     select_only(face)
     if not face.mpeg4_face.enabled:
         bpy.ops.mpeg4.setup_face()
+    if face.mpeg4_face.engine != FACE_ENGINES[args.engine_face]:
+        bpy.ops.mpeg4.set_engine(engine=FACE_ENGINES[args.engine_face])
     scene.render.fps, scene.render.fps_base = fps, fps_base
     bpy.ops.mpeg4.import_fap(filepath=str(stream_path), timing="SCENE", start_frame=0, set_frame_range=False)
     scene.frame_start, scene.frame_end = first, last
 
     handlers = bpy.app.handlers
-    cache, abc, video, sheet = (out_dir / f"{stream_path.stem}{suffix}" for suffix in OUTPUT_SUFFIXES)
-    written.append(cache)
-    with counting(progress, handlers.frame_change_post, frames, "bake"):
-        bpy.ops.mpeg4.bake(target="POINT_CACHE", filepath=str(cache))
+    cache, abc, video, sheet, glb = (out_dir / f"{stream_path.stem}{suffix}" for suffix in OUTPUT_SUFFIXES)
+    if not elastic:  # Elastic Bones is baked already: the import keyed the skeleton
+        written.append(cache)
+        with counting(progress, handlers.frame_change_post, frames, "bake"):
+            bpy.ops.mpeg4.bake(target="POINT_CACHE", filepath=str(cache))
     written.append(abc)
     with counting(progress, handlers.frame_change_post, frames, "Alembic"):
         bpy.ops.wm.alembic_export(filepath=str(abc), start=first, end=last, selected=False, evaluation_mode="RENDER")
     if not abc.exists():
         raise ConvertError("Alembic export wrote nothing")
+    if args.glb:
+        written.append(glb)
+        with counting(progress, handlers.frame_change_post, frames, "glTF"):
+            export_glb(face, glb)
     frame_face(scene, face, args.resolution)
     set_engine(scene, args.engine)
     if not args.no_video:
@@ -563,6 +589,30 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertice
         written.append(sheet)
         with counting(progress, handlers.render_post, tiles, "contact sheet"):
             contact_sheet(scene, sheet, tiles)
+
+
+def export_glb(face, path: Path) -> None:
+    """The face, its skeleton and the meshes that move with them (rendered children: eyes, teeth, tongue), with the
+    skeleton's keys, as one binary glTF file (Blender's own exporter, over the scene's frame range)."""
+    skeleton = _addon("blender.elastic_rig").skeleton_object(face)
+    children = [*face.children, *skeleton.children]
+    chosen = {face, skeleton, *(ob for ob in children if ob.type == "MESH" and not ob.hide_render)}
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob in chosen)
+    bpy.context.view_layer.objects.active = face
+    bpy.ops.export_scene.gltf(
+        filepath=str(path),
+        export_format="GLB",
+        use_selection=True,
+        export_apply=False,
+        export_skins=True,
+        export_morph=False,
+        export_animations=True,
+        export_frame_range=True,
+        export_animation_mode="ACTIVE_ACTIONS",
+    )
+    if not path.exists():
+        raise ConvertError("glTF export wrote nothing")
 
 
 def _message(exc: BaseException) -> str:

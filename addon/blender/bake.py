@@ -24,7 +24,7 @@ import numpy as np
 
 from ..errors import Mpeg4Error
 from ..formats.pc2 import TEMP_SUFFIX, PointCacheWriter
-from . import animation, followers, live, rest_shape
+from . import animation, elastic_rig, followers, live, rest_shape
 from .face_data import CREATED_PROP
 from .reporting import progress
 
@@ -49,6 +49,11 @@ class Bake:
     def __init__(self, context, face, frames: Sequence[int]):
         if not face.mpeg4_face.enabled:
             raise Mpeg4Error(f"turn on Deform for {face.name} before baking")
+        if face.mpeg4_face.engine == elastic_rig.ELASTIC:
+            raise Mpeg4Error(
+                f"{face.name} uses Elastic Bones: its import is baked into the skeleton's keys already (export it "
+                "as glTF or Alembic as it is)"
+            )
         if len(frames) == 0:
             raise Mpeg4Error("nothing to bake: the frame range is empty (End is before Start)")
         scene = context.scene

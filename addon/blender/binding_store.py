@@ -23,7 +23,7 @@ import numpy as np
 
 from ..deform.face_binding import FADE_BELOW, bind_face
 from ..deform.masks import image_masks, vertex_uvs
-from ..deform.planar_bones import Binding
+from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
 from ..mpeg4.control_mesh import MASK_NAMES
 from . import face_data, rest_shape
@@ -34,7 +34,6 @@ BINDING_PROP = "mpeg4_binding"
 BINDING_KEY_PROP = "mpeg4_binding_key"
 # the dtypes a binding is made of; anything else in a file is refused
 LEGACY_MESH_PROPS = (BINDING_PROP, BINDING_KEY_PROP)
-COMPACT_FIELDS = ("pair_face_local", "pair_region_local", "pair_apex_distance")  # saved as float32
 STORED_DTYPES = frozenset({"<f8", "<f4", "<i8", "<i4", "<i2", "|i1", "|b1"})
 MAX_NDIM = 3
 
@@ -87,8 +86,8 @@ def save(face: bpy.types.Object, binding: Binding, key: str) -> None:
         if isinstance(value, np.ndarray):
             # ID property arrays hold int32, float32 and float64; the ".dtype" says what to load them as
             stored = value.astype(np.int32) if value.dtype.kind in "iub" else value
-            if field.name in COMPACT_FIELDS:
-                stored = value.astype(np.float32)  # exact: `compact` rounded them already
+            if field.name in LOCAL_FIELDS:
+                stored = value.astype(np.float32)  # exact: bound with local_float32
             group[field.name] = np.ascontiguousarray(stored).ravel()
             group[field.name + ".shape"] = list(value.shape) or [0]
             group[field.name + ".dtype"] = value.dtype.str
@@ -227,33 +226,25 @@ class BindInputs:
     key: str
 
     def bind(self) -> Binding:
-        return compact(
-            bind_face(
-                self.rest.astype(np.float64),
-                self.control_rest,
-                self.triangles,
-                vertex_masks=self.masks or None,
-                triangle_masks=self.triangle_masks if self.masks else None,
-                **self.params,
-            )
+        """The binding as it will be saved: its local coordinates rounded to float32 (about 1e-7 of a control
+        triangle's size, 1e-9 m on a face; weights, rest shape and control mesh stay float64, so the rest frame
+        and the eq. 8 weight sums stay exact). The session plays the rounded values too, so a saved and
+        reopened file plays bit for bit the same."""
+        return bind_face(
+            self.rest.astype(np.float64),
+            self.control_rest,
+            self.triangles,
+            vertex_masks=self.masks or None,
+            triangle_masks=self.triangle_masks if self.masks else None,
+            local_float32=True,
+            **self.params,
         )
 
 
-def compact(binding: Binding) -> Binding:
-    """The binding with its per-pair local coordinates rounded to float32, as they are saved.
-
-    Rounding the local coordinates (eq. 1, 12-14: alpha, beta, h; the region frames' x, y, h; D_j) moves a
-    vertex by about 1e-7 of its triangle's size (about 1e-9 m on a face); the weights, the rest shape and
-    the control mesh stay float64, so the rest frame and the eq. 8 weight sums stay exact. The session uses
-    the rounded values too, so a saved and reopened file plays bit for bit the same.
-    """
-    rounded = {name: getattr(binding, name).astype(np.float32).astype(np.float64) for name in COMPACT_FIELDS}
-    return dataclasses.replace(binding, **rounded)
-
-
-def _masks(face, fresh: bool) -> dict[str, np.ndarray]:
+def _masks(face, fresh: bool, made: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """The face's mask weights; a setting change reuses the ones read at set-up (reading vertex groups is
-    a Python loop over the vertices, 0.2 s at 68k vertices)."""
+    a Python loop over the vertices, 0.2 s at 68k vertices). `made`: masks set-up is about to write as
+    vertex groups, taken as if they were there already."""
     settings = face.mpeg4_face
     if not settings.use_masks:
         return {}
@@ -261,17 +252,24 @@ def _masks(face, fresh: bool) -> dict[str, np.ndarray]:
     cached = _mask_cache.get(face.session_uid)
     if not fresh and cached is not None and cached[0] == source:
         return cached[1]
-    masks = vertex_masks(face)
+    masks = {**vertex_masks(face), **(made or {})}
     _mask_cache[face.session_uid] = (source, masks)
     return masks
 
 
 def gather(
-    face, rest: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, triangle_masks, es0: float, fresh=True
+    face,
+    rest: np.ndarray,
+    control_rest: np.ndarray,
+    triangles: np.ndarray,
+    triangle_masks,
+    es0: float,
+    fresh=True,
+    made_masks: dict[str, np.ndarray] | None = None,
 ) -> BindInputs:
     """The inputs of a binding with the face's current parameters; changes nothing in the scene."""
     settings = face.mpeg4_face
-    masks = _masks(face, fresh)
+    masks = _masks(face, fresh, made_masks)
     tri_masks = [m if m in masks else None for m in triangle_masks]
     params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent, "es0": es0}
     key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)

@@ -13,17 +13,28 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ..deform.auto_masks import make_masks
 from ..deform.planar_bones import Binding
 from ..errors import Mpeg4Error
 from ..mpeg4 import control_mesh
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
-from . import animation, bake, binding_store, face_data, followers, fp_empties, head_motion, live, rest_shape
+from . import (
+    animation,
+    bake,
+    binding_store,
+    elastic_rig,
+    face_data,
+    followers,
+    fp_empties,
+    head_motion,
+    live,
+    rest_shape,
+)
 from .fitting_store import remove_fitting
 from .reporting import Warn
 from .speech_ops import remove_speech
 
-FOLLOWERS = (("left_eye", "3.5"), ("right_eye", "3.6"), ("lower_teeth", "9.11"), ("tongue", "6.2"))
 LOCK_INTERFACE_PROP = "mpeg4_locked_interface"  # on the scene: set-up turned Lock Interface on
 
 
@@ -43,6 +54,7 @@ class Plan:
     binding: Binding
     key: str
     notes: list[str]
+    made_masks: dict[str, np.ndarray]  # mask vertex groups to make (the face has none of these)
 
 
 def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
@@ -104,6 +116,8 @@ def plan(face) -> Plan:
         raise Mpeg4Error(f"{face.name} has no vertices")
     if face.mode == "EDIT":
         raise Mpeg4Error(f"{face.name} is in Edit Mode: go back to Object Mode first")
+    if face.mpeg4_face.engine == elastic_rig.ELASTIC:  # its skeleton and parts hang on the old set-up
+        raise Mpeg4Error(f"{face.name} uses Elastic Bones: switch the Engine to Planar Bones, set up, and switch back")
     coll = face_data.fp_collection(face)
     empties = fp_empties.candidates(coll) if coll is not None else {}
     if not empties:
@@ -131,11 +145,8 @@ def plan(face) -> Plan:
     except FapuError as exc:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
-    if face.mpeg4_face.use_masks:
-        missing = binding_store.missing_masks(face)
-        if missing:
-            notes.append(Warn(f"no vertex groups {', '.join(missing)}: those openings are not masked"))
-    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1])
+    made = _planned_masks(face, rest, neutral, notes) if face.mpeg4_face.use_masks else {}
+    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], made_masks=made)
     try:
         binding = inputs.bind()
     except np.linalg.LinAlgError as exc:
@@ -143,7 +154,46 @@ def plan(face) -> Plan:
             f"the feature points cannot bind {face.name} ({exc}): check for points placed on top of each other"
         ) from exc
     key = inputs.key
-    return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes)
+    return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes, made)
+
+
+def _planned_masks(face, rest: np.ndarray, neutral: dict[str, np.ndarray], notes: list) -> dict[str, np.ndarray]:
+    """The mask vertex groups the face lacks, made from the FPs (geodesic sides of the openings)."""
+    missing = binding_store.missing_masks(face)
+    if not missing:
+        return {}
+    edges = np.empty(len(face.data.edges) * 2, dtype=np.int64)
+    face.data.edges.foreach_get("vertices", edges)
+    made = make_masks(rest, edges.reshape(-1, 2), face_data.neutral_array(neutral))
+    made = {name: made[name] for name in missing if name in made}
+    if made:
+        notes.append(f"made vertex groups {', '.join(made)} from the feature points (edit them to refine the masks)")
+    unmade = [name for name in missing if name not in made]
+    if unmade:
+        names = ", ".join(unmade)
+        notes.append(Warn(f"no vertex groups {names} and too few feature points to make them: not masked"))
+    return made
+
+
+def _write_masks(face, made: dict[str, np.ndarray]) -> None:
+    """Write made masks as vertex groups and remember them, so Remove takes them away again."""
+    if not made:
+        return
+    for name, weights in made.items():
+        group = face.vertex_groups.new(name=name)
+        for value in np.unique(weights[weights > 0.0]):
+            group.add(np.flatnonzero(weights == value).tolist(), float(value), "REPLACE")
+    settings = face.mpeg4_face
+    settings.made_masks = ",".join(sorted({*filter(None, settings.made_masks.split(",")), *made}))
+
+
+def _remove_made_masks(face) -> int:
+    names = [name for name in face.mpeg4_face.made_masks.split(",") if name]
+    for name in names:
+        group = face.vertex_groups.get(name)
+        if group is not None:
+            face.vertex_groups.remove(group)
+    return len(names)
 
 
 def _hide(control) -> None:
@@ -196,7 +246,9 @@ def set_up(face) -> list[str]:
     settings.fapu = p.fapu
     mesh = face.data
     rest_shape.store_rest(mesh, p.rest)
+    _write_masks(face, p.made_masks)
     binding_store.save(face, p.binding, p.key)
+    settings["enabled"] = False  # the handlers leave the face at rest while lashes and brows bind to it
     notes.extend(hook_followers(face, p.empties))
     settings.status = ""
     settings.enabled = True
@@ -209,22 +261,29 @@ def set_up(face) -> list[str]:
 
 
 def hook_followers(face, empties) -> list[str]:
+    """Fill the empty part fields by name, then hook each part to what drives it (the face is at rest)."""
     settings = face.mpeg4_face
     guessed = followers.find_followers(face)
     notes = []
-    inv = np.array(face.matrix_world.inverted())
-    for name, fp_id in FOLLOWERS:
+    for name, driver in followers.PARTS.items():
         ob = getattr(settings, name) or guessed[name]
-        empty = empties.get(fp_id)
-        if ob is None or empty is None:
+        if ob is None or ob == face:
             continue
         setattr(settings, name, ob)
-        if name.endswith("eye"):
-            pivot = inv[:3, :3] @ np.array(ob.matrix_world.translation) + inv[:3, 3]
-            followers.follow_gaze(ob, empty, pivot)
-        else:
-            followers.follow_location(ob, empty)
-        notes.append(f"{ob.name} follows FP {fp_id}")
+        if driver == "skull":
+            notes.append(f"{ob.name} stays with the skull")
+        elif driver == "surface":
+            if ob.type != "MESH":
+                notes.append(Warn(f"{ob.name} is not a mesh: it cannot follow the face's skin"))
+                continue
+            followers.follow_surface(ob, face)
+            notes.append(f"{ob.name} follows the face's skin")
+        elif driver in empties:
+            if name.endswith("eye"):
+                followers.follow_gaze(face, ob, empties[driver], followers.eye_centre(face, ob))
+            else:
+                followers.follow_location(ob, empties[driver])
+            notes.append(f"{ob.name} follows FP {driver}")
     return notes
 
 
@@ -233,6 +292,8 @@ def remove(face) -> list[str]:
     settings = face.mpeg4_face
     notes = []
     live.forget(face)
+    if elastic_rig.remove(face):  # first: its parts go back to their followers' drivers
+        notes.append("removed the Elastic Bones skeleton")
     notes.extend(remove_fitting(face))
     mesh = face.data
     rest_shape.restore_rest(mesh)
@@ -247,8 +308,11 @@ def remove(face) -> list[str]:
     head_motion.restore_rest(face)
     if removed_actions:
         notes.append(f"removed {removed_actions} imported FAP stream(s)")
-    for name, _fp_id in FOLLOWERS:
+    for name in followers.PARTS:
         followers.remove_follow(getattr(settings, name))
+    made = _remove_made_masks(face)
+    if made:
+        notes.append(f"removed the {made} mask vertex groups set-up had made")
     control = settings.control_object
     if control is not None and face_data.CREATED_PROP in control:
         old = control.data

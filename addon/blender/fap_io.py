@@ -1,6 +1,7 @@
 """FAP streams in and out of a set-up face.
 
-Import: .fap -> held FAP values (decode.hold_missing) -> gain and clamp -> FP positions
+Import: .fap -> held FAP values (decode.hold_missing) -> gain and clamp (the options), then each group's gain
+and soft limit (the face's settings, fap_groups.shape_faps) -> FP positions
 (decode.fap_to_fp, head rotation left out) -> keys on the FP empties; head pitch/yaw/roll -> keys on the
 face's delta transform (head_motion), turning the head about 7.1 while leaving the user's own transform
 alone. All keys of one stream go into one action named after the file (animation.StreamActions).
@@ -19,13 +20,14 @@ from ..errors import Mpeg4Error
 from ..mpeg4.decode import fap_to_fp, head_pivot, hold_missing
 from ..mpeg4.encode import fp_to_fap, recoverable_faps
 from ..mpeg4.fap_file import FapStream, read_fap, write_fap
+from ..mpeg4.fap_groups import GROUP_NAMES, shape_faps
 from ..mpeg4.faps import N_FAPS
 from ..mpeg4.fapu import AU, Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
 from ..mpeg4.stream_timing import check_values, gain_and_clamp, scene_frames
 from ..speech.high_level import apply_high_level
-from . import animation, binding_store, face_data, head_motion
-from .reporting import progress
+from . import animation, binding_store, elastic_rig, face_data, followers, head_motion
+from .reporting import Warn, progress
 
 REST_PROP = face_data.EMPTY_REST_PROP
 HEAD_FAPS = slice(47, 50)
@@ -59,13 +61,44 @@ def neutral_positions(face, empties) -> np.ndarray:
 
 
 def eye_pivots(face) -> np.ndarray | None:
+    """(2, 3) face-local centres of the left and right eyeballs (fitted spheres), or None without both eyes."""
     settings = face.mpeg4_face
     if settings.left_eye is None or settings.right_eye is None:
         return None
-    inv = face.matrix_world.inverted()
-    return np.array(
-        [inv @ settings.left_eye.matrix_world.translation, inv @ settings.right_eye.matrix_world.translation]
-    )
+    return np.array([followers.eye_centre(face, settings.left_eye), followers.eye_centre(face, settings.right_eye)])
+
+
+def group_gains(face) -> dict[str, float]:
+    settings = face.mpeg4_face
+    return {name: getattr(settings, f"gain_{name}") for name in GROUP_NAMES}
+
+
+# part field -> (the FAPs that move it, what the stream then lacks without it)
+PART_FAPS = {
+    "left_eye": ((23, 25), "the left eye's turns (FAP 23, 25)"),
+    "right_eye": ((24, 26), "the right eye's turns (FAP 24, 26)"),
+    "lower_teeth": ((3, 14, 15), "the lower teeth moving with the jaw (FAP 3, 14, 15)"),
+    "upper_teeth": ((3,), "upper teeth inside the opened mouth (FAP 3)"),
+    "tongue": ((43, 44, 45, 46, 47), "the tongue's motion (FAP 43-47)"),
+    "lashes": ((19, 20, 21, 22), "eyelashes on the moving lids (FAP 19-22)"),
+    "brows": ((31, 32, 33, 34, 35, 36, 37, 38), "brow hair on the moving brows (FAP 31-38)"),
+}
+
+
+WARN_PARTS = {"left_eye", "right_eye", "lower_teeth", "tongue"}  # moved by their FAPs; the others are optional
+
+
+def missing_parts(face, mask: np.ndarray) -> list[str]:
+    """A message for each face part the stream moves (its FAPs are present) but the face does not have."""
+    settings = face.mpeg4_face
+    present = np.asarray(mask, dtype=bool).any(axis=0)
+    notes = []
+    for name, (numbers, what) in PART_FAPS.items():
+        if getattr(settings, name) is None and present[[n - 1 for n in numbers]].any():
+            label = settings.bl_rna.properties[name].name
+            text = f"no {label} set in Face Parts: {what} will not show (set it, then run Set Up Face)"
+            notes.append(Warn(text) if name in WARN_PARTS else text)
+    return notes
 
 
 def require_setup(face):
@@ -101,6 +134,7 @@ class DecodedStream:
     neutral: np.ndarray  # (84, 3)
     head: tuple[np.ndarray, np.ndarray] | None  # per-frame delta rotation values and delta location
     high_level: bool  # the stream carried FAP 1 or 2
+    notes: list  # what the face lacks to show the whole stream
 
 
 def decode_stream(context, face, stream: FapStream, options: ImportOptions, source: str) -> DecodedStream:
@@ -126,6 +160,7 @@ def decode_stream(context, face, stream: FapStream, options: ImportOptions, sour
     values = hold_missing(mask, values, options.fill_partners)
     values = gain_and_clamp(values, mask, options.gain, options.clamp)
     check_values(values, mask, source=source)
+    values = shape_faps(values, group_gains(face), limit=face.mpeg4_face.use_soft_limits)
     has_head = bool(mask[:, HEAD_FAPS].any())
     if has_head:
         head_motion.check_rotation_mode(face)
@@ -136,7 +171,8 @@ def decode_stream(context, face, stream: FapStream, options: ImportOptions, sour
     _check_reach(face, points, neutral, source)
     head_delta = head_motion.to_delta(face, head, head_pivot(neutral)) if has_head else None
     name = os.path.splitext(source)[0]
-    return DecodedStream(source, name, frames, points, neutral, head_delta, bool(stream.mask[:, :2].any()))
+    high_level = bool(stream.mask[:, :2].any())
+    return DecodedStream(source, name, frames, points, neutral, head_delta, high_level, missing_parts(face, mask))
 
 
 def import_fap(context, face, path, options: ImportOptions) -> list[str]:
@@ -148,6 +184,8 @@ def import_fap(context, face, path, options: ImportOptions) -> list[str]:
 def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) -> list[str]:
     """Key a decoded stream onto the face's FP empties (and head) as one action named after it."""
     empties = require_setup(face)
+    if face.mpeg4_face.engine == elastic_rig.ELASTIC:
+        elastic_rig.require_skeleton(face)  # its keys are baked below: refuse before anything is keyed
     frames, points, neutral = decoded.frames, decoded.points, decoded.neutral
     streams = animation.StreamActions(decoded.name, decoded.source)
     with progress(context, len(empties) + 1) as step:
@@ -179,10 +217,13 @@ def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) ->
     notes = [
         f"keyed {len(empties)} feature points over {len(frames)} frames of {decoded.source} (action {decoded.name!r})"
     ]
+    if face.mpeg4_face.engine == elastic_rig.ELASTIC:
+        notes.append(elastic_rig.bake_keys(face, frames, streams))
     if decoded.head is not None:
         notes.append("keyed head rotation on the face's delta transform")
     if decoded.high_level:
         notes.append("played the stream's visemes and expressions (FAP 1, 2) through the face tables")
+    notes.extend(decoded.notes)
     scene = context.scene
     last = int(np.ceil(frames[-1]))
     if options.set_frame_range and last > scene.frame_end:

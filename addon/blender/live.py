@@ -22,7 +22,7 @@ import numpy as np
 
 from ..deform.planar_bones import Binding, evaluate
 from ..errors import Mpeg4Error
-from . import binding_store, face_data, fp_empties, rest_shape
+from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, rest_shape
 
 log = logging.getLogger(__name__)
 
@@ -53,8 +53,10 @@ def forget(face: bpy.types.Object | None = None) -> None:
         _states.clear()
         _editing.clear()
         binding_store.forget()
+        elastic_rig.forget()
     else:
         _states.pop(face.session_uid, None)
+        elastic_rig.forget(face)
         if face.type == "MESH":
             binding_store.forget(face)
 
@@ -158,6 +160,8 @@ def _resume_after_edit_mode(face) -> bool:
 def apply_face(face, force: bool = False) -> bool:
     """Deform `face` from its empties; returns False (and disables the effect) on a problem."""
     settings = face.mpeg4_face
+    if settings.engine == elastic_rig.ELASTIC:  # the Armature modifier deforms: pose the skeleton, not the mesh
+        return _apply_elastic(face, force)
     if face.mode == "EDIT":
         if face.session_uid not in _editing:
             _pause_for_edit_mode(face)
@@ -172,13 +176,16 @@ def apply_face(face, force: bool = False) -> bool:
         state = _state(face)
         points = control_positions(face, state)
         mode = MODES[settings.mode]
-        if not force and state.mode == mode and state.last is not None and np.array_equal(points, state.last):
+        same = state.last is not None and np.array_equal(points, state.last)
+        if not force and state.mode == mode and same and eyelid_rig.still(face, state.binding):
             _show_control(settings.control_object, state)
             return True
-        if np.array_equal(points, state.binding.control_rest):
+        driving = eyelid_rig.hold(face, state.binding, state.reader.fp_ids, points)  # the lids turn on their own
+        if np.array_equal(driving, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
         else:
-            evaluate(state.binding, points, mode=mode, out=state.out)
+            evaluate(state.binding, driving, mode=mode, out=state.out)
+        eyelid_rig.apply(face, state.binding, state.out)  # lids turn over the eyeballs (no V, no crossing)
         rest_shape.write_positions(face.data, state.out)
         state.last, state.mode = points, mode
         _show_control(settings.control_object, state)
@@ -187,6 +194,17 @@ def apply_face(face, force: bool = False) -> bool:
         return False
     if settings.status:
         settings.status = ""
+    return True
+
+
+def _apply_elastic(face, force: bool) -> bool:
+    try:
+        elastic_rig.apply_pose(face, force)
+    except (LookupError, Mpeg4Error) as exc:
+        disable(face, f"Deformation turned off: {exc}")
+        return False
+    if face.mpeg4_face.status:
+        face.mpeg4_face.status = ""
     return True
 
 
@@ -216,6 +234,7 @@ def pause(face) -> None:
     forget(face)
     rest_shape.restore_rest(face.data)
     _restore_control(face)
+    elastic_rig.rest_pose(face)
 
 
 def disable(face, message: str, keep_mesh: bool = False) -> None:

@@ -2,8 +2,9 @@
 
 import bpy
 
+from ..mpeg4.fap_groups import GROUP_NAMES
 from ..mpeg4.feature_points import FP_IDS
-from . import binding_store, face_data
+from . import binding_store, elastic_ops, face_data, followers
 
 FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
@@ -49,6 +50,7 @@ class MPEG4_PT_face(bpy.types.Panel):
         if bound:
             box = layout.box()
             box.prop(settings, "enabled")
+            elastic_ops.draw_engine(box, settings)
             sub = box.column()
             sub.active = settings.enabled
             sub.prop(settings, "mode")
@@ -58,6 +60,23 @@ class MPEG4_PT_face(bpy.types.Panel):
             row = sub.row()
             row.active = settings.use_masks
             row.prop(settings, "mask_image")
+            if settings.made_masks and settings.use_masks and settings.mask_image is None:
+                col = sub.column(align=True)
+                col.label(text="Masks made from the feature points:", icon="GROUP_VERTEX")
+                col.label(text=settings.made_masks.replace(",", ", ") + " (vertex groups: edit to refine)")
+
+            box = layout.box()
+            box.label(text="Face Parts", icon="OUTLINER_OB_GROUP_INSTANCE")
+            col = box.column(align=True)
+            for name in followers.PARTS:
+                col.prop(settings, name)
+
+            box = layout.box()
+            box.label(text="FAP Gains (imports from now on)", icon="MODIFIER")
+            grid = box.grid_flow(columns=2, align=True)
+            for name in GROUP_NAMES:
+                grid.prop(settings, f"gain_{name}")
+            box.prop(settings, "use_soft_limits")
 
             if any(settings.fapu):
                 grid = layout.grid_flow(columns=2, align=True)

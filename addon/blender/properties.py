@@ -13,6 +13,8 @@ from bpy.props import (
 from . import live
 from .reporting import property_callback
 
+GAIN_TEXT = "Scale the %s FAPs of streams and speech imported from now on (1: as given)"
+
 
 @property_callback
 def _rebind(self, context):
@@ -44,6 +46,21 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         ),
         default="PLANAR_BONES",
         update=_reapply,
+    )
+    engine: EnumProperty(
+        name="Engine",
+        description="How the feature points move the skin (switch with the Engine buttons, which build or remove "
+        "the skeleton)",
+        items=(
+            ("PLANAR_BONES", "Planar Bones", "The control mesh's triangles move the skin (the mesh is written)"),
+            (
+                "ELASTIC_BONES",
+                "Elastic Bones",
+                "A reduced MPEG-4 skeleton with an elastic layer, skinned by an Armature modifier: plain skeletal "
+                "animation that exports to glTF",
+            ),
+        ),
+        default="PLANAR_BONES",
     )
     radius_fraction: FloatProperty(
         name="Radius",
@@ -88,20 +105,64 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         name="Binding", type=bpy.types.Text, description="Where the face's binding is saved (set up by Set Up Face)"
     )
     control_object: PointerProperty(name="Control Mesh", type=bpy.types.Object)
+    # face parts: filled by name at set-up when empty; Set Up Face hooks them to their feature points
     left_eye: PointerProperty(
-        name="Left Eyeball",
+        name="Left Eye",
         type=bpy.types.Object,
-        description="Turns to look where feature point 3.5 (left pupil) goes",
+        description="The left eyeball: turns about its centre (a sphere fitted to its mesh) to look where feature "
+        "point 3.5 (left pupil) goes. Run Set Up Face after changing it",
     )
     right_eye: PointerProperty(
-        name="Right Eyeball",
+        name="Right Eye",
         type=bpy.types.Object,
-        description="Turns to look where feature point 3.6 (right pupil) goes",
+        description="The right eyeball: turns about its centre to look where feature point 3.6 goes. Run Set Up "
+        "Face after changing it",
+    )
+    upper_teeth: PointerProperty(
+        name="Upper Teeth",
+        type=bpy.types.Object,
+        description="Fixed to the skull: moves only with the head. Run Set Up Face after changing it",
     )
     lower_teeth: PointerProperty(
-        name="Lower Teeth", type=bpy.types.Object, description="Moves with the jaw (feature point 9.11)"
+        name="Lower Teeth",
+        type=bpy.types.Object,
+        description="Moves with the jaw (feature point 9.11). Run Set Up Face after changing it",
     )
-    tongue: PointerProperty(name="Tongue", type=bpy.types.Object, description="Moves with feature point 6.2")
+    tongue: PointerProperty(
+        name="Tongue",
+        type=bpy.types.Object,
+        description="Moves with feature point 6.2. Run Set Up Face after changing it",
+    )
+    lashes: PointerProperty(
+        name="Lashes",
+        type=bpy.types.Object,
+        description="Eyelashes: follow the eyelids (a Surface Deform modifier bound to the face). Run Set Up Face "
+        "after changing it",
+    )
+    brows: PointerProperty(
+        name="Brows",
+        type=bpy.types.Object,
+        description="Eyebrow hair or cards: follow the brow skin (a Surface Deform modifier bound to the face). "
+        "Run Set Up Face after changing it",
+    )
+    made_masks: StringProperty(
+        name="Made Masks",
+        description="The mask vertex groups Set Up Face made from the feature points (the face had none); "
+        "edit them like any vertex group",
+        default="",
+    )
+    gain_jaw: FloatProperty(name="Jaw", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "jaw")
+    gain_lips: FloatProperty(name="Lips", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "lip")
+    gain_eyelids: FloatProperty(name="Eyelids", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "eyelid")
+    gain_eyes: FloatProperty(name="Eyes", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "eyeball")
+    gain_brows: FloatProperty(name="Brows", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "eyebrow")
+    gain_head: FloatProperty(name="Head", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "head")
+    use_soft_limits: BoolProperty(
+        name="Plausible Ranges",
+        description="When importing or speaking, ease FAP values that go past what a face can do back into range "
+        "(a smooth saturation per group, not a hard cut), and stop lids and lips where they meet",
+        default=True,
+    )
     fapu: FloatVectorProperty(
         name="FAPU",
         description="The face's measures that FAP values are relative to: iris diameter, eye separation, eye-nose "

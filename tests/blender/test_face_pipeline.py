@@ -5,9 +5,12 @@ import numpy as np
 import pytest
 
 from addon.blender import binding_store, face_data, fap_io, rest_shape
+from addon.deform.eyelids import apply_eyelids, bind_eyelids, hold_lids
+from addon.deform.face_binding import FADE_BELOW
 from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
+from addon.mpeg4.fap_groups import shape_faps
 from addon.mpeg4.fapu import Fapu
 from addon.mpeg4.feature_points import fp_index
 
@@ -15,9 +18,10 @@ from .helpers import DEMO_FAP, evaluated_positions, open_sample, positions, sele
 
 
 def core_result(head, stream_path, frame_index):
-    """The bpy-free pipeline for one frame: .fap -> FAP values -> FPs -> fresh bind -> evaluate."""
+    """The bpy-free pipeline for one frame: .fap -> FAP values -> group gains and ranges -> FPs -> fresh bind ->
+    evaluate with the mid-lids at rest -> the lids' turn over the eyeballs."""
     stream = read_fap(stream_path)
-    values = hold_missing(stream.mask, stream.values)
+    values = shape_faps(hold_missing(stream.mask, stream.values))
     values[:, 47:50] = 0.0  # head rotation goes to the object transform
     empties = face_data.fp_empties(head)
     neutral = fap_io.neutral_positions(head, empties)
@@ -30,10 +34,17 @@ def core_result(head, stream_path, frame_index):
     masks = binding_store.vertex_masks(head)
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
     rest = rest_shape.stored_rest(head.data).astype(np.float64)
-    # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below 0.05
+    # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below FADE_BELOW
     cover = cover_over_control_mesh(rest, rest_control, tris, 0.25 * fapu.ES0)
-    binding = bind(rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover, fade_below=0.05)
-    return evaluate(binding, points[[fp_index(i) for i in ids]])
+    binding = bind(
+        rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover, fade_below=FADE_BELOW
+    )
+    out = evaluate(binding, hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control))
+    centres = fap_io.eye_pivots(head)
+    radii = np.linalg.norm(neutral[[fp_index("3.5"), fp_index("3.6")]] - centres, axis=1)
+    rig = bind_eyelids(rest, 1 - masks["lower_eyelid"], 1 - masks["upper_eyelid"], neutral, centres, radii)
+    apply_eyelids(rig, out, points)
+    return out
 
 
 def test_setup_builds_control_mesh_fapu_and_binding():
@@ -166,7 +177,7 @@ def test_face_with_shape_keys_keeps_them_and_deforms():
 
 
 def test_fap_export_round_trip(tmp_path):
-    set_up_sample()
+    head = set_up_sample()
     scene = bpy.context.scene
     scene.render.fps = 25  # one key per scene frame
     bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP))
@@ -179,7 +190,18 @@ def test_fap_export_round_trip(tmp_path):
     sent = stream.mask[0]
     recovered = again.mask[0] & sent
     assert recovered[2] and recovered[48] and recovered[22]  # jaw, head yaw, eyeball yaw come back
-    np.testing.assert_allclose(again.values[:, recovered], stream.values[:, recovered], atol=1.0)
+    # the demo's pout lifts the lower lip past the upper one (FAP 5 250 vs 4 -150): the lips meet instead, so
+    # those values come back as the face showed them; push_b/t_lip (16, 17) come back eased into their range
+    stopped = np.zeros(68, bool)
+    stopped[[3, 4, 50, 51]] = True
+    kept = recovered & ~stopped
+    expected = shape_faps(hold_missing(stream.mask, stream.values))
+    np.testing.assert_allclose(again.values[:, kept], expected[:, kept], atol=1.0)
+    upper_lip_lift, lower_lip_lift = -again.values[:, 3], again.values[:, 4]
+    neutral = fap_io.neutral_positions(head, face_data.fp_empties(head))
+    gap = (neutral[fp_index("2.2"), 2] - neutral[fp_index("2.3"), 2]) / Fapu(*head.mpeg4_face.fapu).unit("MNS")
+    assert np.all(lower_lip_lift <= upper_lip_lift + gap + 1.0)  # the inner lips met, never crossed
+    assert upper_lip_lift.max() == pytest.approx(150, abs=1.0)
 
 
 def test_two_faces_in_one_scene_keep_their_own_settings():

@@ -14,6 +14,7 @@ LAYERS = {
     "deform": 2,
     "speech": 3,
     "fitting": 3,
+    "elastic": 3,
     "blender": 4,
 }
 

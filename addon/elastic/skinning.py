@@ -1,0 +1,170 @@
+"""Skin weights and Skeleton Subspace Deformation (paper 004, eq. 1-2).
+
+    v = Σ_i w_i T_i T̂_i⁻¹ v̂        (1)        Σ_i w_i = 1        (2)
+
+`linear_blend_skinning` takes the products T_i T̂_i⁻¹ directly: (B, 4, 4) bone transforms relative to
+rest, which is what `pose` returns and what Blender's Armature modifier applies.
+
+Weights (`skin_weights`; the paper does not say how its weights are made). Our method, in four steps:
+The masks are the Planar Bones vertex groups (`deform.masks`): `upper_lip` is where the upper-lip side
+may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same for the eyelids.
+1. the openings are cut: every mesh edge joining the two sides of the mouth (a vertex the `upper_lip`
+   mask shuts out, < 0.5, to one the `lower_lip` mask shuts out) or of an eye is removed, so distances
+   along the skin go around the lip and eye corners, never across a gap;
+2. per skinned bone, the geodesic distance g (Dijkstra on the remaining edge graph, edge length =
+   Euclidean) from the vertices nearest its segment (head-tail, or its `skin` polyline; within SEED_BAND
+   of the nearest, each starting at its own distance to the segment, none that the bone's side mask
+   shuts out);
+3. a falloff (1 − (g / r)²)² inside the bone's radius r = `Bone.reach` · RADIUS_PER_SCALE · skeleton scale,
+   times the bone's side mask for a bone on one side of an opening, so that e.g. the upper-lip bones
+   leave the lower lip alone even where the lips touch;
+4. the root (head) bone takes what the face bones leave, max(0, 1 − Σ)², and every row is divided by its
+   sum (eq. 2), so a vertex far from every face bone moves rigidly with the head.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from .errors import SkinWeightError
+from .skeleton import Skeleton
+
+RADIUS_PER_SCALE = 0.25  # falloff radius per skeleton scale (outer eye corner distance), bone reach 1
+SEED_BAND = 0.02  # seeds: vertices within this fraction of the scale of the nearest to the segment
+WEIGHT_TOLERANCE = 1e-6
+
+
+def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
+    """(N, B) Euclidean distance from each point to each segment head-tail."""
+    axis = tails - heads  # (B, 3)
+    rel = points[:, None, :] - heads[None]  # (N, B, 3)
+    length2 = np.einsum("bj,bj->b", axis, axis)
+    t = np.clip(
+        np.divide(np.einsum("nbj,bj->nb", rel, axis), length2, out=np.zeros(rel.shape[:2]), where=length2 > 0), 0, 1
+    )
+    return np.linalg.norm(rel - t[..., None] * axis[None], axis=2)
+
+
+def cut_openings(edges: np.ndarray, masks: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The edges that do not join the two sides of an opening (step 1)."""
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    keep = np.ones(len(edges), bool)
+    for upper, lower in (("upper_lip", "lower_lip"), ("upper_eyelid", "lower_eyelid")):
+        if upper not in masks or lower not in masks:
+            continue
+        # the lower side is what the upper mask shuts out, and conversely
+        low, up = np.asarray(masks[upper]) < 0.5, np.asarray(masks[lower]) < 0.5
+        a, b = edges[:, 0], edges[:, 1]
+        keep &= ~((up[a] & low[b]) | (low[a] & up[b]))
+    return edges[keep]
+
+
+def geodesic_distances(
+    vertices: np.ndarray, edges: np.ndarray, seeds: list[np.ndarray], seed_costs: list[np.ndarray]
+) -> np.ndarray:
+    """(N, S) shortest edge-path distance from each seed set (a virtual source joined to its seed
+    vertices by edges of the given costs) to every vertex; inf where unreachable."""
+    n = len(vertices)
+    length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+    rows = [edges[:, 0], edges[:, 1]]
+    cols = [edges[:, 1], edges[:, 0]]
+    data = [length, length]
+    for s, (seed, cost) in enumerate(zip(seeds, seed_costs, strict=True)):
+        rows.append(np.full(len(seed), n + s))
+        cols.append(seed)
+        data.append(np.maximum(cost, 1e-12))  # a zero would read as "no edge"
+    size = n + len(seeds)
+    graph = coo_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
+    dist = dijkstra(graph.tocsr(), directed=True, indices=np.arange(n, size))
+    return dist[:, :n].T
+
+
+def skin_weights(
+    vertices: np.ndarray,
+    edges: np.ndarray,
+    skeleton: Skeleton,
+    masks: Mapping[str, np.ndarray] | None = None,
+    radius_per_scale: float = RADIUS_PER_SCALE,
+) -> np.ndarray:
+    """(N, B) skin weights, rows summing to 1 (eq. 2), columns in `skeleton.bones` order.
+
+    `vertices` (N, 3) and `edges` (E, 2) are the rest mesh in the skeleton's coordinates, `masks` the
+    opening vertex groups by name (`upper_lip`, `lower_lip`, `upper_eyelid`, `lower_eyelid`; (N,) weights
+    in 0..1; absent ones cut nothing).
+    """
+    vertices = np.asarray(vertices, dtype=np.float64)
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
+        raise SkinWeightError(f"vertices must be a finite (N, 3) array, got shape {vertices.shape}")
+    n = len(vertices)
+    edges = np.asarray(edges)
+    if edges.size and (edges.ndim != 2 or edges.shape[1] != 2 or edges.min() < 0 or edges.max() >= n):
+        raise SkinWeightError(f"edges must be (E, 2) indices into the {n} vertices")
+    masks = {name: np.clip(np.asarray(m, dtype=np.float64), 0.0, 1.0) for name, m in (masks or {}).items()}
+    for name, m in masks.items():
+        if m.shape != (n,):
+            raise SkinWeightError(f"mask {name!r} has shape {m.shape}, expected ({n},)")
+
+    bones = skeleton.bones
+    skinned = [b for b, bone in enumerate(bones) if bone.skinned and bone.kind != "root"]
+    band = SEED_BAND * skeleton.scale
+    seeds, costs = [], []
+    for b in skinned:
+        segments = skeleton.skin_segments(b)
+        d = segment_distances(vertices, segments[:, 0], segments[:, 1]).min(axis=1)
+        side = bones[b].side
+        if side is not None and side in masks:
+            d[masks[side] < 0.5] = np.inf
+        # a bone whose side mask shuts out every vertex has no seed and no weight
+        seed = np.flatnonzero(d <= d.min() + band) if np.isfinite(d.min()) else np.zeros(0, np.intp)
+        seeds.append(seed)
+        costs.append(d[seed])
+    geodesic = geodesic_distances(vertices, cut_openings(edges, masks), seeds, costs)
+
+    raw = np.zeros((n, len(bones)))
+    for column, b in enumerate(skinned):
+        radius = bones[b].reach * radius_per_scale * skeleton.scale
+        falloff = (1.0 - np.clip(geodesic[:, column] / radius, 0.0, 1.0) ** 2) ** 2
+        side = bones[b].side
+        if side is not None and side in masks:
+            falloff *= masks[side]
+        raw[:, b] = falloff
+    roots = [b for b, bone in enumerate(bones) if bone.kind == "root"]
+    raw[:, roots[0]] = np.maximum(0.0, 1.0 - raw.sum(axis=1)) ** 2
+    weights = raw / raw.sum(axis=1, keepdims=True)
+    check_weights(weights, n, len(bones))
+    return weights
+
+
+def check_weights(weights: np.ndarray, n_vertices: int, n_bones: int) -> np.ndarray:
+    """The weights as float64 if they are (n_vertices, n_bones), finite, ≥ 0 and sum to 1 per vertex
+    (eq. 2); otherwise SkinWeightError naming the first offending vertices."""
+    weights = np.asarray(weights, dtype=np.float64)
+    if weights.shape != (n_vertices, n_bones):
+        raise SkinWeightError(f"skin weights must be ({n_vertices}, {n_bones}), got {weights.shape}")
+    bad = ~np.all(np.isfinite(weights), axis=1) | np.any(weights < 0.0, axis=1)
+    if bad.any():
+        raise SkinWeightError(
+            f"skin weights are negative or not finite at vertices {np.flatnonzero(bad)[:10].tolist()}"
+        )
+    sums = weights.sum(axis=1)
+    off = np.abs(sums - 1.0) > WEIGHT_TOLERANCE
+    if off.any():
+        first = np.flatnonzero(off)[:10]
+        raise SkinWeightError(
+            "skin weights must sum to 1 per vertex (eq. 2); vertices "
+            + ", ".join(f"{v} (sum {sums[v]:.6g})" for v in first)
+        )
+    return weights
+
+
+def linear_blend_skinning(rest: np.ndarray, weights: np.ndarray, transforms: np.ndarray) -> np.ndarray:
+    """(N, 3) deformed vertices v = Σ_i w_i M_i v̂ (eq. 1) with M_i = T_i T̂_i⁻¹ given as (B, 4, 4)."""
+    rest = np.asarray(rest, dtype=np.float64)
+    transforms = np.asarray(transforms, dtype=np.float64)
+    weights = check_weights(weights, len(rest), len(transforms))
+    blended = (weights @ transforms[:, :3, :].reshape(len(transforms), 12)).reshape(-1, 3, 4)
+    return np.einsum("nij,nj->ni", blended[:, :, :3], rest) + blended[:, :, 3]
