@@ -2,9 +2,10 @@
 
     .venv/bin/python -m scripts.bench.bench_web_player [--glb FILE.glb] [--frames 120] [--rounds 3] [--size 480x480]
 
-Without --glb it measures the stand-in (`scripts/web/make_test_glb.py`). Each round loads the page afresh and
-draws `frames` frames, one animation step each; `render` waits for the GPU after each draw (SwiftShader: the CPU),
-`interval` is the time between the browser's animation frames. Needs what the web test needs (scripts/setup_web.sh).
+Without --glb it measures the sample exported by `convert.py --glb` (`scripts/web/sample_glb.py`). Each round
+loads the page afresh and draws `frames` frames, one animation step each; `render` waits for the GPU after each
+draw (SwiftShader: the CPU), `interval` is the time between the browser's animation frames. Needs what the web
+test needs (scripts/setup_web.sh).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from scripts.web import make_test_glb
+from scripts.web import sample_glb
 from scripts.web.browser import shoot
 
 COMPONENT_BYTES = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}  # glTF componentType
@@ -37,7 +38,7 @@ def animation_bytes(glb: Path) -> int:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--glb", type=Path, help="the file to play (default: the stand-in, made afresh)")
+    parser.add_argument("--glb", type=Path, help="the file to play (default: the sample, exported afresh)")
     parser.add_argument("--frames", type=int, default=120)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--size", default="480x480", help="viewport WIDTHxHEIGHT, CSS pixels (device pixel ratio 1)")
@@ -46,8 +47,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as folder:
         glb = args.glb
         if glb is None:
-            glb = Path(folder) / "stand_in.glb"
-            make_test_glb.make(glb)
+            glb = sample_glb.export(Path(folder))
         rounds = [shoot(glb, size=size, measure=args.frames) for _ in range(args.rounds)]
         size_bytes, keys = glb.stat().st_size, animation_bytes(glb)
     duration = rounds[0]["duration"]

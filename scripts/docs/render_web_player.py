@@ -1,10 +1,10 @@
 """The README's web player pictures: `docs/web_player_neutral.png` and `docs/web_player_open.png`.
 
-    .venv/bin/python -m scripts.docs.render_web_player [--glb FILE.glb --neutral 0 --open 0.5] [--out docs/]
+    .venv/bin/python -m scripts.docs.render_web_player [--glb FILE.glb --neutral 0 --open 0.96] [--out docs/]
 
 Screenshots of the web player (`web/`) in headless Chromium with software WebGL, paused at a neutral and an
-open-mouth time; without --glb it plays the stand-in (`scripts/web/make_test_glb.py`). The browser test takes
-the same shots of the stand-in. Needs what that test needs (scripts/setup_web.sh).
+open-mouth time; without --glb it plays the sample exported by `convert.py --glb`
+(`scripts/web/sample_glb.py`). The browser test takes the same shots. Needs what that test needs (scripts/setup_web.sh).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from scripts.web import make_test_glb
+from scripts.web import sample_glb
 from scripts.web.browser import shoot
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -22,9 +22,9 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--glb", type=Path, help="the file to play (default: the stand-in, made afresh)")
+    parser.add_argument("--glb", type=Path, help="the file to play (default: the sample, exported afresh)")
     parser.add_argument("--neutral", type=float, default=0.0, help="seconds: the mouth closed")
-    parser.add_argument("--open", type=float, default=make_test_glb.OPEN_SECONDS, help="seconds: the mouth open")
+    parser.add_argument("--open", type=float, default=sample_glb.OPEN_SECONDS, help="seconds: the mouth open")
     parser.add_argument("--out", type=Path, default=ROOT / "docs")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
@@ -32,8 +32,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as folder:
         glb = args.glb
         if glb is None:
-            glb = Path(folder) / "stand_in.glb"
-            make_test_glb.make(glb)
+            glb = sample_glb.export(Path(folder))
         report = shoot(glb, pngs)
     for shot in report["shots"]:
         print(f"{shot['out']}: {shot['seconds']:g} s ({shot['renderer']})")

@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +22,7 @@ from scripts.web.serve import WEB
 from .png import read_png
 
 pytest.importorskip("bpy")  # the .glb is made with Blender's exporter
-from scripts.web import make_test_glb  # needs bpy
+from scripts.web import sample_glb
 
 ROOT = Path(__file__).resolve().parents[2]
 BACKGROUND = (0x1D, 0x1E, 0x22)  # web/player.js BACKGROUND
@@ -52,14 +50,10 @@ class Exported:
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory) -> Exported:
-    """The file the player plays, with a closed-mouth and an open-mouth time. A stand-in until
-    `scripts/convert.py --glb` exports the sample: the sample head with a jaw bone (scripts/web/make_test_glb.py)."""
-    glb = tmp_path_factory.mktemp("web") / "head.glb"
-    made = subprocess.run(
-        [sys.executable, "-m", "scripts.web.make_test_glb", str(glb)], cwd=ROOT, capture_output=True, text=True
-    )
-    assert made.returncode == 0, made.stdout + made.stderr
-    return Exported(glb, 0.0, make_test_glb.OPEN_SECONDS)
+    """The sample as a user exports it (`scripts/convert.py --engine-face elastic --glb`), with a closed-mouth and an
+    open-mouth time."""
+    glb = sample_glb.export(tmp_path_factory.mktemp("web"))
+    return Exported(glb, sample_glb.NEUTRAL_SECONDS, sample_glb.OPEN_SECONDS)
 
 
 @pytest.fixture(scope="module")
