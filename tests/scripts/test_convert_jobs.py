@@ -98,7 +98,8 @@ def _start_convert(*args) -> subprocess.Popen:
 
 @pytest.mark.skipif(not HAS_PROC, reason="finds the child processes through /proc")
 def test_a_killed_child_is_its_streams_failed_line(tmp_path):
-    good, victim = cut_stream(tmp_path / "good.fap", frames=3), cut_stream(tmp_path / "victim.fap", frames=3)
+    # the victim is long enough (the whole demo, a few seconds) to be still converting when it is killed
+    good, victim = cut_stream(tmp_path / "good.fap", frames=3), cut_stream(tmp_path / "victim.fap", frames=413)
     out = tmp_path / "out"
     parent = _start_convert("--face", FACE, good, victim, "-o", out, "--jobs", "2", *TINY)
     children = _wait_for_children(parent, lambda found: any(str(victim) in argv for argv in found.values()))
