@@ -3,8 +3,8 @@
 The rig is made once per binding from the rest face: the lids are where the eyelid masks say (the upper
 lid is where the lower-lid triangles may not reach, 1 - `lower_eyelid`, and the other way round), the
 eyes turn about their fitted centres (the part fields), or a default eyeball radius behind each pupil.
-Each frame the deformer gets the mid-lid FPs at rest (`hold`), then `apply` reads the lid and pupil FP
-empties (3.1-3.6) and turns the lids in the deformed positions.
+Each frame the deformer gets the mid-lid FPs at rest (`hold`), then `apply` turns the lids in the deformed
+positions by the lid and pupil FPs (3.1-3.6), which live.py reads with the control FPs in one pass.
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from ..mpeg4.feature_points import fp_index
 from . import binding_store, face_data, followers
 
 WATCHED = [fp_id for eye in EYE_FPS for fp_id in (eye[0], eye[1], eye[4])]  # the FPs whose motion the lids show
-_rigs: dict[int, tuple[Binding, EyelidRig | None, face_data.FpReader]] = {}
+_WATCHED_ROWS = [fp_index(fp_id) for fp_id in WATCHED]
+_rigs: dict[int, tuple[Binding, EyelidRig | None]] = {}
 _last: dict[int, np.ndarray] = {}
 
 
@@ -55,40 +56,30 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     return bind_eyelids(binding.rest_vertices, upper, lower, neutral, centres, radii)
 
 
-def _rig(face, binding: Binding) -> tuple[EyelidRig | None, face_data.FpReader]:
+def _rig(face, binding: Binding) -> EyelidRig | None:
     cached = _rigs.get(face.session_uid)
     if cached is None or cached[0] is not binding:
-        present = [fp_id for fp_id in WATCHED if fp_id in face_data.fp_empties(face)]
-        cached = (binding, _make_rig(face, binding), face_data.FpReader(present))
+        cached = (binding, _make_rig(face, binding))
         _rigs[face.session_uid] = cached
         _last.pop(face.session_uid, None)
-    return cached[1], cached[2]
-
-
-def _read(face, binding: Binding) -> tuple[EyelidRig | None, np.ndarray]:
-    rig, reader = _rig(face, binding)
-    fps = np.full((84, 3), np.nan)
-    if rig is not None and reader.fp_ids:
-        fps[[fp_index(fp_id) for fp_id in reader.fp_ids]] = reader.read(face)
-    return rig, fps
+    return cached[1]
 
 
 def hold(face, binding: Binding, control_ids, points: np.ndarray) -> np.ndarray:
     """The control points for the deformer: the mid-lid FPs at rest when the lids are rigged (`apply` turns them)."""
-    rig, _reader = _rig(face, binding)
-    return points if rig is None else hold_lids(control_ids, points, binding.control_rest)
+    return points if _rig(face, binding) is None else hold_lids(control_ids, points, binding.control_rest)
 
 
-def still(face, binding: Binding) -> bool:
-    """True when the lid and pupil FPs are where they were at the last `apply` (nothing for the lids to do)."""
-    rig, fps = _read(face, binding)
+def still(face, binding: Binding, fps: np.ndarray) -> bool:
+    """True when the lid and pupil FPs in `fps` (84, 3) are where they were at the last `apply`."""
+    watched = fps[_WATCHED_ROWS]
     last = _last.get(face.session_uid)
-    return rig is None or (last is not None and np.array_equal(fps, last, equal_nan=True))
+    return _rig(face, binding) is None or (last is not None and np.array_equal(watched, last, equal_nan=True))
 
 
-def apply(face, binding: Binding, out: np.ndarray) -> None:
-    """Turn the lids of the deformed positions `out` (N, 3) by their FPs' motion and the gaze, in place."""
-    rig, fps = _read(face, binding)
+def apply(face, binding: Binding, out: np.ndarray, fps: np.ndarray) -> None:
+    """Turn the lids of the deformed positions `out` (N, 3) by the FPs `fps` (84, 3; NaN where absent), in place."""
+    rig = _rig(face, binding)
     if rig is not None:
         apply_eyelids(rig, out, fps)
-        _last[face.session_uid] = fps
+        _last[face.session_uid] = fps[_WATCHED_ROWS].copy()

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..deform.planar_bones import Binding, evaluate
 from ..errors import Mpeg4Error
+from ..mpeg4.feature_points import FP_IDS, fp_index
 from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, rest_shape
 
 log = logging.getLogger(__name__)
@@ -34,7 +35,9 @@ PAUSED_IN_EDIT_MODE = "Paused in Edit Mode (the rest shape is shown)"
 class _State:
     key: str
     binding: Binding
-    reader: face_data.FpReader  # the control FPs' empties, in the control mesh's vertex order
+    reader: face_data.FpReader  # the control FPs' empties (the control mesh's vertex order), then the lids' others
+    n_control: int
+    fp_rows: np.ndarray  # each read FP's row in FP_IDS order
     out: np.ndarray
     on_shape_key: bool  # the mesh had shape keys when this state was made
     last: np.ndarray | None = None
@@ -79,14 +82,25 @@ def _state(face) -> _State:
     control = face.mpeg4_face.control_object
     ids = list(control.data.get(face_data.FP_IDS_PROP, ()))
     out = np.empty((binding.n_vertices, 3), dtype=np.float32)
-    state = _State(key, binding, face_data.FpReader(ids), out, mesh.shape_keys is not None)
+    present = face_data.fp_empties(face)
+    watched = [fp_id for fp_id in eyelid_rig.WATCHED if fp_id not in ids and fp_id in present]
+    reader = face_data.FpReader(ids + watched)  # one read a frame serves the deformer and the eyelids
+    rows = np.array([fp_index(fp_id) for fp_id in reader.fp_ids], dtype=np.intp)
+    state = _State(key, binding, reader, len(ids), rows, out, mesh.shape_keys is not None)
     _states[face.session_uid] = state
     return state
 
 
 def control_positions(face, state: _State) -> np.ndarray:
     """(M, 3) face-local positions of the control FPs, in the control mesh's vertex order."""
-    return state.reader.read(face)
+    return state.reader.read(face)[: state.n_control]
+
+
+def _fp_array(state: _State, read: np.ndarray) -> np.ndarray:
+    """(84, 3) the read FPs in FP_IDS order, NaN for the others."""
+    fps = np.full((len(FP_IDS), 3), np.nan)
+    fps[state.fp_rows] = read
+    return fps
 
 
 def _posed_changed_mesh(face, state: _State | None) -> bool:
@@ -174,18 +188,20 @@ def apply_face(face, force: bool = False) -> bool:
         if _posed_changed_mesh(face, _states.get(face.session_uid)):
             return False
         state = _state(face)
-        points = control_positions(face, state)
+        read = state.reader.read(face)
+        points, fps = read[: state.n_control], _fp_array(state, read)
         mode = MODES[settings.mode]
         same = state.last is not None and np.array_equal(points, state.last)
-        if not force and state.mode == mode and same and eyelid_rig.still(face, state.binding):
+        if not force and state.mode == mode and same and eyelid_rig.still(face, state.binding, fps):
             _show_control(settings.control_object, state)
             return True
-        driving = eyelid_rig.hold(face, state.binding, state.reader.fp_ids, points)  # the lids turn on their own
+        control_ids = state.reader.fp_ids[: state.n_control]
+        driving = eyelid_rig.hold(face, state.binding, control_ids, points)  # the lids turn on their own
         if np.array_equal(driving, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
         else:
             evaluate(state.binding, driving, mode=mode, out=state.out)
-        eyelid_rig.apply(face, state.binding, state.out)  # lids turn over the eyeballs (no V, no crossing)
+        eyelid_rig.apply(face, state.binding, state.out, fps)  # lids turn over the eyeballs (no V, no crossing)
         rest_shape.write_positions(face.data, state.out)
         state.last, state.mode = points, mode
         _show_control(settings.control_object, state)

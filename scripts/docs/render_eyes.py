@@ -57,7 +57,7 @@ def before_mode(on: bool, saved={}) -> None:  # noqa: B006 (the originals, kept 
     if not saved:
         saved.update(hold=rig.hold, apply=rig.apply, stop=decode._stop_at_closure)
     rig.hold = (lambda face, binding, ids, points: points) if on else saved["hold"]
-    rig.apply = (lambda face, binding, out: None) if on else saved["apply"]
+    rig.apply = (lambda face, binding, out, fps: None) if on else saved["apply"]
     decode._stop_at_closure = (lambda neutral, pts: None) if on else saved["stop"]
 
 
