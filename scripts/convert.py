@@ -380,7 +380,8 @@ def contact_sheet(scene, path: Path, count: int, tile: int = 320):
         scene.render.resolution_x, scene.render.resolution_y = size
     columns = min(len(tiles), 6)
     rows = math.ceil(len(tiles) / columns)
-    sheet = np.ones((rows * tile, columns * tile, 4), dtype=np.float32)
+    sheet = np.empty((rows * tile, columns * tile, 4), dtype=np.float32)
+    sheet[...] = tiles[0][0, 0]  # empty cells take the background (a corner pixel), not white
     for i, t in enumerate(tiles):  # image rows go bottom-up: first frame at the top left
         r, c = divmod(i, columns)
         sheet[(rows - 1 - r) * tile : (rows - r) * tile, c * tile : (c + 1) * tile] = t
