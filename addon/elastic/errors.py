@@ -17,3 +17,7 @@ class RuleTableError(ElasticError):
 
 class SkinWeightError(ElasticError):
     """Skin weights of the wrong shape, negative, non-finite or not summing to 1 (eq. 2)."""
+
+
+class ScipyMissingError(ElasticError):
+    """The skin weights need scipy's sparse graphs, and scipy cannot be imported."""

@@ -19,7 +19,8 @@ FP: only the elastic layer moves them (the paper's "cheeks and temples").
 - `skinned`: False for the eyes, which move their eyeball objects, not the skin.
 - `skin`: a polyline of FPs from which the bone's skin weights fall off, where its head-tail segment
   lies inside the head (the jaw: along the jaw line, 2.13-2.11-2.1-2.12-2.14).
-- `reach`: the bone's skin falloff radius relative to the others' (the jaw, temples and ears cover more).
+- `reach`: the bone's skin falloff radius relative to the others' (the temples and ears cover more, the
+  jaw most: from the jaw line up to the lower lip, so that the lower face turns with it as one piece).
 
 `place_skeleton(fp_positions)` -> `Skeleton` (names, parents, (B, 3) heads and tails) is the API the
 Blender side builds its armature from.
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -101,6 +103,7 @@ _LEFT_AND_MID = (
         ("2.1", "2.10", "2.11", "2.12"),
         kind="rotate",
         skin=("2.13", "2.11", "2.1", "2.12", "2.14"),
+        reach=2.5,  # the whole lower face, up to the lower lip, turns with the jaw
     ),  # fmt: skip
     Bone("chin", ("2.10",), (), "jaw", ("2.10",), ("lower_lip",)),
     Bone("upper_lip", ("2.2",), ("8.1",), "head", ("2.2", "8.1"), side="upper_lip"),
@@ -176,20 +179,24 @@ class Skeleton:
             return self.skin_paths[b]
         return np.stack([self.heads[b], self.tails[b]])[None]
 
-    @property
+    @cached_property  # read every frame: built once per skeleton
     def names(self) -> tuple[str, ...]:
         return tuple(b.name for b in self.bones)
 
-    @property
+    @cached_property
+    def rows(self) -> dict[str, int]:
+        """Bone name -> row."""
+        return {name: i for i, name in enumerate(self.names)}
+
+    @cached_property
     def parents(self) -> tuple[int, ...]:
         """Row of each bone's parent, -1 for the root."""
-        index = {b.name: i for i, b in enumerate(self.bones)}
-        return tuple(index[b.parent] if b.parent else -1 for b in self.bones)
+        return tuple(self.rows[b.parent] if b.parent else -1 for b in self.bones)
 
     def index(self, name: str) -> int:
         try:
-            return self.names.index(name)
-        except ValueError:
+            return self.rows[name]
+        except KeyError:
             raise RuleTableError(f"unknown bone {name!r}") from None
 
 

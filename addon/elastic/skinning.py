@@ -9,8 +9,11 @@ Weights (`skin_weights`; the paper does not say how its weights are made). Our m
 The masks are the Planar Bones vertex groups (`deform.masks`): `upper_lip` is where the upper-lip side
 may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same for the eyelids.
 1. the openings are cut: every mesh edge joining the two sides of the mouth (a vertex the `upper_lip`
-   mask shuts out, < 0.5, to one the `lower_lip` mask shuts out) or of an eye is removed, so distances
-   along the skin go around the lip and eye corners, never across a gap;
+   mask shuts out, < 0.5, to one the `lower_lip` mask shuts out) or of an eye, across which the mask
+   jumps by CUT_JUMP or more, is removed, so distances along the skin go around the lip and eye corners,
+   never across a gap. Beyond the corners the masks fade over a few edges; an edge there joins the two
+   sides too, but cutting it would extend the gap onto the cheek, where the weights would then drop from
+   1 to 0 along one edge and tear the skin at the mouth corners;
 2. per skinned bone, the geodesic distance g (Dijkstra on the remaining edge graph, edge length =
    Euclidean) from the vertices nearest its segment (head-tail, or its `skin` polyline; within SEED_BAND
    of the nearest, each starting at its own distance to the segment, none that the bone's side mask
@@ -18,8 +21,10 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
 3. a falloff (1 − (g / r)²)² inside the bone's radius r = `Bone.reach` · RADIUS_PER_SCALE · skeleton scale,
    times the bone's side mask for a bone on one side of an opening, so that e.g. the upper-lip bones
    leave the lower lip alone even where the lips touch;
-4. the root (head) bone takes what the face bones leave, max(0, 1 − Σ)², and every row is divided by its
-   sum (eq. 2), so a vertex far from every face bone moves rigidly with the head.
+4. the root (head) bone takes what the face bones leave, max(0, 1 − Σ), and every row is divided by its
+   sum (eq. 2), so a vertex far from every face bone moves rigidly with the head. (Squaring what is left
+   made the head's share rise steeply where the face bones fade, e.g. between the lower lip and the chin,
+   which then stayed behind the jaw in a seam.)
 """
 
 from __future__ import annotations
@@ -27,14 +32,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
-from .errors import SkinWeightError
+from .errors import ScipyMissingError, SkinWeightError
 from .skeleton import Skeleton
 
 RADIUS_PER_SCALE = 0.25  # falloff radius per skeleton scale (outer eye corner distance), bone reach 1
 SEED_BAND = 0.02  # seeds: vertices within this fraction of the scale of the nearest to the segment
+CUT_JUMP = 0.5  # an edge is cut where a side mask jumps by at least this much along it (a gap, not a gradient)
 WEIGHT_TOLERANCE = 1e-6
 
 
@@ -57,10 +61,27 @@ def cut_openings(edges: np.ndarray, masks: Mapping[str, np.ndarray]) -> np.ndarr
         if upper not in masks or lower not in masks:
             continue
         # the lower side is what the upper mask shuts out, and conversely
-        low, up = np.asarray(masks[upper]) < 0.5, np.asarray(masks[lower]) < 0.5
+        mask = np.asarray(masks[upper])
+        low, up = mask < 0.5, np.asarray(masks[lower]) < 0.5
         a, b = edges[:, 0], edges[:, 1]
-        keep &= ~((up[a] & low[b]) | (low[a] & up[b]))
+        jump = np.abs(mask[a] - mask[b]) >= CUT_JUMP
+        keep &= ~(((up[a] & low[b]) | (low[a] & up[b])) & jump)
     return edges[keep]
+
+
+def _scipy_graph():
+    """scipy's sparse matrix and Dijkstra, imported when weights are first made (Blender ships numpy, not
+    scipy; the extension's scipy wheel may be missing, and the add-on must still load), or ScipyMissingError."""
+    try:
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+    except ImportError as error:
+        raise ScipyMissingError(
+            f"Elastic Bones' skin weights need scipy (sparse graphs), which Blender does not ship and which is not "
+            f"installed ({error}); install the MPEG-4 Face extension from its zip, which brings scipy's wheel for "
+            "Windows x64, macOS and Linux x64, or install scipy into Blender's Python"
+        ) from None
+    return coo_matrix, dijkstra
 
 
 def geodesic_distances(
@@ -68,6 +89,7 @@ def geodesic_distances(
 ) -> np.ndarray:
     """(N, S) shortest edge-path distance from each seed set (a virtual source joined to its seed
     vertices by edges of the given costs) to every vertex; inf where unreachable."""
+    coo_matrix, dijkstra = _scipy_graph()
     n = len(vertices)
     length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     rows = [edges[:, 0], edges[:, 1]]
@@ -133,7 +155,7 @@ def skin_weights(
             falloff *= masks[side]
         raw[:, b] = falloff
     roots = [b for b, bone in enumerate(bones) if bone.kind == "root"]
-    raw[:, roots[0]] = np.maximum(0.0, 1.0 - raw.sum(axis=1)) ** 2
+    raw[:, roots[0]] = np.maximum(0.0, 1.0 - raw.sum(axis=1))
     weights = raw / raw.sum(axis=1, keepdims=True)
     check_weights(weights, n, len(bones))
     return weights

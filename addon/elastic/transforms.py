@@ -18,24 +18,19 @@ def rotation_matrix(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
 
 
+def rotation_matrices(axes: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) `rotation_matrix` for K unit axes (K, 3) and angles (K,)."""
+    axes = np.asarray(axes, dtype=np.float64)
+    k = np.zeros((len(axes), 3, 3))
+    k[:, 0, 1], k[:, 0, 2], k[:, 1, 2] = -axes[:, 2], axes[:, 1], -axes[:, 0]
+    k[:, 1, 0], k[:, 2, 0], k[:, 2, 1] = axes[:, 2], -axes[:, 1], axes[:, 0]
+    angles = np.asarray(angles, dtype=np.float64)[:, None, None]
+    return np.eye(3) + np.sin(angles) * k + (1.0 - np.cos(angles)) * (k @ k)
+
+
 def about_point(rotation: np.ndarray, pivot: np.ndarray) -> np.ndarray:
     """(4, 4) the (3, 3) rotation about `pivot`."""
     m = np.eye(4)
     m[:3, :3] = rotation
     m[:3, 3] = pivot - rotation @ pivot
     return m
-
-
-def apply(m: np.ndarray, points: np.ndarray) -> np.ndarray:
-    return np.asarray(points) @ m[:3, :3].T + m[:3, 3]
-
-
-def aligning_axis_angle(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, float]:
-    """Unit axis and angle of the smallest rotation turning the direction of `a` into that of `b`."""
-    a = a / np.linalg.norm(a)
-    b = b / np.linalg.norm(b)
-    axis = np.cross(a, b)
-    sin = np.linalg.norm(axis)
-    if sin < 1e-12:
-        return np.array([1.0, 0.0, 0.0]), 0.0  # parallel (an antiparallel pupil is not a pose an eye takes)
-    return axis / sin, float(np.arctan2(sin, a @ b))

@@ -1,17 +1,18 @@
 """Elastic Bones core (paper 004): elastic layer (eq. 3-4), skinning (eq. 1-2), tables, placement, bad input."""
 
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from addon.elastic.elastic_layer import elastic_positions
-from addon.elastic.errors import MissingFeaturePointsError, RuleTableError, SkinWeightError
+from addon.elastic.errors import MissingFeaturePointsError, RuleTableError, ScipyMissingError, SkinWeightError
 from addon.elastic.parameters import UNTRAINED, Parameters, neighbour_pairs
-from addon.elastic.pose import pose_from_faps, pose_from_fps
+from addon.elastic.pose import fp_transforms, pose_from_faps, pose_from_fps
 from addon.elastic.rules import RULES, Rule, check_rules
 from addon.elastic.skeleton import BONES, Bone, Skeleton, check_bone_table, place_skeleton
-from addon.elastic.skinning import check_weights, linear_blend_skinning, skin_weights
+from addon.elastic.skinning import check_weights, cut_openings, linear_blend_skinning, skin_weights
 from addon.elastic.transforms import about_point, rotation_matrix
 from addon.geometry.face_axes import BLENDER_FACE_AXES
 from addon.mpeg4.decode import EYEBALL_RADIUS_PER_ES0, fap_to_fp
@@ -92,6 +93,24 @@ def test_skin_weights_are_normalised_and_stop_at_the_opening():
     assert weights[above, 1].max() > 0.9 and weights[below, 2].max() > 0.9
     nearest_up = np.argmin(np.linalg.norm(vertices - [0, 0, 0.01], axis=1))
     assert weights[nearest_up].argmax() == 1
+
+
+def test_the_opening_is_cut_across_a_gap_not_along_a_fading_mask():
+    # a chain 0-1-2-3 where the upper-lip mask fades from 1 to 0 (beyond a lip corner), and 4-5 where it
+    # jumps (the lips touch): only the jump is a gap; cutting 1-2, where the mask crosses 0.5, made the
+    # weights drop from 1 to 0 along one edge and tore the skin at the lip corners
+    upper = np.array([1.0, 0.55, 0.45, 0.0, 1.0, 0.0])
+    edges = np.array([[0, 1], [1, 2], [2, 3], [4, 5]])
+    kept = cut_openings(edges, {"upper_lip": upper, "lower_lip": 1.0 - upper})
+    np.testing.assert_array_equal(kept, edges[:3])
+
+
+def test_without_scipy_skin_weights_refuse_with_a_message(monkeypatch):
+    vertices, edges, masks = grid()
+    for name in ("scipy.sparse", "scipy.sparse.csgraph"):
+        monkeypatch.setitem(sys.modules, name, None)  # what `import scipy.sparse` meets without scipy
+    with pytest.raises(ScipyMissingError, match=r"Elastic Bones' skin weights need scipy \(sparse graphs\)"):
+        skin_weights(vertices, edges, toy_skeleton(), masks)
 
 
 def test_skinning_identity_at_rest_and_rigid_motion_exact():
@@ -243,4 +262,69 @@ def test_eyes_turn_alike_from_faps_and_from_the_pupils_they_move():
     np.testing.assert_allclose((from_fps @ pupil)[:3], moved["3.5"], atol=1e-12)
     np.testing.assert_allclose(
         from_fps[:3, 3] + from_fps[:3, :3] @ skeleton.heads[eye], skeleton.heads[eye], atol=1e-12
+    )
+
+
+def reference_fp_transforms(skeleton, rest_fps, moved_fps, gains):
+    """`pose.fp_transforms` one bone at a time, as the paper reads (the vectorised one must agree)."""
+    n_bones = len(skeleton.bones)
+    plain, out = np.empty((n_bones, 4, 4)), np.empty((n_bones, 4, 4))
+    x_axis = skeleton.axes[0]
+
+    def carry(m, points):
+        return np.asarray(points) @ m[:3, :3].T + m[:3, 3]
+
+    def shift(offset):
+        m = np.eye(4)
+        m[:3, 3] = offset
+        return m
+
+    for b, (bone, parent) in enumerate(zip(skeleton.bones, skeleton.parents, strict=True)):
+        base_plain = np.eye(4) if parent < 0 else plain[parent]
+        base = np.eye(4) if parent < 0 else out[parent]
+        ids = [f for f in bone.follow if f in rest_fps and f in moved_fps]
+        if bone.kind == "root" or not ids:
+            plain[b], out[b] = base_plain, base
+            continue
+        moved = np.array([moved_fps[f] for f in ids])
+        carried = carry(base_plain, np.array([rest_fps[f] for f in ids]))
+        pivot = carry(base_plain, skeleton.heads[b])
+        if bone.name in ("eye_l", "eye_r"):
+            u, v = carried[0] - pivot, moved[0] - pivot
+            u, v = u / np.linalg.norm(u), v / np.linalg.norm(v)
+            axis = np.cross(u, v)
+            angle = np.arctan2(np.linalg.norm(axis), u @ v)
+            axis = axis / np.linalg.norm(axis)
+            own_plain = about_point(rotation_matrix(axis, angle), pivot)
+            own = about_point(rotation_matrix(axis, gains[b] * angle), pivot)
+        elif bone.kind == "rotate":
+            a, m = carried - pivot, moved - pivot
+            a -= np.outer(a @ x_axis, x_axis)
+            m -= np.outer(m @ x_axis, x_axis)
+            angle = np.mean(np.arctan2(np.cross(a, m) @ x_axis, np.einsum("kj,kj->k", a, m)))
+            turn = about_point(rotation_matrix(x_axis, angle), pivot)
+            offset = np.mean(moved - carry(turn, carried), axis=0)
+            own_plain = shift(offset) @ turn
+            own = shift(offset) @ about_point(rotation_matrix(x_axis, gains[b] * angle), pivot)
+        else:
+            offset = np.mean(moved - carried, axis=0)
+            own_plain, own = shift(offset), shift(gains[b] * offset)
+        plain[b] = own_plain @ base_plain
+        out[b] = own @ base
+    return out
+
+
+def test_the_vectorised_fp_drive_equals_the_bone_by_bone_reference():
+    fps = sample_fps()
+    skeleton = place_skeleton(fps)
+    rng = np.random.default_rng(4)
+    gains = rng.uniform(0.5, 2.0, len(skeleton.bones))
+    for _ in range(5):
+        moved = {f: p + rng.normal(scale=0.004, size=3) for f, p in fps.items()}
+        del moved["2.10"]  # the chin's only FP: it stays with the jaw
+        expected = reference_fp_transforms(skeleton, fps, moved, gains)
+        np.testing.assert_allclose(fp_transforms(skeleton, fps, moved, gains), expected, rtol=0, atol=1e-12)
+    assert np.abs(expected - np.eye(4)).max() > 1e-3  # the poses were not trivial
+    np.testing.assert_allclose(
+        fp_transforms(skeleton, fps, fps, gains), np.broadcast_to(np.eye(4), expected.shape), atol=1e-15
     )
