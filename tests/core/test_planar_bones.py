@@ -5,6 +5,7 @@ import io
 import numpy as np
 import pytest
 
+from addon.deform import planar_bones
 from addon.deform.planar_bones import (
     CHUNK,
     DeformError,
@@ -588,3 +589,25 @@ def test_radius_raising_does_not_depend_on_triangle_order_and_keeps_mirror_symme
         moved = evaluate(binding, control + motion)
         mirrored = evaluate(binding, control + motion[mirror] * flip)
         np.testing.assert_allclose(mirrored, moved[[0, 2, 1, 4, 3]] * flip, atol=1e-12)
+
+
+def test_faint_pairs_are_dropped_and_each_vertex_keeps_its_weight_sum(monkeypatch):
+    """Pairs under FAINT_PAIR go; the rest of the vertex's weights grow to the same sum, so rigid motion stays
+    exact, and the pose moves by no more than the dropped share of the motion."""
+    control, triangles = icosahedron()
+    rest = sphere_points(3000)
+    dropped = bind(rest, control, triangles, fade_below=0.2)
+    monkeypatch.setattr(planar_bones, "FAINT_PAIR", 0.0)
+    every = bind(rest, control, triangles, fade_below=0.2)
+    assert dropped.n_pairs < every.n_pairs
+    assert dropped.pair_weight.min() >= planar_bones.FAINT_PAIR or dropped.n_pairs == 0
+    sums = [np.bincount(b.pair_vertex, b.pair_weight, minlength=len(rest)) for b in (dropped, every)]
+    np.testing.assert_allclose(sums[0], sums[1], rtol=1e-12, atol=1e-15)
+    rotation, translation = random_rigid(4)
+    rigid = control @ rotation.T + translation
+    moved = evaluate(dropped, rigid)
+    covered = sums[0] > 1.0 - 1e-12  # vertices with their whole weight on the control mesh move rigidly
+    np.testing.assert_allclose(moved[covered], (rest @ rotation.T + translation)[covered], atol=1e-9)
+    stretched = control * np.array([1.2, 0.9, 1.1])
+    shift = np.abs(evaluate(dropped, stretched) - evaluate(every, stretched)).max()
+    assert shift <= 1e-3 * np.abs(stretched - control).max() * 10  # the dropped share of a few triangles' spread
