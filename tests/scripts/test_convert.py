@@ -196,3 +196,16 @@ def test_convert_reads_arguments_after_the_double_dash(monkeypatch):
     monkeypatch.setattr(sys, "argv", argv)
     args = convert.parse_args(convert.script_argv())
     assert [p.name for p in args.streams] == ["a.fap", "b.fap"] and args.out.name == "out" and args.face is None
+
+
+def test_the_contact_sheets_empty_cells_take_the_background(tmp_path, short):
+    from tests.web.png import read_png
+
+    out = tmp_path / "out"
+    result = run_convert("--face", FACE, short, "-o", out, "--resolution", "32", "--no-video", "--sheet", "7")
+    assert result.returncode == 0, result.stdout + result.stderr
+    sheet = read_png(out / "short_sheet.png")[..., :3].astype(int)
+    tile = sheet.shape[1] // 6  # 7 frames: 6 columns, 2 rows, the last 5 cells of the second row empty
+    assert sheet.shape[0] == 2 * tile
+    empty = sheet[tile:, tile:]
+    assert (empty == sheet[0, 0]).all() and (sheet[:tile, :tile] != sheet[0, 0]).any()  # the face is drawn
