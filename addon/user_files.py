@@ -23,9 +23,8 @@ _FILE_KINDS = (
 _OPEN_FLAGS = os.O_RDONLY | getattr(os, "O_BINARY", 0) | getattr(os, "O_NONBLOCK", 0)
 
 
-class UserFileError(Mpeg4Error):
-    """The file cannot be read; `problem` says why without naming the file, `too_large` marks the size cap
-    (each reader words that one itself)."""
+class _Unreadable(Exception):
+    """Why the file cannot be read, without naming it; `too_large` marks the size cap."""
 
     def __init__(self, problem: str, too_large: bool = False):
         super().__init__(problem)
@@ -33,18 +32,26 @@ class UserFileError(Mpeg4Error):
         self.too_large = too_large
 
 
-def _not_regular(mode: int) -> UserFileError:
+def _not_regular(mode: int) -> _Unreadable:
     kind = next((name for is_kind, name in _FILE_KINDS if is_kind(mode)), "a special file")
-    return UserFileError(f"not a regular file but {kind}")
+    return _Unreadable(f"not a regular file but {kind}")
 
 
-def read_regular_file(path, max_bytes: int) -> bytes:
-    """The bytes of the regular file `path`, at most `max_bytes` of them, else UserFileError."""
+def read_regular_file(path, max_bytes: int, error: type[Mpeg4Error], name: str, too_large: str) -> bytes:
+    """The bytes of the regular file `path`, at most `max_bytes` of them. Otherwise `error` (the reader's own
+    Mpeg4Error) with the message "`name`: why", where `too_large` says why for a file over the cap."""
+    try:
+        return _read(path, max_bytes)
+    except _Unreadable as exc:
+        raise error(f"{name}: {too_large if exc.too_large else exc.problem}") from None
+
+
+def _read(path, max_bytes: int) -> bytes:
     try:
         mode = os.stat(path).st_mode
         fd = os.open(path, _OPEN_FLAGS) if stat.S_ISREG(mode) else None
     except (OSError, ValueError) as exc:  # ValueError: a path with a NUL character
-        raise UserFileError(f"cannot read the file: {exc}") from None
+        raise _Unreadable(f"cannot read the file: {exc}") from None
     if fd is None:
         raise _not_regular(mode)
     try:
@@ -53,12 +60,12 @@ def read_regular_file(path, max_bytes: int) -> bytes:
             if not stat.S_ISREG(info.st_mode):
                 raise _not_regular(info.st_mode)
             if info.st_size > max_bytes:
-                raise UserFileError("too large", too_large=True)
+                raise _Unreadable("too large", too_large=True)
             data = file.read(info.st_size + 1)
             if len(data) > info.st_size:
                 data += file.read(max_bytes + 1 - len(data))
     except OSError as exc:
-        raise UserFileError(f"cannot read the file: {exc}") from None
+        raise _Unreadable(f"cannot read the file: {exc}") from None
     if len(data) > max_bytes:
-        raise UserFileError("too large", too_large=True)
+        raise _Unreadable("too large", too_large=True)
     return data

@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import Mpeg4Error
 from ..mpeg4.fapu import Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
-from ..user_files import UserFileError, read_regular_file
+from ..user_files import read_regular_file
 
 FORMAT = "mpeg4-face-fdp"
 VERSION = 1
@@ -66,16 +66,9 @@ class Fdp:
 
 
 def read_fdp(path: str | os.PathLike) -> Fdp:
-    path = Path(path)
-    try:
-        data = read_regular_file(path, MAX_BYTES)
-    except UserFileError as error:
-        if error.too_large:
-            raise FdpFileError(f"{path}: larger than {MAX_BYTES} bytes; not an FDP file") from None
-        raise FdpFileError(f"{path}: {error.problem}") from None
-    if len(data) > MAX_BYTES:
-        raise FdpFileError(f"{path}: larger than {MAX_BYTES} bytes; not an FDP file")
-    return parse_fdp(data, str(path))
+    too_large = f"larger than {MAX_BYTES} bytes; not an FDP file"
+    name = str(Path(path))
+    return parse_fdp(read_regular_file(path, MAX_BYTES, FdpFileError, name, too_large), name)
 
 
 def parse_fdp(data: bytes, source: str = "FDP") -> Fdp:

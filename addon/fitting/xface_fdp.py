@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import Mpeg4Error
 from ..mpeg4.fapu import Fapu
 from ..mpeg4.feature_points import FP_IDS
-from ..user_files import UserFileError, read_regular_file
+from ..user_files import read_regular_file
 
 MAX_BYTES = 16 << 20
 VERSION = "0.2"
@@ -107,14 +107,9 @@ class XfaceFdp:
 
 
 def read_xface_fdp(path: str | os.PathLike) -> XfaceFdp:
-    path = Path(path)
-    try:
-        data = read_regular_file(path, MAX_BYTES)
-    except UserFileError as error:
-        if error.too_large:
-            raise XfaceFdpError(f"{path}: larger than {MAX_BYTES} bytes; not an XFace FDP") from None
-        raise XfaceFdpError(f"{path}: {error.problem}") from None
-    return parse_xface_fdp(data, str(path))
+    too_large = f"larger than {MAX_BYTES} bytes; not an XFace FDP"
+    name = str(Path(path))
+    return parse_xface_fdp(read_regular_file(path, MAX_BYTES, XfaceFdpError, name, too_large), name)
 
 
 def parse_xface_fdp(data: bytes, source: str = "XFace FDP") -> XfaceFdp:

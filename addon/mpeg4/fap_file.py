@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Mpeg4Error
-from ..user_files import UserFileError, read_regular_file
+from ..user_files import read_regular_file
 from .faps import N_FAPS
 
 __all__ = ["N_FAPS", "FapFileError", "FapStream", "format_fap", "parse_fap", "read_fap", "write_fap"]
@@ -180,19 +180,8 @@ def read_fap(path_or_text, *, source_name: str | None = None) -> FapStream:
     if not isinstance(path_or_text, str | os.PathLike):
         raise FapFileError(f"cannot read a .fap stream from a {type(path_or_text).__name__}")
     source = source_name or os.fspath(path_or_text)
-    return parse_fap(_read_regular_file(path_or_text, source), source)
-
-
-def _read_regular_file(path, source: str) -> bytes:
-    """The bytes of the regular file `path`, at most MAX_FILE_BYTES of them, else FapFileError."""
-    try:
-        return read_regular_file(path, MAX_FILE_BYTES)
-    except UserFileError as exc:
-        if exc.too_large:
-            raise FapFileError(
-                f"{source}: larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs"
-            ) from None
-        raise FapFileError(f"{source}: {exc.problem}") from None
+    too_large = f"larger than {MAX_FILE_BYTES // 2**20} MiB, which no FAP stream needs"
+    return parse_fap(read_regular_file(path_or_text, MAX_FILE_BYTES, FapFileError, source, too_large), source)
 
 
 def parse_fap(text: str | bytes, source_name: str = "<string>") -> FapStream:

@@ -20,7 +20,7 @@ from types import MappingProxyType
 import numpy as np
 
 from ..mpeg4.faps import FAPS, N_FAPS, Expression, Viseme, fap
-from ..user_files import UserFileError, read_regular_file
+from ..user_files import read_regular_file
 from . import SpeechError
 
 DATA = Path(__file__).resolve().with_name("data")
@@ -120,12 +120,8 @@ MAX_FILE_BYTES = 16 * 2**20  # a cue list or table this large is not one
 def read_text(path: Path | str, what: str) -> str:
     """A small UTF-8 text file (a regular file, at most MAX_FILE_BYTES); SpeechError naming the file."""
     source = str(path)
-    try:
-        data = read_regular_file(path, MAX_FILE_BYTES)
-    except UserFileError as exc:
-        if exc.too_large:
-            raise SpeechError(f"{source}: the {what} is larger than {MAX_FILE_BYTES // 2**20} MiB") from None
-        raise SpeechError(f"{source}: the {what}: {exc.problem}") from None
+    too_large = f"larger than {MAX_FILE_BYTES // 2**20} MiB"
+    data = read_regular_file(path, MAX_FILE_BYTES, SpeechError, f"{source}: the {what}", too_large)
     try:
         return data.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError as exc:
