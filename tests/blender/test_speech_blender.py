@@ -9,20 +9,10 @@ import pytest
 
 from addon.blender import face_data, speech_ops
 from addon.speech import espeak, wav
+from tests.markers import needs_espeak
 
 from .helpers import select, set_up_sample
 from .test_hardening import snapshot, unset_sample
-
-
-def _espeak_missing() -> str | None:
-    try:
-        espeak._get_engine()
-    except espeak.EspeakMissingError as exc:
-        return str(exc)
-    return None
-
-
-needs_espeak = pytest.mark.skipif(_espeak_missing() is not None, reason=f"espeak-ng: {_espeak_missing()}")
 
 
 def strips(scene=None):

@@ -5,13 +5,14 @@ The sample faces' own bindings are compared in tests/blender/test_fused_blender.
 """
 
 import ctypes.util
+import dataclasses
 
 import numpy as np
 import pytest
 
 from addon.deform import fused, planar_bones
 from addon.deform.face_binding import bind_face
-from addon.deform.planar_bones import DeformError, bind, evaluate
+from addon.deform.planar_bones import Binding, DeformError, bind, evaluate
 from addon.deform.regions import APEX, deformation_basis
 from scripts import build_kernel
 
@@ -19,15 +20,7 @@ from .test_planar_bones import icosahedron, random_rigid, sphere_points
 
 MODES = ("planar_bones", "soffd")
 TOLERANCE = 1e-8  # m: 1e-5 mm
-PAIR_ARRAYS = (
-    "pair_vertex",
-    "pair_triangle",
-    "pair_region",
-    "pair_weight",
-    "pair_face_local",
-    "pair_region_local",
-    "pair_apex_distance",
-)
+PAIR_ARRAYS = tuple(f.name for f in dataclasses.fields(Binding) if f.name.startswith("pair_"))
 needs_kernel = pytest.mark.skipif(not fused.available(), reason="no compiled kernel (python -m scripts.build_kernel)")
 
 

@@ -8,6 +8,7 @@ import wave
 import pytest
 
 from addon.mpeg4.fap_file import read_fap
+from tests.markers import needs_espeak
 
 from .helpers import FACE, ROOT, cut_stream, run_convert
 
@@ -19,19 +20,6 @@ FPS = 25
 def run_say(*args, timeout: int = 600) -> subprocess.CompletedProcess:
     command = [sys.executable, "-m", "scripts.say", *map(str, args)]
     return subprocess.run(command, capture_output=True, text=True, timeout=timeout, cwd=ROOT)
-
-
-def _espeak_missing() -> str | None:
-    from addon.speech import espeak
-
-    try:
-        espeak._get_engine()
-    except espeak.EspeakMissingError as exc:
-        return str(exc)
-    return None
-
-
-needs_espeak = pytest.mark.skipif(_espeak_missing() is not None, reason=f"espeak-ng: {_espeak_missing()}")
 
 
 @needs_espeak
