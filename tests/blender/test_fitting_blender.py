@@ -405,7 +405,8 @@ def test_without_scipy_a_fit_is_refused_with_a_message_and_nothing_changes(monke
     unchanged_by(head, bpy.ops.mpeg4.fit_to_feature_points, r"fitting needs scipy \(Qhull\)")
 
 
-# Blender ships numpy but not scipy: without the extension's scipy wheel the add-on must still load and play.
+# Blender ships numpy but not scipy: without the extension's scipy wheel the add-on must still load and play;
+# only fitting and the switch to Elastic Bones (which makes skin weights) are refused.
 WITHOUT_SCIPY = textwrap.dedent("""
     import sys
     sys.modules["scipy"] = None  # no scipy in this Python
@@ -417,18 +418,20 @@ WITHOUT_SCIPY = textwrap.dedent("""
     bpy.context.view_layer.objects.active = head
     assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
     bpy.data.objects["FP 2.1"].location.z -= 0.01
-    try:
-        bpy.ops.mpeg4.fit_to_feature_points()
-    except RuntimeError as error:
-        print("REFUSED:", error)
+    for refused in (bpy.ops.mpeg4.fit_to_feature_points, lambda: bpy.ops.mpeg4.set_engine(engine="ELASTIC_BONES")):
+        try:
+            refused()
+        except RuntimeError as error:
+            print("REFUSED:", error)
     assert not any(name.startswith("scipy") for name in sys.modules if sys.modules[name])
     print("LOADED-WITHOUT-SCIPY")
 """)
 
 
-def test_the_add_on_loads_sets_up_and_refuses_a_fit_without_scipy():
+def test_the_add_on_loads_and_sets_up_without_scipy_and_refuses_fitting_and_elastic_bones():
     result = subprocess.run(
         [sys.executable, "-c", WITHOUT_SCIPY, str(SAMPLE)], capture_output=True, text=True, timeout=300, cwd=ROOT
     )
     assert "LOADED-WITHOUT-SCIPY" in result.stdout, result.stdout[-3000:] + result.stderr[-3000:]
     assert "REFUSED: Error: fitting needs scipy (Qhull), which Blender does not ship" in result.stdout, result.stdout
+    assert "REFUSED: Error: Elastic Bones' skin weights need scipy (sparse graphs)" in result.stdout, result.stdout
