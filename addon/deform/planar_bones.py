@@ -250,9 +250,9 @@ def _drop_faint_pairs(vertex: np.ndarray, weight: np.ndarray, n_vertices: int) -
         return keep, weight
     full = np.bincount(vertex, weight, minlength=n_vertices)
     kept = np.bincount(vertex[keep], weight[keep], minlength=n_vertices)
-    keep |= (kept == 0.0)[vertex]
-    kept = np.bincount(vertex[keep], weight[keep], minlength=n_vertices)
-    scale = np.divide(full, kept, out=np.ones_like(full), where=kept > 0.0)
+    lost = kept == 0.0
+    keep |= lost[vertex]
+    scale = np.divide(full, kept, out=np.ones_like(full), where=~lost)
     return keep, weight * scale[vertex]
 
 
