@@ -367,6 +367,19 @@ def rest_pose(face) -> None:
 def bake_keys(face, frames: np.ndarray, streams: animation.StreamActions) -> str:
     """Key every bone's location and rotation at `frames` from the FP empties' motion, into the stream's action."""
     arm = require_skeleton(face)
+    return _bake(face, arm, frames, animation.replace_motion(arm, streams))
+
+
+def rebake_keys(face, frames: np.ndarray) -> str:
+    """`bake_keys` again into the skeleton's current stream action (the FP empties' keys changed)."""
+    arm = require_skeleton(face)
+    anim = arm.animation_data
+    if anim is None or not animation.is_stream_action(anim.action):
+        raise Mpeg4Error(f"{arm.name} has no imported stream to bake again: import the stream again")
+    return _bake(face, arm, frames, lambda path, index: animation.ensure_fcurve(arm, path, index, anim.action.name))
+
+
+def _bake(face, arm, frames: np.ndarray, fcurve) -> str:
     state = _state(face, arm)
     empties = face_data.fp_empties(face)
     moved = np.stack(
@@ -382,7 +395,6 @@ def bake_keys(face, frames: np.ndarray, streams: animation.StreamActions) -> str
     for k in range(len(frames)):
         locations[k], rotations[k] = _channels(state, moved[k], previous)
         previous = rotations[k]
-    fcurve = animation.replace_motion(arm, streams)
     for b, name in enumerate(state.skeleton.names):
         path = f'pose.bones["{BONE_PREFIX}{name}"]'
         for axis in range(3):

@@ -7,6 +7,11 @@ face's delta transform (head_motion), turning the head about 7.1 while leaving t
 alone. All keys of one stream go into one action named after the file (animation.StreamActions).
 Everything is read, decoded and checked (times, sizes, values) before anything in the scene changes, so
 a bad file leaves the scene as it was. Export is the inverse (encode.fp_to_fap, head_motion.from_delta).
+
+Gains apply live: the last stream imported in place of the face's motion is remembered (its FAP values
+before the group gains, in the face's settings), and changing a gain or Plausible Ranges keys it again
+from them (`apply_gains`), unless its keys were edited since (then the user's edits win and the panel says
+so). A stream added on top of other motion is keyed once; its gains apply at import only.
 """
 
 from __future__ import annotations
@@ -135,12 +140,13 @@ class DecodedStream:
     head: tuple[np.ndarray, np.ndarray] | None  # per-frame delta rotation values and delta location
     high_level: bool  # the stream carried FAP 1 or 2
     notes: list  # what the face lacks to show the whole stream
+    faps: np.ndarray | None = None  # (F, 68) the FAP values before the group gains (kept for `apply_gains`)
 
 
 def decode_stream(context, face, stream: FapStream, options: ImportOptions, source: str) -> DecodedStream:
     """Decode and check a stream for `face` (times, sizes, values, reach); raises Mpeg4Error, changes nothing."""
     empties = require_setup(face)
-    fapu = face_fapu(face)
+    face_fapu(face)  # a face without FAPU is refused before the stream is looked at
     if len(stream.frame_numbers) == 0:
         raise Mpeg4Error(f"{source}: the stream has no frames")
     scene = context.scene
@@ -160,8 +166,19 @@ def decode_stream(context, face, stream: FapStream, options: ImportOptions, sour
     values = hold_missing(mask, values, options.fill_partners)
     values = gain_and_clamp(values, mask, options.gain, options.clamp)
     check_values(values, mask, source=source)
-    values = shape_faps(values, group_gains(face), limit=face.mpeg4_face.use_soft_limits)
     has_head = bool(mask[:, HEAD_FAPS].any())
+    points, neutral, head_delta = _positions(face, empties, values, has_head, source)
+    name = os.path.splitext(source)[0]
+    high_level = bool(stream.mask[:, :2].any())
+    notes = missing_parts(face, mask)
+    return DecodedStream(source, name, frames, points, neutral, head_delta, high_level, notes, faps=values)
+
+
+def _positions(face, empties, values: np.ndarray, has_head: bool, source: str):
+    """FAP values (before the group gains) -> FP positions (F, 84, 3), neutral (84, 3) and the head's delta
+    transform (or None), with the face's group gains and ranges; checked, nothing changed."""
+    fapu = face_fapu(face)
+    values = shape_faps(values, group_gains(face), limit=face.mpeg4_face.use_soft_limits)
     if has_head:
         head_motion.check_rotation_mode(face)
     head = values[:, HEAD_FAPS] * AU
@@ -170,9 +187,7 @@ def decode_stream(context, face, stream: FapStream, options: ImportOptions, sour
     points = fap_to_fp(neutral, values, fapu, eye_pivots=eye_pivots(face))
     _check_reach(face, points, neutral, source)
     head_delta = head_motion.to_delta(face, head, head_pivot(neutral)) if has_head else None
-    name = os.path.splitext(source)[0]
-    high_level = bool(stream.mask[:, :2].any())
-    return DecodedStream(source, name, frames, points, neutral, head_delta, high_level, missing_parts(face, mask))
+    return points, neutral, head_delta
 
 
 def import_fap(context, face, path, options: ImportOptions) -> list[str]:
@@ -214,6 +229,7 @@ def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) ->
             animation.clear_stream_motion(face)  # a new stream without head motion replaces the old head motion
             head_motion.restore_rest(face)
         step(len(empties) + 1)
+    _remember(face, decoded, None if options.add else empties)
     notes = [
         f"keyed {len(empties)} feature points over {len(frames)} frames of {decoded.source} (action {decoded.name!r})"
     ]
@@ -229,6 +245,93 @@ def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) ->
     if options.set_frame_range and last > scene.frame_end:
         scene.frame_end = last
         notes.append(f"scene end frame set to {last}")
+    return notes
+
+
+RECORD = "stream"  # in the face's settings: the stream `apply_gains` keys again
+
+
+def _keyed_curves(face, empties, head: bool):
+    """The F-curves a remembered stream keyed (None where one is missing), in a fixed order."""
+    curves = [animation.find_fcurve(ob, "location", axis) for ob in empties.values() for axis in range(3)]
+    if head:
+        path, size = head_motion.rotation_path(face)
+        curves += [animation.find_fcurve(face, path, axis) for axis in range(size)]
+        curves += [animation.find_fcurve(face, "delta_location", axis) for axis in range(3)]
+    return curves
+
+
+def _keys(curves) -> list[np.ndarray]:
+    """Each curve's keys, (K, 2) float32 (frame, value)."""
+    keys = []
+    for fcurve in curves:
+        co = np.empty(2 * len(fcurve.keyframe_points), dtype=np.float32)
+        fcurve.keyframe_points.foreach_get("co", co)
+        keys.append(co.reshape(-1, 2))
+    return keys
+
+
+def _checksum(keys: list[np.ndarray]) -> list[float]:
+    """Key count and two weighted sums of the curves' keys: what tells an edit since keying."""
+    flat = np.concatenate([k.ravel() for k in keys]).astype(np.float64) if keys else np.zeros(0)
+    return [float(len(flat)), float(flat.sum()), float(flat @ np.sin(np.arange(1, len(flat) + 1)))]
+
+
+def _remember(face, decoded: DecodedStream, empties) -> None:
+    """Keep what `apply_gains` needs to key the stream again; `empties` None forgets (an added stream)."""
+    settings = face.mpeg4_face
+    if empties is None or decoded.faps is None:
+        if settings.get(RECORD) is not None:
+            del settings[RECORD]
+        return
+    head = decoded.head is not None
+    settings[RECORD] = {
+        "source": decoded.source,
+        "frames": np.asarray(decoded.frames, dtype=np.float64),
+        "faps": np.asarray(decoded.faps, dtype=np.float32).ravel(),
+        "head": head,
+        "fp_ids": list(empties),
+        "checksum": _checksum(_keys(_keyed_curves(face, empties, head))),
+    }
+
+
+def apply_gains(context, face) -> list[str]:
+    """Key the remembered stream again with the face's current gains and ranges; [] when there is none.
+
+    Raises Mpeg4Error, changing nothing, when the stream's keys were edited (or the empties changed) since."""
+    record = face.mpeg4_face.get(RECORD)
+    if record is None:
+        return []
+    source = str(record["source"])
+    empties = require_setup(face)
+    head = bool(record["head"])
+    curves = _keyed_curves(face, empties, head)
+    if list(record["fp_ids"]) != list(empties) or any(fcurve is None for fcurve in curves):
+        del face.mpeg4_face[RECORD]  # the stream was taken off: gains apply to the next import
+        return []
+    keys = _keys(curves)
+    if _checksum(keys) != list(record["checksum"]):
+        raise Mpeg4Error(
+            f"the keys of {source} were changed since it was imported: the new gains apply when it is imported "
+            "again (your edits are kept)"
+        )
+    frames = np.array(record["frames"], dtype=np.float64)
+    faps = np.array(record["faps"], dtype=np.float64).reshape(len(frames), N_FAPS)
+    points, _neutral, head_delta = _positions(face, empties, faps, head, source)
+    if face.mpeg4_face.engine == elastic_rig.ELASTIC:
+        elastic_rig.require_skeleton(face)
+    columns = [points[:, fp_index(fp_id), axis] for fp_id in empties for axis in range(3)]
+    if head_delta is not None:
+        rotation, dloc = head_delta
+        columns += [*rotation.T, *dloc.T]
+    frames32 = frames.astype(np.float32)
+    for fcurve, old, values in zip(curves, keys, columns, strict=True):
+        if not (np.array_equal(old[:, 0], frames32) and np.array_equal(old[:, 1], values.astype(np.float32))):
+            animation.set_keys(fcurve, frames, values)  # only the curves the new gains move
+    notes = [f"keyed {source} again with the new gains"]
+    if face.mpeg4_face.engine == elastic_rig.ELASTIC:
+        notes.append(elastic_rig.rebake_keys(face, frames))
+    face.mpeg4_face[RECORD]["checksum"] = _checksum(_keys(curves))
     return notes
 
 

@@ -4,7 +4,7 @@ import bpy
 
 from ..mpeg4.fap_groups import GROUP_NAMES
 from ..mpeg4.feature_points import FP_IDS
-from . import binding_store, elastic_ops, face_data, followers
+from . import binding_store, elastic_ops, face_data, fap_io, followers
 
 FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
@@ -72,11 +72,16 @@ class MPEG4_PT_face(bpy.types.Panel):
                 col.prop(settings, name)
 
             box = layout.box()
-            box.label(text="FAP Gains (imports from now on)", icon="MODIFIER")
+            box.label(text="FAP Gains", icon="MODIFIER")
             grid = box.grid_flow(columns=2, align=True)
             for name in GROUP_NAMES:
                 grid.prop(settings, f"gain_{name}")
             box.prop(settings, "use_soft_limits")
+            record = settings.get(fap_io.RECORD)
+            if record is not None:
+                box.label(text=f"Changes key {record['source']} again", icon="FILE_REFRESH")
+            else:
+                box.label(text="Changes apply to the next import", icon="INFO")
 
             if any(settings.fapu):
                 grid = layout.grid_flow(columns=2, align=True)

@@ -10,15 +10,30 @@ from bpy.props import (
     StringProperty,
 )
 
-from . import live
+from . import fap_io, live
 from .reporting import property_callback
 
-GAIN_TEXT = "Scale the %s FAPs of streams and speech imported from now on (1: as given)"
+GAIN_TEXT = (
+    "Scale the %s FAPs of imported streams and speech (1: as given). The last stream imported in place of "
+    "the face's motion is keyed again at once"
+)
 
 
 @property_callback
 def _rebind(self, context):
     live.settings_changed(self.id_data, rebind=True)
+
+
+@property_callback
+def _regain(self, context):
+    face = self.id_data
+    if fap_io.apply_gains(context, face):
+        scene = context.scene
+        scene.frame_set(scene.frame_current, subframe=scene.frame_subframe)  # show the new keys now
+
+
+def _gain(label: str, what: str) -> FloatProperty:
+    return FloatProperty(name=label, default=1.0, min=0.0, soft_max=2.0, update=_regain, description=GAIN_TEXT % what)
 
 
 @property_callback
@@ -151,17 +166,18 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         "edit them like any vertex group",
         default="",
     )
-    gain_jaw: FloatProperty(name="Jaw", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "jaw")
-    gain_lips: FloatProperty(name="Lips", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "lip")
-    gain_eyelids: FloatProperty(name="Eyelids", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "eyelid")
-    gain_eyes: FloatProperty(name="Eyes", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "eyeball")
-    gain_brows: FloatProperty(name="Brows", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "eyebrow")
-    gain_head: FloatProperty(name="Head", default=1.0, min=0.0, soft_max=2.0, description=GAIN_TEXT % "head")
+    gain_jaw: _gain("Jaw", "jaw")
+    gain_lips: _gain("Lips", "lip")
+    gain_eyelids: _gain("Eyelids", "eyelid")
+    gain_eyes: _gain("Eyes", "eyeball")
+    gain_brows: _gain("Brows", "eyebrow")
+    gain_head: _gain("Head", "head")
     use_soft_limits: BoolProperty(
         name="Plausible Ranges",
         description="When importing or speaking, ease FAP values that go past what a face can do back into range "
         "(a smooth saturation per group, not a hard cut), and stop lids and lips where they meet",
         default=True,
+        update=_regain,
     )
     fapu: FloatVectorProperty(
         name="FAPU",
