@@ -1,34 +1,56 @@
 /* The kernel's loop over a range of vertices, included by planar_bones_kernel.c once per coefficient type
  * REAL (float or double; the output has the same type) and instruction set: the 4-wide loaders LOAD (of
  * REALs) and LOAD64 (of doubles), the function attribute TARGET and the function name RANGE. A vertex sums
- * its pairs lane by lane in double and adds the lanes up once at the end. */
+ * its pairs lane by lane in double and adds the lanes up once at the end; a vertex whose pairs' triangles
+ * all are at rest takes its result at rest. */
 
 TARGET static void RANGE(int64_t v0, int64_t v1, const double *base, const int32_t *plain_start,
                          const int32_t *plain_key, const void *plain_coefficients, const int32_t *apex_start,
                          const int32_t *apex_key, const void *apex_coefficients, const void *apex_scales,
-                         Tables tables, void *output) {
+                         const void *rest_output, Tables tables, void *output) {
     const REAL *plain_coef = plain_coefficients, *apex_coef = apex_coefficients, *scale = apex_scales;
+    const REAL *rest_out = rest_output;
     REAL *out = output;
     const Quad shift = LOAD64(tables.shift);
     double ratio[APEX_BLOCK];
+    unsigned char moved[VERTEX_BLOCK];
     for (int64_t v = v0; v < v1;) {
-        /* vertices [v, end) whose apex pairs [first, last) fit in one block: their r in one loop */
+        /* vertices [v, end), at most a block, whose apex pairs [first, last) fit in one block */
         int64_t end = v + 1;
         int32_t first = 0, last = 0;
         if (apex_start) {
             first = apex_start[v];
-            while (end < v1 && apex_start[end + 1] - first <= APEX_BLOCK) ++end;
+            while (end < v1 && end - v < VERTEX_BLOCK && apex_start[end + 1] - first <= APEX_BLOCK) ++end;
             last = apex_start[end];
+        } else {
+            end = v1 - v < VERTEX_BLOCK ? v1 : v + VERTEX_BLOCK;
+        }
+        /* which of them have a pair whose triangle moved (only their coefficients are read) */
+        for (int64_t u = v; u < end; ++u) {
+            unsigned char m = 0;
+            for (int32_t p = plain_start[u]; p < plain_start[u + 1]; ++p) m |= tables.moved_plain[plain_key[p]];
+            if (apex_start)
+                for (int32_t p = apex_start[u]; p < apex_start[u + 1]; ++p) m |= tables.moved_apex[apex_key[p]];
+            moved[u - v] = m;
         }
         int blocked = last - first <= APEX_BLOCK; /* else one vertex with more than a block: one by one */
-        if (blocked)
-            for (int32_t p = first; p < last; ++p) {
-                const REAL *c = apex_coef + 4 * (int64_t)p;
-                ratio[p - first] = apex_ratio(c[2], c[3], tables.gram[apex_key[p]], scale[p]);
+        if (blocked && apex_start)
+            for (int64_t u = v; u < end; ++u) {
+                if (!moved[u - v]) continue;
+                for (int32_t p = apex_start[u]; p < apex_start[u + 1]; ++p) {
+                    const REAL *c = apex_coef + 4 * (int64_t)p;
+                    ratio[p - first] = apex_ratio(c[2], c[3], tables.gram[apex_key[p]], scale[p]);
+                }
             }
-        for (; v < end; ++v) {
+        for (int64_t u = v; u < end; ++u) {
+            if (!moved[u - v]) { /* every pair's triangle is at rest: the result at rest */
+                out[3 * u] = rest_out[3 * u];
+                out[3 * u + 1] = rest_out[3 * u + 1];
+                out[3 * u + 2] = rest_out[3 * u + 2];
+                continue;
+            }
             Quad x = {0.0, 0.0, 0.0, 0.0}, y = x, z = x;
-            for (int32_t p = plain_start[v]; p < plain_start[v + 1]; ++p) {
+            for (int32_t p = plain_start[u]; p < plain_start[u + 1]; ++p) {
                 const Quad *rows = tables.plain + 3 * (int64_t)plain_key[p];
                 Quad c = LOAD(plain_coef + 4 * (int64_t)p);
                 x += c * rows[0];
@@ -36,7 +58,7 @@ TARGET static void RANGE(int64_t v0, int64_t v1, const double *base, const int32
                 z += c * rows[2];
             }
             if (apex_start) {
-                for (int32_t p = apex_start[v]; p < apex_start[v + 1]; ++p) {
+                for (int32_t p = apex_start[u]; p < apex_start[u + 1]; ++p) {
                     int64_t key = apex_key[p];
                     const Quad *rows = tables.apex + 3 * key;
                     const REAL *coef = apex_coef + 4 * (int64_t)p;
@@ -47,11 +69,12 @@ TARGET static void RANGE(int64_t v0, int64_t v1, const double *base, const int32
                     z += c * rows[2];
                 }
             }
-            Quad rest = LOAD64(base + 4 * v); /* x, y, z and the weight sum */
+            Quad rest = LOAD64(base + 4 * u); /* x, y, z and the weight sum */
             Quad sum = rest + rest[3] * shift + lane_sums(x, y, z);
-            out[3 * v] = (REAL)sum[0];
-            out[3 * v + 1] = (REAL)sum[1];
-            out[3 * v + 2] = (REAL)sum[2];
+            out[3 * u] = (REAL)sum[0];
+            out[3 * u + 1] = (REAL)sum[1];
+            out[3 * u + 2] = (REAL)sum[2];
         }
+        v = end;
     }
 }

@@ -13,7 +13,10 @@ or where ``MPEG4_FACE_NO_KERNEL=1`` is set, `planar_bones.evaluate` runs its num
 The layout (`build_layout`, once per binding, mode and output dtype) groups the pairs by vertex (CSR), so
 the kernel writes each output vertex once, with no scatter and no atomics. A face or edge pair (every
 pair in SoFFD mode) is a key (triangle, region) and four coefficients; an apex pair a key (triangle,
-corner), [w, h·w, a, b] and w·D, its D/d factor being computed per pair and frame. Each frame the kernel
+corner), [w, h·w, a, b] and w·D, its D/d factor being computed per pair and frame. A vertex all of whose
+pairs belong to triangles that have not moved takes its result at rest (``rest_out``) without its pairs
+being read: such a triangle adds exactly nothing (its rows are the common translation, which the weight
+sum takes back), and in speech most triangles stay still while the mouth moves. Each frame the kernel
 builds every triangle's basis and adds to ``base`` (the float64 reference result at the rest control
 positions, less the apex pairs' in-plane part at rest) each pair's coefficients times the change of its
 rows since rest, the mean translation of the control mesh taken apart and weighted by each vertex's exact
@@ -39,7 +42,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, deformation_basis
 
-ABI_VERSION = 1  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 2  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -50,7 +53,7 @@ PLAIN_REGIONS = 4  # FACE, EDGE + 0..2: key = triangle × 4 + region
 APEX_CORNERS = 3  # APEX + 0..2: key = triangle × 3 + corner
 
 _POINTER = ctypes.c_void_p
-_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 11, ctypes.c_int32, _POINTER]
+_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 12, ctypes.c_int32, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -68,6 +71,7 @@ class Layout:
     apex_key: np.ndarray | None  # (A,) int32
     apex_coef: np.ndarray | None  # (A, 4): w, h·w, a, b
     apex_scale: np.ndarray | None  # (A,): w·D
+    rest_out: np.ndarray  # (N, 3) of dtype: the result at rest, for vertices whose triangles all are at rest
 
     @property
     def n_vertices(self) -> int:
@@ -83,7 +87,11 @@ class Layout:
         as long as the layout)."""
         arrays = (self.control_rest, self.triangles, self.base, self.plain_start, self.plain_key, self.plain_coef)
         apex = (self.apex_start, self.apex_key, self.apex_coef, self.apex_scale)
-        return (*(array.ctypes.data for array in arrays), *(None if a is None else a.ctypes.data for a in apex))
+        return (
+            *(array.ctypes.data for array in arrays),
+            *(None if a is None else a.ctypes.data for a in apex),
+            self.rest_out.ctypes.data,
+        )
 
 
 def available() -> bool:
@@ -161,6 +169,7 @@ def build_layout(
         raise DeformError("inconsistent binding arrays")
     if n >= 2**31 or len(vertex) >= 2**31:
         raise DeformError("binding too large for the compiled kernel")
+    rest_out = np.ascontiguousarray(base, dtype=dtype)
     weight = np.asarray(pair_weight, dtype=np.float64)
     face_local = np.asarray(pair_face_local, dtype=np.float64)
     region_local = np.asarray(pair_region_local, dtype=np.float64)
@@ -198,6 +207,7 @@ def build_layout(
         apex_key=apex_key,
         apex_coef=apex_coef,
         apex_scale=apex_scale,
+        rest_out=rest_out,
     )
 
 

@@ -100,7 +100,20 @@ def motions(binding) -> dict[str, np.ndarray]:
         "rigid": (control - centre) @ rotation.T + centre + [0.03, -0.05, 0.02],
         "rigid-far": control @ rotation.T + [0.4, -1.2, 0.7],
         "collapsed": collapsed,
+        "one point": _one_moved(binding),
     }
+
+
+def _busiest(binding) -> int:
+    """The control point in the most triangles."""
+    return int(np.bincount(binding.triangles.ravel()).argmax())
+
+
+def _one_moved(binding) -> np.ndarray:
+    """Only the busiest control point moves: the triangles without it stay exactly at rest."""
+    moved = binding.control_rest.copy()
+    moved[_busiest(binding)] += [0.004, -0.003, 0.002]
+    return moved
 
 
 @needs_kernel
@@ -132,6 +145,22 @@ def test_vertices_no_triangle_affects_stay_bit_identical(head, mode):
     assert len(static)
     moved = evaluate(head, motions(head)["large"], mode)
     np.testing.assert_array_equal(moved[static], head.rest_vertices[static])
+
+
+@needs_kernel
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_vertices_whose_triangles_are_all_still_take_the_result_at_rest(head, mode, dtype):
+    control = _one_moved(head)
+    moved_triangle = (head.triangles == _busiest(head)).any(axis=1)
+    touched = np.zeros(head.n_vertices, bool)
+    touched[head.pair_vertex[moved_triangle[head.pair_triangle]]] = True
+    still = np.setdiff1d(head.pair_vertex, np.flatnonzero(touched))
+    assert len(still) > 100 and touched.sum() > 100  # both paths are taken
+    at_rest = reference(head, head.control_rest, mode).astype(dtype)
+    fast = evaluate(head, control, mode, out=np.empty((head.n_vertices, 3), dtype))
+    np.testing.assert_array_equal(fast[still], at_rest[still])
+    assert_matches(fast, reference(head, control, mode))
 
 
 @needs_kernel
