@@ -9,9 +9,12 @@ into a flat plateau with corners).
 
 Ranges are in FAP units of each FAP's own FAPU (research/mpeg4-fba.md section 3), set from what a face
 can do: the jaw opens about one MNS0 and retracts a few millimetres, lips move about half an MNS0 or a
-third of MW0 past neutral, a lid travels its opening (the lids' meeting is enforced in decode), the eyes
-turn about 40 degrees, the brows rise about 0.7 ENS0 and squeeze about 7 mm, the head turns about
-40 degrees in pitch, 70 in yaw and 35 in roll.
+third of MW0 past neutral, a lid travels its opening (the lids' meeting is enforced in decode) and opens
+past neutral by about a third of IRISD0 (the levator lifts the upper lid 2-3 mm), the eyes turn about 40
+degrees, the brows rise about 0.3 ENS0 and lower about 0.2 ENS0 (10-15 mm up, 7-10 mm down on an adult face:
+more folds the skin between brow and lid or up the forehead) and squeeze about 7 mm, the head turns about
+40 degrees in pitch, 70 in yaw and 35 in roll. The expression tables (speech/data/expressions.json) stay
+inside the knees but for surprise's brows (320) and lids (-300), eased by a tenth.
 """
 
 from __future__ import annotations
@@ -30,9 +33,9 @@ GROUPS: dict[str, dict[tuple[int, ...], tuple[float, float]]] = {
         (6, 7, 53, 54): (-400.0, 400.0),
         (16, 17): (-400.0, 400.0),
     },
-    "eyelids": {(19, 20, 21, 22): (-600.0, 1400.0)},
+    "eyelids": {(19, 20, 21, 22): (-300.0, 1400.0)},
     "eyes": {(23, 24, 25, 26): (-70000.0, 70000.0), (27, 28): (-100.0, 100.0), (29, 30): (-600.0, 600.0)},
-    "brows": {(31, 32, 33, 34, 35, 36): (-500.0, 700.0), (37, 38): (-120.0, 120.0)},
+    "brows": {(31, 32, 33, 34, 35, 36): (-200.0, 300.0), (37, 38): (-120.0, 120.0)},
     "head": {(48,): (-70000.0, 70000.0), (49,): (-120000.0, 120000.0), (50,): (-60000.0, 60000.0)},
 }
 GROUP_NAMES = tuple(GROUPS)

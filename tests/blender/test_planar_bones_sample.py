@@ -5,6 +5,8 @@ and right FAPs swapped) must deform it into mirror images. Inner lips: the skin 
 opening follows the inner-lip FPs instead of fading toward rest. Folds: the project's own mouth shapes and
 expressions turn no face of the head over."""
 
+from pathlib import Path
+
 import bpy
 import numpy as np
 import pytest
@@ -14,13 +16,16 @@ from addon.deform.face_binding import bind_face
 from addon.deform.folds import count_inverted, fan_triangles
 from addon.deform.planar_bones import evaluate
 from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices
-from addon.mpeg4.decode import fap_to_fp
+from addon.mpeg4.decode import fap_to_fp, hold_missing
+from addon.mpeg4.fap_file import read_fap
+from addon.mpeg4.fap_groups import shape_faps
 from addon.mpeg4.faps import LEFT_RIGHT_PAIRS, N_FAPS
 from addon.mpeg4.fapu import compute_fapu
 from addon.mpeg4.feature_points import FP_IDS, fp_index, mirror_index
+from addon.speech.high_level import apply_high_level
 from addon.speech.tables import load_expressions, load_visemes
 
-from .helpers import open_sample, positions
+from .helpers import DEMO_FAP, open_sample, positions
 
 FLIP = np.array([-1.0, 1.0, 1.0])  # the head's mid-line is x = 0
 TOLERANCE = 5e-5  # 0.05 mm
@@ -113,5 +118,22 @@ def test_no_viseme_with_any_expression_turns_a_face_over(sample):
     )
     frames[:, 47:50] = 0.0  # head rotation turns the whole object
     points = fap_to_fp(neutral, frames, fapu)
+    folded = [count_inverted(rest, evaluate(binding, frame[rows]), *fans) for frame in points]
+    assert max(folded) == 0
+
+
+INTEROP = Path(__file__).resolve().parents[3] / "shared" / "interop" / "fap"
+STREAMS = [DEMO_FAP, *sorted(INTEROP.rglob("*.fap"))] if INTEROP.is_dir() else [DEMO_FAP]
+
+
+@pytest.mark.parametrize("path", STREAMS, ids=lambda p: p.name)
+def test_streams_decoded_as_imported_turn_no_face_over(sample, path):
+    """The import's defaults (group gains 1, plausible ranges) keep every real stream fold-free (issue 13)."""
+    rest, neutral, fapu, rows, binding, _, fans = sample
+    stream = read_fap(path)
+    mask, values = apply_high_level(stream.mask, stream.values, stream.viseme, stream.expression)
+    values = shape_faps(hold_missing(mask, values))
+    values[:, 47:50] = 0.0  # head rotation turns the whole object
+    points = fap_to_fp(neutral, values, fapu)
     folded = [count_inverted(rest, evaluate(binding, frame[rows]), *fans) for frame in points]
     assert max(folded) == 0

@@ -65,7 +65,7 @@ def test_bad_gains_are_refused():
 
 def test_ordinary_values_pass_unchanged():
     values = np.zeros((1, 68))
-    values[0, [2, 3, 18, 30, 48]] = (512, 200, 1024, 300, 30000)  # jaw, lip, full blink, brow, head yaw
+    values[0, [2, 3, 18, 30, 48]] = (512, 200, 1024, 200, 30000)  # jaw, lip, full blink, brow (10 mm), head yaw
     np.testing.assert_array_equal(shape_faps(values), values)
 
 
