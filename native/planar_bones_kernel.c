@@ -14,8 +14,10 @@
  *
  * A triangle none of whose corners moved since rest adds exactly nothing (its rows are -shift, which the
  * vertex's weight sum takes back, and its in-plane apex part is the one at rest): a vertex all of whose pairs
- * have such triangles is its result at rest, `rest_out`, copied without reading its coefficients. In speech
- * most triangles (the brows', the cheeks') stay still while the mouth moves.
+ * have such triangles is its result at rest, `rest_out`, copied without reading its pairs. Which triangles a
+ * vertex has pairs with is a 128-bit mask per vertex (bit t % 128 for triangle t: exact up to 128 triangles,
+ * beyond that a still vertex may be summed as a moving one, which is right too). In speech most triangles
+ * (the brows', the cheeks') stay still while the mouth moves.
  */
 #include <math.h>
 #include <pthread.h>
@@ -32,7 +34,7 @@ __asm__(".symver pthread_create, pthread_create@GLIBC_2.2.5");
 __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 #endif
 
-#define PBK_ABI_VERSION 2
+#define PBK_ABI_VERSION 3
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
 #define APEX_BLOCK 256 /* apex pairs whose factors r are computed together, in one vectorised loop */
@@ -63,7 +65,7 @@ typedef struct {
     const Quad *plain;  /* per plain key: x, y, z of its 4 rows */
     const Quad *apex;   /* per apex key: x, y, z of dVj, dn, b'j, b'(j-1) */
     const double *gram; /* per apex key: g' = b'j . b'(j-1) */
-    const unsigned char *moved_plain, *moved_apex; /* per plain / apex key: 1 when its triangle moved */
+    uint64_t moved[2]; /* bit t % 128: triangle t moved since rest */
 } Tables;
 
 PBK_EXPORT int pbk_abi_version(void) { return PBK_ABI_VERSION; }
@@ -110,7 +112,7 @@ static void transpose(const double *r0, const double *r1, const double *r2, cons
  * vertex gets with its exact weight sum: so no rounded coefficient multiplies a translation. */
 static void build_tables(int64_t n_triangles, const double *control, const double *control_rest,
                          const int32_t *triangles, Quad *plain, Quad *apex, double *gram, double *shift,
-                         unsigned char *moved_plain, unsigned char *moved_apex) {
+                         uint64_t *moved_bits) {
     double mean[3] = {0.0, 0.0, 0.0};
     for (int64_t t = 0; t < n_triangles; ++t)
         for (int k = 0; k < 3; ++k) {
@@ -119,6 +121,7 @@ static void build_tables(int64_t n_triangles, const double *control, const doubl
         }
     for (int k = 0; k < 3; ++k) shift[k] = mean[k];
     shift[3] = 0.0;
+    moved_bits[0] = moved_bits[1] = 0;
     for (int64_t t = 0; t < n_triangles; ++t) {
         unsigned char moved = 0; /* NaN compares unequal: such a triangle is summed as before */
         for (int j = 0; j < 3; ++j)
@@ -126,8 +129,7 @@ static void build_tables(int64_t n_triangles, const double *control, const doubl
                 int64_t at = 3 * (int64_t)triangles[3 * t + j] + k;
                 moved |= control[at] != control_rest[at];
             }
-        memset(moved_plain + 4 * t, moved, 4);
-        memset(moved_apex + 3 * t, moved, 3);
+        if (moved) moved_bits[(t / 64) % 2] |= (uint64_t)1 << (t % 64);
         Basis now = triangle_basis(control, triangles + 3 * t);
         Basis rest = triangle_basis(control_rest, triangles + 3 * t);
         double d[7][3], along[3][3];
@@ -236,7 +238,8 @@ static inline __attribute__((always_inline)) AVX2_TARGET Quad load_f64_avx2(cons
 #endif
 
 typedef void Range(int64_t, int64_t, const double *, const int32_t *, const int32_t *, const void *,
-                   const int32_t *, const int32_t *, const void *, const void *, const void *, Tables, void *);
+                   const int32_t *, const int32_t *, const void *, const void *, const void *, const uint64_t *,
+                   const Tables *, void *);
 
 /* The loop for this CPU and output type. */
 static Range *range_for(int single) {
@@ -256,6 +259,7 @@ typedef struct {
     const double *base;
     const int32_t *plain_start, *plain_key, *apex_start, *apex_key;
     const void *plain_coef, *apex_coef, *apex_scale, *rest_out;
+    const uint64_t *vertex_mask;
     Tables tables;
     void *out;
     int n_chunks;
@@ -267,7 +271,7 @@ static void work_on(Job *job) {
     for (int c; (c = atomic_fetch_add(&job->next, 1)) < job->n_chunks;) {
         job->range(job->bounds[c], job->bounds[c + 1], job->base, job->plain_start, job->plain_key,
                    job->plain_coef, job->apex_start, job->apex_key, job->apex_coef, job->apex_scale, job->rest_out,
-                   job->tables, job->out);
+                   job->vertex_mask, &job->tables, job->out);
         atomic_fetch_add_explicit(&job->finished, 1, memory_order_release);
     }
 }
@@ -304,19 +308,18 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
                     const double *control_rest, const int32_t *triangles, const double *base,
                     const int32_t *plain_start, const int32_t *plain_key, const void *plain_coef,
                     const int32_t *apex_start, const int32_t *apex_key, const void *apex_coef,
-                    const void *apex_scale, const void *rest_out, int32_t n_threads, void *out) {
+                    const void *apex_scale, const void *rest_out, const uint64_t *vertex_mask, int32_t n_threads,
+                    void *out) {
     if (n_vertices < 0 || n_triangles < 0 || n_threads < 1 || n_threads > PBK_MAX_THREADS) return 1;
     int n_chunks = n_threads == 1 ? 1 : CHUNKS_PER_THREAD * n_threads;
-    /* one block: the job, the chunk bounds, then 12 plain and 9 apex Quads, 3 Gram terms and 7 moved flags
-     * per triangle */
+    /* one block: the job, the chunk bounds, then 12 plain and 9 apex Quads and 3 Gram terms per triangle */
     size_t head = sizeof(Job) + sizeof(int64_t) * (size_t)(n_chunks + 1);
-    char *block = malloc(head + sizeof(Quad) + (size_t)n_triangles * (21 * sizeof(Quad) + 3 * sizeof(double) + 7));
+    char *block = malloc(head + sizeof(Quad) + (size_t)n_triangles * (21 * sizeof(Quad) + 3 * sizeof(double)));
     if (!block) return 2;
     Job *job = (Job *)block;
     Quad *plain = (Quad *)(block + head + (sizeof(Quad) - (uintptr_t)(block + head) % sizeof(Quad)) % sizeof(Quad));
     Quad *apex = plain + 12 * n_triangles;
     double *gram = (double *)(apex + 9 * n_triangles);
-    unsigned char *moved_plain = (unsigned char *)(gram + 3 * n_triangles), *moved_apex = moved_plain + 4 * n_triangles;
     *job = (Job){.range = range_for(single),
                  .base = base,
                  .plain_start = plain_start,
@@ -327,13 +330,13 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
                  .apex_coef = apex_coef,
                  .apex_scale = apex_scale,
                  .rest_out = rest_out,
-                 .tables = {.plain = plain, .apex = apex, .gram = gram, .moved_plain = moved_plain,
-                            .moved_apex = moved_apex},
+                 .vertex_mask = vertex_mask,
+                 .tables = {.plain = plain, .apex = apex, .gram = gram},
                  .out = out,
                  .n_chunks = n_chunks,
                  .bounds = (int64_t *)(block + sizeof(Job))};
-    build_tables(n_triangles, control, control_rest, triangles, plain, apex, gram, job->tables.shift, moved_plain,
-                 moved_apex);
+    build_tables(n_triangles, control, control_rest, triangles, plain, apex, gram, job->tables.shift,
+                 job->tables.moved);
     atomic_init(&job->next, 0);
     atomic_init(&job->finished, 0);
     atomic_init(&job->references, 1);
@@ -361,16 +364,18 @@ PBK_EXPORT int pbk_evaluate_f32(int64_t n_vertices, int64_t n_triangles, const d
                                 const double *control_rest, const int32_t *triangles, const double *base,
                                 const int32_t *plain_start, const int32_t *plain_key, const float *plain_coef,
                                 const int32_t *apex_start, const int32_t *apex_key, const float *apex_coef,
-                                const float *apex_scale, const float *rest_out, int32_t n_threads, float *out) {
+                                const float *apex_scale, const float *rest_out, const uint64_t *vertex_mask,
+                                int32_t n_threads, float *out) {
     return evaluate(1, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, n_threads, out);
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, n_threads, out);
 }
 
 PBK_EXPORT int pbk_evaluate_f64(int64_t n_vertices, int64_t n_triangles, const double *control,
                                 const double *control_rest, const int32_t *triangles, const double *base,
                                 const int32_t *plain_start, const int32_t *plain_key, const double *plain_coef,
                                 const int32_t *apex_start, const int32_t *apex_key, const double *apex_coef,
-                                const double *apex_scale, const double *rest_out, int32_t n_threads, double *out) {
+                                const double *apex_scale, const double *rest_out, const uint64_t *vertex_mask,
+                                int32_t n_threads, double *out) {
     return evaluate(0, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, n_threads, out);
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, n_threads, out);
 }

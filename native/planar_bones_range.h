@@ -7,9 +7,10 @@
 TARGET static void RANGE(int64_t v0, int64_t v1, const double *base, const int32_t *plain_start,
                          const int32_t *plain_key, const void *plain_coefficients, const int32_t *apex_start,
                          const int32_t *apex_key, const void *apex_coefficients, const void *apex_scales,
-                         const void *rest_output, Tables tables, void *output) {
+                         const void *rest_output, const uint64_t *vertex_mask, const Tables *table, void *output) {
     const REAL *plain_coef = plain_coefficients, *apex_coef = apex_coefficients, *scale = apex_scales;
     const REAL *rest_out = rest_output;
+    const Tables tables = *table;
     REAL *out = output;
     const Quad shift = LOAD64(tables.shift);
     double ratio[APEX_BLOCK];
@@ -25,14 +26,9 @@ TARGET static void RANGE(int64_t v0, int64_t v1, const double *base, const int32
         } else {
             end = v1 - v < VERTEX_BLOCK ? v1 : v + VERTEX_BLOCK;
         }
-        /* which of them have a pair whose triangle moved (only their coefficients are read) */
-        for (int64_t u = v; u < end; ++u) {
-            unsigned char m = 0;
-            for (int32_t p = plain_start[u]; p < plain_start[u + 1]; ++p) m |= tables.moved_plain[plain_key[p]];
-            if (apex_start)
-                for (int32_t p = apex_start[u]; p < apex_start[u + 1]; ++p) m |= tables.moved_apex[apex_key[p]];
-            moved[u - v] = m;
-        }
+        /* which of them have a pair whose triangle moved (only their pairs are read) */
+        for (int64_t u = v; u < end; ++u)
+            moved[u - v] = ((vertex_mask[2 * u] & tables.moved[0]) | (vertex_mask[2 * u + 1] & tables.moved[1])) != 0;
         int blocked = last - first <= APEX_BLOCK; /* else one vertex with more than a block: one by one */
         if (blocked && apex_start)
             for (int64_t u = v; u < end; ++u) {

@@ -15,8 +15,9 @@ the kernel writes each output vertex once, with no scatter and no atomics. A fac
 pair in SoFFD mode) is a key (triangle, region) and four coefficients; an apex pair a key (triangle,
 corner), [w, h·w, a, b] and w·D, its D/d factor being computed per pair and frame. A vertex all of whose
 pairs belong to triangles that have not moved takes its result at rest (``rest_out``) without its pairs
-being read: such a triangle adds exactly nothing (its rows are the common translation, which the weight
-sum takes back), and in speech most triangles stay still while the mouth moves. Each frame the kernel
+being read (``vertex_mask`` says which triangles it has pairs with): such a triangle adds exactly nothing
+(its rows are the common translation, which the weight sum takes back), and in speech most triangles stay
+still while the mouth moves. Each frame the kernel
 builds every triangle's basis and adds to ``base`` (the float64 reference result at the rest control
 positions, less the apex pairs' in-plane part at rest) each pair's coefficients times the change of its
 rows since rest, the mean translation of the control mesh taken apart and weighted by each vertex's exact
@@ -42,7 +43,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, deformation_basis
 
-ABI_VERSION = 2  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 3  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -53,7 +54,7 @@ PLAIN_REGIONS = 4  # FACE, EDGE + 0..2: key = triangle × 4 + region
 APEX_CORNERS = 3  # APEX + 0..2: key = triangle × 3 + corner
 
 _POINTER = ctypes.c_void_p
-_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 12, ctypes.c_int32, _POINTER]
+_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 13, ctypes.c_int32, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,6 +73,7 @@ class Layout:
     apex_coef: np.ndarray | None  # (A, 4): w, h·w, a, b
     apex_scale: np.ndarray | None  # (A,): w·D
     rest_out: np.ndarray  # (N, 3) of dtype: the result at rest, for vertices whose triangles all are at rest
+    vertex_mask: np.ndarray  # (N, 2) uint64: bit t % 128 set when the vertex has a pair with triangle t
 
     @property
     def n_vertices(self) -> int:
@@ -91,6 +93,7 @@ class Layout:
             *(array.ctypes.data for array in arrays),
             *(None if a is None else a.ctypes.data for a in apex),
             self.rest_out.ctypes.data,
+            self.vertex_mask.ctypes.data,
         )
 
 
@@ -208,6 +211,7 @@ def build_layout(
         apex_coef=apex_coef,
         apex_scale=apex_scale,
         rest_out=rest_out,
+        vertex_mask=_vertex_mask(vertex, triangle, n),
     )
 
 
@@ -225,6 +229,15 @@ def _apex_in_plane(
     a, b = a * ratio, b * ratio
     sums = [np.bincount(vertex, a * b_j[key, k] + b * b_previous[key, k], minlength=n) for k in range(3)]
     return np.stack(sums, axis=1)
+
+
+def _vertex_mask(vertex: np.ndarray, triangle: np.ndarray, n: int) -> np.ndarray:
+    """(N, 2) uint64: per vertex, bit t % 128 for each triangle t it has a pair with (the kernel skips a vertex
+    none of whose bits belongs to a moved triangle; beyond 128 triangles bits are shared, which only skips less)."""
+    mask = np.zeros((n, 2), dtype=np.uint64)
+    bit = np.left_shift(np.uint64(1), (triangle % 64).astype(np.uint64))
+    np.bitwise_or.at(mask, (vertex, (triangle // 64) % 2), bit)
+    return mask
 
 
 def _gathered(columns: tuple[np.ndarray, ...], pairs: np.ndarray, dtype: type) -> np.ndarray:

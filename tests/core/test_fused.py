@@ -164,6 +164,19 @@ def test_vertices_whose_triangles_are_all_still_take_the_result_at_rest(head, mo
 
 
 @needs_kernel
+def test_more_triangles_than_mask_bits_still_match_the_reference():
+    rest = ellipsoid(4000)
+    control, triangles = front_grid(12, 8)
+    assert len(triangles) > 128  # triangles t and t + 128 share a bit of the vertex masks
+    binding = bind_face(rest, control, triangles, es0=0.06)
+    for moved in (_one_moved(binding), motions(binding)["fap-like"]):
+        assert_matches(
+            evaluate(binding, moved, out=np.empty((binding.n_vertices, 3), np.float32)),
+            reference(binding, moved, "planar_bones"),
+        )
+
+
+@needs_kernel
 @pytest.mark.parametrize("threads", [1, 2, 3, 16])
 def test_thread_count_does_not_change_the_result(head, threads):
     control = motions(head)["fap-like"]
