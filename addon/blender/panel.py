@@ -54,6 +54,7 @@ class MPEG4_PT_face(bpy.types.Panel):
             sub = box.column()
             sub.active = settings.enabled
             sub.prop(settings, "mode")
+            sub.prop(settings, "keep_lips_apart")
             sub.prop(settings, "radius_fraction")
             sub.prop(settings, "falloff_exponent")
             sub.prop(settings, "use_masks")

@@ -62,6 +62,14 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
         default="PLANAR_BONES",
         update=_reapply,
     )
+    keep_lips_apart: BoolProperty(
+        name="Keep Lips Apart",
+        description="Keep the skin of the two lips from passing through each other: lip vertices past the seam "
+        "between the lips move back onto it (about 0.04 ms a frame). Off: only the lips' feature points are kept "
+        "in order, and the skin between them can cross by a few millimetres in extreme poses",
+        default=True,
+        update=_reapply,
+    )
     engine: EnumProperty(
         name="Engine",
         description="How the feature points move the skin (switch with the Engine buttons, which build or remove "

@@ -11,7 +11,11 @@ The data path: `hold_missing` turns a stream's masked values into a dense (F, 68
 
 Between 1 and 2, opposed points that close an opening (upper/lower eyelids, inner and outer lips) meet
 and stop there (`meet_at_closure`): values that together close more than the opening (a blink of 1024
-on both lids, a pout pressed past contact) would otherwise make the lids or lips cross.
+on both lids, a pout pressed past contact) would otherwise make the lids or lips cross. The lips' FPs
+also stay in order top to bottom in each column (outer upper, inner upper, inner lower, outer lower:
+an outer lip contour lowered past its inner one, or raised into the other lip, stops), and a mouth
+corner squeezed inward stops short of the lip FPs beside it. The skin can still pass between FPs in
+order; `deform.lips.guard_lips` keeps it apart after the deformer.
 
 Readings chosen where the standard leaves the decoder free (research/mpeg4-fba.md sections 8, 13):
 - Masked-out FAPs hold their last transmitted value (0 = neutral before the first one), as Greta and
@@ -45,6 +49,15 @@ CLOSING_PAIRS = (
     ("2.2", "2.3"), ("2.6", "2.8"), ("2.7", "2.9"),
     ("8.1", "8.2"), ("8.5", "8.7"), ("8.6", "8.8"),
 )  # fmt: skip
+# the lips' columns, left, middle and right: (outer upper, inner upper, inner lower, outer lower) FPs, top to bottom
+LIP_COLUMNS = (("8.5", "2.6", "2.8", "8.7"), ("8.1", "2.2", "2.3", "8.2"), ("8.6", "2.7", "2.9", "8.8"))
+# (corner, neighbour, side: +1 left, x > 0; -1 right) across the mouth: a corner stretched inward stops
+# short of the lip FPs beside it
+CORNER_PAIRS = (
+    ("2.4", "2.6", 1.0), ("2.4", "2.8", 1.0), ("8.3", "8.5", 1.0), ("8.3", "8.7", 1.0),
+    ("2.5", "2.7", -1.0), ("2.5", "2.9", -1.0), ("8.4", "8.6", -1.0), ("8.4", "8.8", -1.0),
+)  # fmt: skip
+CORNER_KEEP = 0.25  # share of the rest distance from a corner to its neighbour that a squeeze leaves
 EYEBALL_RADIUS_PER_ES0 = 0.19  # default eye pivot: 12 mm behind a 63 mm-ES0 pupil, when no eyeball is given
 
 
@@ -86,16 +99,59 @@ def meet_at_closure(upper_down: np.ndarray, lower_up: np.ndarray, gap: float) ->
     return a_out, b_out
 
 
+def _meet(face_neutral: np.ndarray, pts: np.ndarray, upper: str, lower: str) -> None:
+    """`meet_at_closure` on the heights of two points (face frame: y up), in place; unknown points are skipped."""
+    i, j = fp_index(upper), fp_index(lower)
+    if not np.all(np.isfinite(face_neutral[[i, j], 1])):
+        return
+    rest_i, rest_j = face_neutral[i, 1], face_neutral[j, 1]
+    down, up = meet_at_closure(rest_i - pts[:, i, 1], pts[:, j, 1] - rest_j, rest_i - rest_j)
+    pts[:, i, 1] = rest_i - down
+    pts[:, j, 1] = rest_j + up
+
+
 def _stop_at_closure(face_neutral: np.ndarray, pts: np.ndarray) -> None:
-    """Stop the opposed points of CLOSING_PAIRS where they meet (face frame: y up), in place."""
+    """Stop the opposed points of CLOSING_PAIRS where they meet, and keep each lip column in order, in place.
+
+    A lip column (LIP_COLUMNS) stays ordered top to bottom, outer upper >= inner upper >= inner lower >=
+    outer lower: a lip's outer contour stops on its own inner contour (a lip is never less than zero high),
+    the inner contours stop on each other, then an outer point that the inner one's stop has passed is
+    carried along with it. Each step is continuous (a clamp or `meet_at_closure`) and the same for the left
+    and right columns, so the whole is continuous and mirror-symmetric. Our reading: the standard leaves
+    the decoder free to keep the lips from crossing, and the skin between a lip's outer and inner FPs
+    follows both, so lip skin cannot pass the other lip while the FPs keep this order.
+    """
+    for upper_o, upper_i, lower_i, lower_o in LIP_COLUMNS:
+        _meet(face_neutral, pts, upper_o, upper_i)
+        _meet(face_neutral, pts, lower_i, lower_o)
     for upper, lower in CLOSING_PAIRS:
-        i, j = fp_index(upper), fp_index(lower)
-        if not np.all(np.isfinite(face_neutral[[i, j], 1])):
+        _meet(face_neutral, pts, upper, lower)
+    for upper_o, upper_i, lower_i, lower_o in LIP_COLUMNS:
+        uo, ui, li, lo = (fp_index(f) for f in (upper_o, upper_i, lower_i, lower_o))
+        # a face whose points are out of this order at rest keeps its rest overlap
+        above = np.fmin(face_neutral[uo, 1] - face_neutral[ui, 1], 0.0)
+        below = np.fmin(face_neutral[li, 1] - face_neutral[lo, 1], 0.0)
+        pts[:, uo, 1] = np.fmax(pts[:, uo, 1], pts[:, ui, 1] + above)
+        pts[:, lo, 1] = np.fmin(pts[:, lo, 1], pts[:, li, 1] - below)
+    _keep_corners_out(face_neutral, pts)
+
+
+def _keep_corners_out(face_neutral: np.ndarray, pts: np.ndarray) -> None:
+    """Stop a mouth corner stretched inward (stretch_l/r_cornerlip, -400 moves it 0.4 MW0, most of the way to
+    the mid line) short of the lip FPs beside it, in place: the corner and each neighbour close along x
+    like a CLOSING_PAIRS pair (`meet_at_closure`) over all but CORNER_KEEP of their rest distance, so the
+    lip contours stay in order across the mouth (the lips' skin is not folded over itself); the right
+    side mirrors the left (x negated)."""
+    for corner, beside, sign in CORNER_PAIRS:
+        i, j = fp_index(corner), fp_index(beside)
+        if not np.all(np.isfinite(face_neutral[[i, j], 0])):
             continue
-        rest_i, rest_j = face_neutral[i, 1], face_neutral[j, 1]
-        down, up = meet_at_closure(rest_i - pts[:, i, 1], pts[:, j, 1] - rest_j, rest_i - rest_j)
-        pts[:, i, 1] = rest_i - down
-        pts[:, j, 1] = rest_j + up
+        rest_i, rest_j = sign * face_neutral[i, 0], sign * face_neutral[j, 0]
+        inward, outward = meet_at_closure(
+            rest_i - sign * pts[:, i, 0], sign * pts[:, j, 0] - rest_j, (1.0 - CORNER_KEEP) * (rest_i - rest_j)
+        )
+        pts[:, i, 0] = sign * (rest_i - inward)
+        pts[:, j, 0] = sign * (rest_j + outward)
 
 
 def fap_scale(fapu: Fapu) -> np.ndarray:

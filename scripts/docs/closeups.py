@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import bpy
+import numpy as np
 
 from scripts import convert
 
@@ -29,3 +30,9 @@ def closeup_camera(scene, face, tile: int, ortho_scale: float) -> bpy.types.Obje
     camera = scene.camera
     camera.data.ortho_scale = ortho_scale
     return camera
+
+
+def save_rows(rows: list[np.ndarray], out: Path) -> None:
+    """Stack rows of tiles, the first on top, into one PNG at `out` and print where it went."""
+    convert.save_png(np.concatenate(rows[::-1], axis=0), out)  # image rows go bottom-up
+    print(out)

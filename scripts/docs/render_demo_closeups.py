@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 
 from scripts import convert
-from scripts.docs.closeups import closeup_camera, open_sample
+from scripts.docs.closeups import closeup_camera, open_sample, save_rows
 from scripts.sample.make_demo_fap import FPS, SCENES
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -57,8 +57,7 @@ def main(argv=None) -> int:
             camera.location.x, camera.location.z = centre.x, centre.z + offset
             tiles = [convert.render_frame(scene, f, Path(tmp) / "tile.png") for f in frames]
             rows.append(np.concatenate(tiles, axis=1))
-    convert.save_png(np.concatenate(rows[::-1], axis=0), args.out)  # image rows go bottom-up: first row on top
-    print(args.out)
+    save_rows(rows, args.out)
     return 0
 
 

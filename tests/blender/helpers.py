@@ -1,9 +1,17 @@
 """Shared steps for the Blender tests: open the sample, set it up, read meshes."""
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
 import numpy as np
+
+from addon.blender.face_data import group_weights
+from addon.deform.face_binding import bind_face
+from addon.deform.planar_bones import Binding
+from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices
+from addon.mpeg4.fapu import Fapu, compute_fapu
+from addon.mpeg4.feature_points import FP_IDS, fp_index
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
@@ -42,3 +50,31 @@ def evaluated_positions(ob) -> np.ndarray:
         return np.array([v.co for v in mesh.vertices], dtype=np.float64)
     finally:
         ob.evaluated_get(depsgraph).to_mesh_clear()
+
+
+@dataclass
+class BoundSample:
+    """The sample head bound as the add-on binds it, straight from the core (no set-up operator)."""
+
+    head: bpy.types.Object
+    rest: np.ndarray  # (N, 3) float64
+    neutral: np.ndarray  # (84, 3) the FP empties' locations, FP_IDS order
+    fapu: Fapu
+    ids: list[str]  # the control FPs
+    rows: list[int]  # their rows in `neutral`
+    masks: dict[str, np.ndarray]
+    binding: Binding
+
+
+def bound_sample() -> BoundSample:
+    head = open_sample()
+    rest = positions(head.data).astype(np.float64)
+    empties = {o["mpeg4_fp"]: o for o in bpy.data.collections["Head FPs"].objects if "mpeg4_fp" in o}
+    neutral = np.array([empties[fp_id].location for fp_id in FP_IDS], dtype=np.float64)
+    fapu = compute_fapu({fp_id: np.array(o.location) for fp_id, o in empties.items()})
+    ids = control_fp_ids(FP_IDS)
+    rows = [fp_index(fp_id) for fp_id in ids]
+    masks = group_weights(head, MASK_NAMES)
+    triangles = template_indices(ids)
+    binding = bind_face(rest, neutral[rows], triangles, es0=fapu.ES0, vertex_masks=masks, triangle_masks=TRIANGLE_MASKS)
+    return BoundSample(head, rest, neutral, fapu, ids, rows, masks, binding)

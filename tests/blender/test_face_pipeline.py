@@ -7,6 +7,8 @@ import pytest
 from addon.blender import binding_store, face_data, fap_io, rest_shape
 from addon.deform.eyelids import apply_eyelids, bind_eyelids, hold_lids
 from addon.deform.face_binding import FADE_BELOW
+from addon.deform.folds import fan_triangles
+from addon.deform.lips import bind_lip_guard, guard_lips, mouth_sides
 from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
@@ -19,7 +21,7 @@ from .helpers import DEMO_FAP, evaluated_positions, open_sample, positions, sele
 
 def core_result(head, stream_path, frame_index):
     """The bpy-free pipeline for one frame: .fap -> FAP values -> group gains and ranges -> FPs -> fresh bind ->
-    evaluate with the mid-lids at rest -> the lids' turn over the eyeballs."""
+    evaluate with the mid-lids at rest -> the lips kept apart -> the lids' turn over the eyeballs."""
     stream = read_fap(stream_path)
     values = shape_faps(hold_missing(stream.mask, stream.values))
     values[:, 47:50] = 0.0  # head rotation goes to the object transform
@@ -39,7 +41,13 @@ def core_result(head, stream_path, frame_index):
     binding = bind(
         rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover, fade_below=FADE_BELOW
     )
-    out = evaluate(binding, hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control))
+    driving = hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control)
+    out = evaluate(binding, driving)
+    corners = np.empty(len(head.data.loops), np.int64)
+    head.data.loops.foreach_get("vertex_index", corners)
+    triangles = fan_triangles(np.array([len(p.vertices) for p in head.data.polygons]), corners)[0]
+    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
+    guard_lips(bind_lip_guard(rest, rest_control, tuple(ids), triangles, upper, lower), out, driving)
     centres = fap_io.eye_pivots(head)
     radii = np.linalg.norm(neutral[[fp_index("3.5"), fp_index("3.6")]] - centres, axis=1)
     rig = bind_eyelids(rest, 1 - masks["lower_eyelid"], 1 - masks["upper_eyelid"], neutral, centres, radii)

@@ -7,25 +7,20 @@ expressions turn no face of the head over."""
 
 from pathlib import Path
 
-import bpy
 import numpy as np
 import pytest
 
-from addon.blender.face_data import group_weights
-from addon.deform.face_binding import bind_face
 from addon.deform.folds import count_inverted, fan_triangles
 from addon.deform.planar_bones import evaluate
-from addon.mpeg4.control_mesh import MASK_NAMES, TRIANGLE_MASKS, control_fp_ids, template_indices
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
 from addon.mpeg4.faps import LEFT_RIGHT_PAIRS, N_FAPS
-from addon.mpeg4.fapu import compute_fapu
-from addon.mpeg4.feature_points import FP_IDS, fp_index, mirror_index
+from addon.mpeg4.feature_points import fp_index, mirror_index
 from addon.speech.high_level import apply_high_level
 from addon.speech.tables import load_expressions, load_visemes
 
-from .helpers import DEMO_FAP, open_sample, positions
+from .helpers import DEMO_FAP, bound_sample
 
 FLIP = np.array([-1.0, 1.0, 1.0])  # the head's mid-line is x = 0
 TOLERANCE = 5e-5  # 0.05 mm
@@ -54,21 +49,9 @@ def mirrored(values: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def sample():
-    head = open_sample()
-    rest = positions(head.data).astype(np.float64)
-    empties = {o["mpeg4_fp"]: o for o in bpy.data.collections["Head FPs"].objects if "mpeg4_fp" in o}
-    neutral = np.array([empties[fp_id].location for fp_id in FP_IDS], dtype=np.float64)
-    fapu = compute_fapu({fp_id: np.array(o.location) for fp_id, o in empties.items()})
-    ids = control_fp_ids(FP_IDS)
-    rows = [fp_index(fp_id) for fp_id in ids]
-    binding = bind_face(
-        rest,
-        neutral[rows],
-        template_indices(ids),
-        es0=fapu.ES0,
-        vertex_masks=group_weights(head, MASK_NAMES),
-        triangle_masks=list(TRIANGLE_MASKS),
-    )
+    bound = bound_sample()
+    head, rest, neutral, fapu = bound.head, bound.rest, bound.neutral, bound.fapu
+    rows, binding = bound.rows, bound.binding
     mirror_vertex = np.array([np.argmin(np.linalg.norm(rest - v * FLIP, axis=1)) for v in rest])
     corners = np.empty(len(head.data.loops), np.int64)
     head.data.loops.foreach_get("vertex_index", corners)

@@ -4,9 +4,18 @@ import numpy as np
 import pytest
 
 from addon.geometry.face_axes import BLENDER_FACE_AXES
-from addon.mpeg4.decode import CLOSING_PAIRS, JAW_RIDERS, fap_to_fp, hold_missing, meet_at_closure
+from addon.mpeg4.decode import (
+    CLOSING_PAIRS,
+    CORNER_PAIRS,
+    JAW_RIDERS,
+    LIP_COLUMNS,
+    fap_to_fp,
+    hold_missing,
+    meet_at_closure,
+)
+from addon.mpeg4.faps import LEFT_RIGHT_PAIRS
 from addon.mpeg4.fapu import AU, Fapu
-from addon.mpeg4.feature_points import FP_IDS, fp_index
+from addon.mpeg4.feature_points import FP_IDS, feature_point, fp_index, mirror_index
 
 FAPU = Fapu(IRISD0=0.012, ES0=0.064, ENS0=0.045, MNS0=0.030, MW0=0.052)
 RNG = np.random.default_rng(7)
@@ -148,6 +157,13 @@ def test_encode_inverts_decode_exactly():
     neutral = NEUTRAL.copy()
     for upper, lower in CLOSING_PAIRS:  # openings wide enough that no value closes them (which would stop it)
         neutral[fp_index(upper), 2] = neutral[fp_index(lower), 2] + 0.5
+    for column in LIP_COLUMNS:  # lips high enough and far enough apart that no value reorders them
+        for k, fp_id in enumerate(reversed(column)):
+            neutral[fp_index(fp_id), 2] = neutral[fp_index(column[-1]), 2] + 0.5 * k
+    for corner, beside, side in CORNER_PAIRS:  # corners far enough out that no squeeze stops them
+        neutral[fp_index(corner), 0] = side * max(
+            side * neutral[fp_index(corner), 0], side * neutral[fp_index(beside), 0] + 0.5
+        )
     pivots = np.array([neutral[fp_index("3.5")] + [0.003, 0.012, 0.002], neutral[fp_index("3.6")] + [0, 0.011, 0]])
     pts = fap_to_fp(neutral, values, FAPU, eye_pivots=pivots)
     recovered = fp_to_fap(neutral, pts, FAPU, eye_pivots=pivots)
@@ -236,3 +252,92 @@ def test_pressed_lips_stop_at_contact():
     # with the jaw open the same values leave the lips apart
     pts = fap_to_fp(neutral, frames({3: 1024, 4: 400, 5: 400}), FAPU)[0]
     assert pts[fp_index("2.2"), 2] - pts[fp_index("2.3"), 2] == pytest.approx(0.0002 + 0.030 - 800 * FAPU.unit("MNS"))
+
+
+def _mouth_neutral():
+    """A mouth by hand (Blender: x left, z up): lip heights at the mid line and the left column, mirrored."""
+    neutral = NEUTRAL.copy()
+    for fp_id, x, z in (
+        ("8.1", 0.0, -0.034), ("2.2", 0.0, -0.040), ("2.3", 0.0, -0.0402), ("8.2", 0.0, -0.046),
+        ("8.5", 0.014, -0.035), ("2.6", 0.013, -0.0398), ("2.8", 0.011, -0.0404), ("8.7", 0.012, -0.045),
+        ("8.3", 0.026, -0.0405), ("2.4", 0.025, -0.0401),
+    ):  # fmt: skip
+        neutral[fp_index(fp_id)] = [x, -0.14, z]
+        mirror = feature_point(fp_id).mirror
+        if mirror:
+            neutral[fp_index(mirror)] = [-x, -0.14, z]
+    return neutral
+
+
+def test_an_outer_lip_pressed_past_both_inner_lips_stops_at_contact():
+    # lower_t_midlip_o 600 lowers 8.1 by 17.6 mm, past 2.2 (6 mm below it) and 2.3; lower_t_midlip 200 lowers
+    # 2.2 by 5.9 mm, past 2.3 (0.2 mm below it). 2.2 stops on 2.3, which stays; 8.1 stops on 2.2: all three
+    # meet at 2.3's height, and the lower outer lip stays where it is
+    neutral = _mouth_neutral()
+    pts = fap_to_fp(neutral, frames({51: 600, 4: 200}), FAPU)[0]
+    for fp_id in ("8.1", "2.2", "2.3"):
+        assert pts[fp_index(fp_id), 2] == pytest.approx(-0.0402, abs=1e-12)
+    assert pts[fp_index("8.2"), 2] == pytest.approx(-0.046, abs=1e-12)
+    # raise_b_lip_lm_o 700 lifts 8.7 by 20.5 mm past 2.8 (4.6 mm above it), which stays: 8.7 stops on it
+    pts = fap_to_fp(neutral, frames({57: 700}), FAPU)[0]
+    assert pts[fp_index("8.7"), 2] == pytest.approx(-0.0404, abs=1e-12)
+    assert pts[fp_index("8.8"), 2] == pytest.approx(-0.045, abs=1e-12)  # the right side does not move
+
+
+def test_a_corner_squeezed_inward_stops_short_of_its_neighbours():
+    # stretch_l_cornerlip -400 moves 2.4 inward by 20.3 mm; it stops CORNER_KEEP x 12 mm outside 2.6 (x 13 mm),
+    # which is nearer than 2.8 (x 11 mm): at 13 + 3 = 16 mm. The right corner mirrors it.
+    neutral = _mouth_neutral()
+    pts = fap_to_fp(neutral, frames({6: -400, 7: -400}), FAPU)[0]
+    assert pts[fp_index("2.4"), 0] == pytest.approx(0.016, abs=1e-12)
+    assert pts[fp_index("2.5"), 0] == pytest.approx(-0.016, abs=1e-12)
+    assert pts[fp_index("2.6"), 0] == pytest.approx(0.013, abs=1e-12)
+    # a small squeeze moves it freely
+    pts = fap_to_fp(neutral, frames({6: -100}), FAPU)[0]
+    assert pts[fp_index("2.4"), 0] == pytest.approx(0.025 - 100 * FAPU.unit("MW"), abs=1e-12)
+
+
+LIP_FAP_NUMBERS = (4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 16, 17, 51, 52, 53, 54, 55, 56, 57, 58, 59, 60)
+
+
+def _lip_frames(n, seed):
+    rng = np.random.default_rng(seed)
+    values = np.zeros((n, 68))
+    for number in LIP_FAP_NUMBERS:
+        values[:, number - 1] = np.where(rng.random(n) < 0.5, rng.uniform(-500, 500, n), 0.0)
+    values[:, 2] = np.where(rng.random(n) < 0.3, rng.uniform(-100, 1100, n), 0.0)  # open_jaw
+    return values
+
+
+def test_lip_columns_stay_in_order_for_random_lip_faps():
+    neutral = _mouth_neutral()
+    pts = fap_to_fp(neutral, _lip_frames(500, 3), FAPU)
+    for column in LIP_COLUMNS:  # outer upper >= inner upper >= inner lower >= outer lower (Blender z up)
+        z = pts[:, [fp_index(fp_id) for fp_id in column], 2]
+        assert np.all(np.diff(z, axis=1) <= 1e-12)
+    for corner, beside, side in CORNER_PAIRS:
+        assert np.all(side * (pts[:, fp_index(corner), 0] - pts[:, fp_index(beside), 0]) > 0.0)
+
+
+def test_the_lip_stops_are_mirror_symmetric():
+    neutral = _mouth_neutral()
+    flip = np.array([-1.0, 1.0, 1.0])
+    neutral = 0.5 * (neutral + neutral[mirror_index()] * flip)  # a mirror-symmetric face
+    values = _lip_frames(200, 4)
+    mirrored = values.copy()
+    for left, right in LEFT_RIGHT_PAIRS:
+        mirrored[:, [left - 1, right - 1]] = values[:, [right - 1, left - 1]]
+    pts, pts_mirrored = fap_to_fp(neutral, values, FAPU), fap_to_fp(neutral, mirrored, FAPU)
+    np.testing.assert_allclose(pts_mirrored, pts[:, mirror_index()] * flip, atol=1e-15)
+
+
+def test_the_lip_stops_are_continuous():
+    # along a straight path through lip-FAP space, no FP jumps: each step moves it at most a few times as
+    # far as the largest step of any FP without the stops
+    neutral = _mouth_neutral()
+    start, end = _lip_frames(2, 5)
+    t = np.linspace(0.0, 1.0, 4001)[:, None]
+    pts = fap_to_fp(neutral, start + t * (end - start), FAPU)
+    step = np.linalg.norm(np.diff(pts, axis=0), axis=2).max()
+    free = np.abs(end - start).max() / 4000 * max(FAPU.MNS0, FAPU.MW0) / 1024
+    assert step < 3.0 * free

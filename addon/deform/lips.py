@@ -1,0 +1,267 @@
+"""How far the skin of one lip passes into the other (no bpy): the measure behind "the lips never cross".
+
+Each lip is a sheet of skin that wraps from the face over the red of the lip into the mouth. In the face
+frame (y up), a point is inside the lower lip's flesh when the first lower-lip surface straight above it
+faces up (leaving the flesh upward crosses its top), and inside the upper lip's flesh when the first
+upper-lip surface straight below it faces down. `lip_penetration` gives, for every vertex of one lip, that
+vertical depth into the other lip (positive), or the clearance to the other lip's facing surface in its
+column (negative); the vertical is the direction in which the lips close, and near their meeting line the
+vertical depth and the distance to the surface agree to the slope of the red of the lip.
+
+`guard_lips` keeps them apart on the skin. Keeping the lips' FPs in order (`decode._stop_at_closure`) is
+not enough: the inner surface of each lip lies behind its control triangles and swings with them, so with
+the FPs meeting, the skin still passed the other lip by 0.25 mm (OU with anger) and by up to 2.9 mm for
+random lip FAPs within range. The guard runs after the deformer, on the lip vertices only: each stays on
+its side of a seam between the lips, a function of x across the mouth that runs midway between the
+inner-lip FPs and moves to lie between the lips where they come close.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..geometry.face_axes import BLENDER_FACE_AXES
+from ..mpeg4.feature_points import fp_index
+
+MIN_PROJECTED_AREA = 1e-12  # m^2: a triangle seen edge-on from above has no height to give
+BOX_MARGIN = 2e-3  # m: the mouth box reaches this far above and below the outer lip contour
+
+
+def mouth_sides(
+    rest: np.ndarray,
+    upper_mask: np.ndarray,
+    lower_mask: np.ndarray,
+    neutral: np.ndarray,
+    *,
+    axes: np.ndarray = BLENDER_FACE_AXES,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) upper-lip and lower-lip vertices: the mask's side (weight above 1/2) within the mouth box.
+
+    The box spans the mouth corners (2.4, 2.5) across, the outer lip contour (8.1 to 8.2) up and down,
+    BOX_MARGIN more above and below, and reaches back to the corners (the skin inside the mouth behind the
+    corners, where the two lips are one, belongs to neither). `neutral` is the (84, 3) FP rows in FP_IDS
+    order (mesh coordinates).
+    """
+    face = np.asarray(rest, dtype=np.float64) @ np.asarray(axes).T
+    fps = np.asarray(neutral, dtype=np.float64) @ np.asarray(axes).T
+    half_width = 0.5 * abs(fps[fp_index("2.4"), 0] - fps[fp_index("2.5"), 0])
+    mid_x = 0.5 * (fps[fp_index("2.4"), 0] + fps[fp_index("2.5"), 0])
+    top, bottom = fps[fp_index("8.1"), 1] + BOX_MARGIN, fps[fp_index("8.2"), 1] - BOX_MARGIN
+    back = min(fps[fp_index("2.4"), 2], fps[fp_index("2.5"), 2])  # the lips, not the mouth's inside behind them
+    box = (np.abs(face[:, 0] - mid_x) <= half_width) & (face[:, 1] <= top) & (face[:, 1] >= bottom)
+    box &= face[:, 2] >= back
+    lower = box & (np.asarray(lower_mask) > 0.5)
+    upper = box & (np.asarray(upper_mask) > 0.5) & ~lower
+    return upper, lower
+
+
+def lip_penetration(
+    deformed: np.ndarray,
+    triangles: np.ndarray,
+    upper: np.ndarray,
+    lower: np.ndarray,
+    *,
+    axes: np.ndarray = BLENDER_FACE_AXES,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Signed depth of each upper-lip vertex into the lower lip and of each lower-lip vertex into the upper.
+
+    `deformed` (N, 3) mesh positions, `triangles` (K, 3) the mesh as triangles (`folds.fan_triangles`),
+    `upper` / `lower` (N,) bool the lips' vertices (`mouth_sides`). Returns two (N,) arrays in mesh units:
+    positive where the vertex lies inside the other lip's flesh (the depth below its top, or above its
+    bottom), negative the clearance to the other lip's facing surface in the vertex's column, NaN where the
+    column misses the other lip or the vertex is not on that lip. A triangle belongs to a lip when all its
+    corners do.
+    """
+    face = np.asarray(deformed, dtype=np.float64) @ np.asarray(axes).T
+    triangles = np.asarray(triangles, dtype=np.intp)
+    upper, lower = np.asarray(upper, bool), np.asarray(lower, bool)
+    into_lower = np.full(len(face), np.nan)
+    into_upper = np.full(len(face), np.nan)
+    into_lower[upper] = _depth(face[upper], face[triangles[lower[triangles].all(axis=1)]], 1.0)
+    into_upper[lower] = _depth(face[lower], face[triangles[upper[triangles].all(axis=1)]], -1.0)
+    return into_lower, into_upper
+
+
+def _depth(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
+    """(V,) signed depth of `points` into the flesh under `tris` (up = 1: flesh below their top, -1: above).
+
+    Looking along `up` from each point, the first surface met decides: facing toward the point's side
+    (its normal along `up`) means the point is in the flesh, depth = distance to it. Otherwise, looking the
+    other way, the first surface facing `up` gives the clearance (negative)."""
+    if len(points) == 0 or len(tris) == 0:
+        return np.full(len(points), np.nan)
+    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
+    # normal_y is twice the signed xz-projected area: the triangle's normal y times its area (y = z cross x)
+    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA
+    a, b, c, normal_y = a[usable], b[usable], c[usable], normal_y[usable]
+    px, pz = points[:, None, 0], points[:, None, 2]
+    # barycentric coordinates in the xz plane (the column through each point)
+    wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
+    wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
+    wa = 1.0 - wb - wc
+    inside = (wa >= 0.0) & (wb >= 0.0) & (wc >= 0.0)
+    height = wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1]
+    offset = up * (height - points[:, None, 1])  # > 0: the surface lies ahead, looking along `up`
+    faces_up = up * normal_y > 0.0
+    ahead = np.where(inside & (offset >= 0.0), offset, np.inf)
+    first = ahead.argmin(axis=1)
+    rows = np.arange(len(points))
+    hit = np.isfinite(ahead[rows, first])
+    depth = np.where(hit & faces_up[first], ahead[rows, first], np.nan)
+    behind = np.where(inside & (offset < 0.0) & faces_up, -offset, np.inf)
+    clearance = behind.min(axis=1)
+    return np.where(np.isnan(depth) & np.isfinite(clearance), -clearance, depth)
+
+
+# The seam between the lips, right corner to left corner: (upper inner FP, lower inner FP) pairs
+SEAM_PAIRS = (("2.5", "2.5"), ("2.7", "2.9"), ("2.2", "2.3"), ("2.6", "2.8"), ("2.4", "2.4"))
+SEAM_STEPS = 4  # seam knots from one SEAM_PAIRS pair to the next
+N_KNOTS = SEAM_STEPS * (len(SEAM_PAIRS) - 1) + 1
+CHORDS = (0.5, 1.0)  # half-widths of the seam's chords that bound each lip, x the other lip's reach
+ENDS = np.array([0.0, *(end for half in CHORDS for end in (-half, half))])  # the seam's point, chords' ends
+SHIFTS = np.unique(ENDS)  # where the bounds bend, x the reach from the seam's knots
+LOWER_SHIFT = 1e6  # face x, beyond any mesh: the lower lip's bound is looked up past the upper lip's
+
+
+@dataclass(frozen=True)
+class LipGuard:
+    """The lip vertices kept on their side of the seam between the lips (`bind_lip_guard`)."""
+
+    vertices: np.ndarray  # (V,) mesh vertices of both lips, the upper lip's first
+    n_upper: int  # how many of `vertices` are on the upper lip
+    side: np.ndarray  # (V,) 1 on the upper lip, -1 on the lower
+    slack: np.ndarray  # (V,) <= 0: how far a vertex lies past the seam at rest (at the corners), kept
+    spread: np.ndarray  # (N_KNOTS, M) the seam's knots as weights of the control points (before adapting)
+    knots: np.ndarray  # (J,) the seam knots with vertices of both lips near them at rest
+    order: np.ndarray  # rows into `vertices`: the upper-lip ones near each of `knots`, knot after knot, then
+    starts: np.ndarray  # the lower-lip ones likewise; (2J,) where each run starts in `order`
+    axes: np.ndarray  # (3, 3) the face frame (rows x, y up, z forward in mesh coordinates)
+    reach: tuple[float, float]  # the widest triangle of the lower / upper lip across (face x) at rest
+    width: float  # the seam's width at rest (face x, corner to corner)
+    shift: np.ndarray  # (V,) 0 on the upper lip, LOWER_SHIFT on the lower
+    lift: tuple[tuple[int, float], ...]  # (mesh axis, part) of the face's up along each mesh axis it has a part on
+
+
+def seam(guard: LipGuard, points: np.ndarray, signed_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N_KNOTS,) x and height of the seam's knots in the face frame, from the control points (M, 3) and
+    the guarded vertices' heights times their side, `signed_y` (V,).
+
+    Between each SEAM_PAIRS pair's midpoints the seam runs straight, SEAM_STEPS knots to a stretch. A knot
+    with both lips near it then moves to lie between them: between the lowest upper-lip and the highest
+    lower-lip vertex near it, as close to the midpoint as that allows, or where they overlap, within the
+    overlap. So the seam moves no vertex where the lips are apart, and where they overlap it splits the
+    overlap by where the FPs meet. The knots' x is made non-decreasing (a corner stretched inward past
+    the next pair) so the seam stays a function of x."""
+    knots = guard.spread @ points @ guard.axes[:2].T
+    x, y = np.maximum.accumulate(knots[:, 0]), knots[:, 1]
+    if len(guard.knots):
+        high, low = np.minimum.reduceat(signed_y.take(guard.order), guard.starts).reshape(2, -1)
+        low = -low  # the lower lip's runs took the least of -y
+        y[guard.knots] = np.minimum(np.maximum(y[guard.knots], np.minimum(low, high)), np.maximum(low, high))
+    return x, y
+
+
+def bind_lip_guard(
+    rest: np.ndarray,
+    control_rest: np.ndarray,
+    fp_ids: tuple[str, ...],
+    triangles: np.ndarray,
+    upper: np.ndarray,
+    lower: np.ndarray,
+    *,
+    axes: np.ndarray = BLENDER_FACE_AXES,
+) -> LipGuard:
+    """The guard for the lips' vertices `upper` / `lower` (N,) bool (`mouth_sides`) of the mesh `rest`
+    (N, 3) with `triangles` (K, 3), over the control points `control_rest` (M, 3) named `fp_ids`, which
+    must include the inner-lip FPs 2.2-2.9.
+
+    A vertex is near the seam knot nearest to it across the mouth, at rest. A vertex still past the seam
+    at rest (where the lips touch, at the corners) keeps that much as slack."""
+    rows = {fp_id: k for k, fp_id in enumerate(fp_ids)}
+    upper, lower = np.asarray(upper, bool), np.asarray(lower, bool) & ~np.asarray(upper, bool)
+    axes = np.asarray(axes, dtype=np.float64)
+    face_rest = np.asarray(rest, dtype=np.float64) @ axes.T
+    steps = np.arange(N_KNOTS) / SEAM_STEPS
+    spread = np.zeros((N_KNOTS, len(control_rest)))
+    for k, (u, b) in enumerate(SEAM_PAIRS):
+        share = 0.5 * np.interp(steps, np.arange(len(SEAM_PAIRS)), np.eye(len(SEAM_PAIRS))[k])
+        spread[:, rows[u]] += share
+        spread[:, rows[b]] += share
+    knots_x = spread @ np.asarray(control_rest, dtype=np.float64) @ axes[0]
+    vertices = np.concatenate([np.flatnonzero(upper), np.flatnonzero(lower)])
+    n_upper = int(upper.sum())
+    side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
+    tris = np.asarray(triangles, dtype=np.intp)
+    reach = tuple(
+        float(np.ptp(face_rest[tris[lip[tris].all(axis=1)], 0], axis=1).max(initial=0.0)) for lip in (lower, upper)
+    )
+    face = face_rest[vertices]
+    nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
+    knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
+    members = [np.flatnonzero((side == s) & (nearest == k)) for s in (1.0, -1.0) for k in knots]
+    guard = LipGuard(
+        vertices=vertices,
+        n_upper=n_upper,
+        side=side,
+        slack=np.zeros(len(vertices)),
+        spread=spread,
+        knots=np.array(knots, dtype=np.intp),
+        order=np.concatenate(members).astype(np.intp) if knots else np.zeros(0, np.intp),
+        starts=np.cumsum([0] + [len(m) for m in members[:-1]]).astype(np.intp),
+        axes=axes,
+        reach=reach,
+        width=float(knots_x[-1] - knots_x[0]),
+        shift=np.where(side > 0.0, 0.0, LOWER_SHIFT),
+        lift=tuple((int(axis), float(axes[1, axis])) for axis in np.flatnonzero(axes[1])),
+    )
+    signed_y = side * face[:, 1]
+    clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
+    return LipGuard(**{**guard.__dict__, "slack": np.minimum(clearance, 0.0)})
+
+
+def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> None:
+    """Keep each lip's vertices on their side of the seam, in place on the deformed (N, 3) `out`.
+
+    `points` are the control points as deformed (the FP positions the deformer was given). A vertex that
+    has passed the seam (more than it did at rest) moves straight up or down onto it: the lips press on
+    each other there instead of passing through. Continuous (clamps, minima and maxima), and
+    mirror-symmetric for a mirror-symmetric face, as the seam's knots come in mirror pairs.
+    """
+    x, y = guard.axes[:2].astype(out.dtype) @ out.take(guard.vertices, axis=0).T  # take: 3x faster than out[...]
+    signed_y = guard.side * y
+    past = guard.slack - signed_y + _bound(guard, x, *seam(guard, points, signed_y))
+    moved = np.flatnonzero(past > 0.0)  # these move back onto the seam
+    if len(moved):
+        step = guard.side.take(moved) * past.take(moved)
+        if out.flags.c_contiguous:  # along the face's up, by flat index: 3x faster than out[rows] +=
+            flat, rows = out.reshape(-1), 3 * guard.vertices.take(moved)
+            for axis, part in guard.lift:
+                flat.put(rows + axis, flat.take(rows + axis) + step * part)
+        else:
+            out[guard.vertices.take(moved)] += step[:, None] * guard.axes[1]
+
+
+def _bound(guard: LipGuard, x: np.ndarray, knots_x: np.ndarray, knots_y: np.ndarray) -> np.ndarray:
+    """(V,) the height each guarded vertex must stay above (upper lip), or minus the height the vertex must
+    stay below (lower lip).
+
+    The seam itself, but where it bends the other lip's triangles cut across the bend: an upper-lip
+    triangle with its corners on a peak's two flanks sags below the peak, and a lower-lip one rises above
+    a valley. So the lower lip stays below the chord of the seam over the upper lip's widest triangle
+    where that is lower (and the upper lip above the chord over the lower lip's widest triangle where that
+    is higher), for chords of CHORDS x that width (one width alone misses a bend whose far side drops
+    away); on a straight seam the chords lie on it and the lips meet on it. Each bound is sampled where
+    its pieces bend (the seam's knots and the knots shifted by each chord's half-width); between samples
+    it is the greatest of straight lines (signed by side), so the straight line between samples errs on
+    the safe side."""
+    stretch = max(1.0, (knots_x[-1] - knots_x[0]) / guard.width)  # triangles stretch with the mouth
+    reach = np.array(guard.reach)[:, None] * stretch  # (2, 1): the upper lip's bound, then the lower's
+    grid = np.sort((knots_x + SHIFTS[:, None, None] * reach).transpose(1, 0, 2).reshape(2, -1))
+    ends = np.interp(grid + ENDS[:, None, None] * reach, knots_x, knots_y)  # the seam, then each chord's ends
+    heights = np.concatenate([ends[:1], 0.5 * (ends[1::2] + ends[2::2])])
+    envelope = (np.array([[1.0], [-1.0]]) * heights).max(axis=0)
+    # one lookup for both lips: the lower lip's grid and vertices moved far to the right (LOWER_SHIFT)
+    return np.interp(x + guard.shift, (grid + [[0.0], [LOWER_SHIFT]]).ravel(), envelope.ravel())

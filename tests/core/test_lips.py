@@ -1,0 +1,131 @@
+"""Lip crossing, measured and guarded, on a hand-made mouth of two flat lips (face frame: x left, y up)."""
+
+import numpy as np
+import pytest
+
+from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration
+
+FACE = np.eye(3)  # the test mesh is built in the face frame
+XS = np.linspace(-0.025, 0.025, 11)  # 5 mm apart, mirror-symmetric about x = 0
+ZS = np.array([0.0, 0.004, 0.008])
+GAP = 0.0005  # each lip's surface lies this far from y = 0 at rest
+FP_IDS = ("2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9")
+
+
+def sheet(y: float, faces_up: bool) -> tuple[np.ndarray, np.ndarray]:
+    """A flat grid at height y over XS x ZS: (vertices, triangles facing up or down)."""
+    x, z = np.meshgrid(XS, ZS, indexing="ij")
+    vertices = np.stack([x.ravel(), np.full(x.size, y), z.ravel()], axis=1)
+    tris = []
+    for i in range(len(XS) - 1):
+        for j in range(len(ZS) - 1):
+            a, b, c, d = i * len(ZS) + j, i * len(ZS) + j + 1, (i + 1) * len(ZS) + j, (i + 1) * len(ZS) + j + 1
+            tris += [(a, b, c), (c, b, d)] if faces_up else [(a, c, b), (c, d, b)]
+    return vertices, np.array(tris)
+
+
+def mouth():
+    """Rest vertices, triangles, upper and lower masks, and the inner-lip FPs of the hand-made mouth."""
+    top, top_tris = sheet(GAP, faces_up=False)
+    bottom, bottom_tris = sheet(-GAP, faces_up=True)
+    rest = np.concatenate([top, bottom])
+    triangles = np.concatenate([top_tris, bottom_tris + len(top)])
+    upper = np.arange(len(rest)) < len(top)
+    fps = np.array([
+        [0.0, GAP, 0.004], [0.0, -GAP, 0.004], [0.025, 0.0, 0.004], [-0.025, 0.0, 0.004],
+        [0.0125, GAP, 0.004], [-0.0125, GAP, 0.004], [0.0125, -GAP, 0.004], [-0.0125, -GAP, 0.004],
+    ])  # fmt: skip
+    return rest, triangles, upper, ~upper, fps
+
+
+def pressed(rest, upper, fps, amount):
+    """The upper lip pushed down by `amount` x a bump that is 2 mm at the mid line; 2.2 meets 2.3."""
+    deformed = rest.copy()
+    bump = np.cos(np.pi * rest[:, 0] / 0.05) ** 2
+    deformed[upper, 1] -= amount * 0.002 * bump[upper]
+    points = fps.copy()
+    points[0, 1] = -GAP
+    return deformed, points
+
+
+def depth(positions, triangles, upper, lower):
+    into_lower, into_upper = lip_penetration(positions, triangles, upper, lower, axes=FACE)
+    return max(np.nanmax(into_lower), np.nanmax(into_upper))
+
+
+def test_penetration_of_two_flat_lips_by_hand():
+    rest, triangles, upper, lower, _ = mouth()
+    into_lower, into_upper = lip_penetration(rest, triangles, upper, lower, axes=FACE)
+    np.testing.assert_allclose(into_lower[upper], -2 * GAP)  # 1 mm of clearance everywhere
+    np.testing.assert_allclose(into_upper[lower], -2 * GAP)
+    assert np.all(np.isnan(into_lower[lower])) and np.all(np.isnan(into_upper[upper]))
+    sunk = rest.copy()
+    sunk[upper, 1] -= 3 * GAP  # the upper lip 0.5 mm into the lower one
+    into_lower, into_upper = lip_penetration(sunk, triangles, upper, lower, axes=FACE)
+    np.testing.assert_allclose(into_lower[upper], GAP)
+    np.testing.assert_allclose(into_upper[lower], GAP)
+
+
+def test_the_guard_keeps_the_rest_mesh_and_a_mouth_apart_unchanged():
+    rest, triangles, upper, lower, fps = mouth()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    out = rest.copy()
+    guard_lips(guard, out, fps)
+    np.testing.assert_array_equal(out, rest)
+    opened = rest.copy()
+    opened[lower, 1] -= 0.01
+    out = opened.copy()
+    guard_lips(guard, out, fps)
+    np.testing.assert_array_equal(out, opened)
+
+
+@pytest.mark.parametrize("amount", [0.75, 1.0])
+def test_a_lip_pushed_into_the_other_stops_at_contact(amount):
+    rest, triangles, upper, lower, fps = mouth()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    deformed, points = pressed(rest, upper, fps, amount)
+    before = depth(deformed, triangles, upper, lower)
+    assert before == pytest.approx(amount * 0.002 - 2 * GAP)  # 0.5 mm and 1 mm into the lower lip
+    guard_lips(guard, deformed, points)
+    assert depth(deformed, triangles, upper, lower) <= 1e-12
+    assert depth(deformed, triangles, upper, lower) > -1e-4  # the lips touch: no gap opened
+    np.testing.assert_array_equal(deformed[:, [0, 2]], rest[:, [0, 2]])  # moved up and down only
+
+
+def test_the_guard_is_mirror_symmetric():
+    rest, triangles, upper, lower, fps = mouth()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    flip = np.array([-1.0, 1.0, 1.0])
+    mirror = np.array([np.argmin(np.linalg.norm(rest - v * flip, axis=1)) for v in rest])
+    rng = np.random.default_rng(2)
+    deformed = rest + rng.normal(0.0, 0.0008, rest.shape) * [0.0, 1.0, 0.0]
+    deformed[upper, 1] -= 0.001  # the upper lip into the lower one, unevenly
+    out = deformed.copy()
+    guard_lips(guard, out, fps)
+    out_mirrored = deformed[mirror] * flip
+    guard_lips(guard, out_mirrored, fps[[0, 1, 3, 2, 5, 4, 7, 6]] * flip)
+    np.testing.assert_allclose(out_mirrored, out[mirror] * flip, atol=1e-15)
+
+
+def test_the_guard_is_continuous():
+    rest, triangles, upper, lower, fps = mouth()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    amounts = np.linspace(0.0, 1.5, 1501)
+    outs = []
+    for amount in amounts:
+        deformed, points = pressed(rest, upper, fps, amount)
+        guard_lips(guard, deformed, points)
+        outs.append(deformed)
+    step = np.abs(np.diff(np.array(outs), axis=0)).max()
+    assert step <= 0.002 * (amounts[1] - amounts[0]) + 1e-15  # never more than the press itself moves
+
+
+def test_the_guard_writes_into_any_memory_layout_alike():
+    rest, triangles, upper, lower, fps = mouth()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    deformed, points = pressed(rest, upper, fps, 1.0)
+    rows, columns = deformed.copy(), np.asfortranarray(deformed)
+    guard_lips(guard, rows, points)
+    guard_lips(guard, columns, points)
+    assert not np.array_equal(rows, deformed)
+    np.testing.assert_array_equal(columns, rows)
