@@ -31,6 +31,7 @@ UPPER_FOLLOWS_PITCH = 0.7
 LOWER_FOLLOWS_PITCH = 0.3
 # FPs per eye: upper mid-lid, lower mid-lid, inner corner, outer corner, pupil (left eye, right eye)
 EYE_FPS = (("3.1", "3.3", "3.11", "3.7", "3.5"), ("3.2", "3.4", "3.8", "3.12", "3.6"))
+_TURN_ROWS = np.array([[fp_index(up), fp_index(low), fp_index(pupil)] for up, low, _i, _o, pupil in EYE_FPS])
 MID_LID_FPS = frozenset(fp_id for eye in EYE_FPS for fp_id in eye[:2])
 PROFILE_BINS = 24  # bins along the eye in which the opening is measured
 REACH_RADII = (1.5, 2.0)  # the lids' turn fades out between these multiples of the eyeball radius from its centre
@@ -192,18 +193,15 @@ def lid_turns(rig: EyelidRig, fp_positions: np.ndarray) -> np.ndarray:
     """(2, 2) turn of the upper and lower mid-lid (radians, + up) of each eye, gaze-follow and stop included.
 
     `fp_positions` (84, 3) current FP positions in mesh coordinates (a missing pupil: no gaze follow).
+    Both eyes at once: this runs on every played frame, and on arrays this small numpy's cost is per call.
     """
-    fps = np.asarray(fp_positions, dtype=np.float64) @ rig.axes.T
-    turns = np.zeros((2, 2))
-    for e, (upper, lower, _inner, _outer, pupil) in enumerate(EYE_FPS):
-        now = elevation(fps[[fp_index(upper), fp_index(lower), fp_index(pupil)]], rig.centres[e])
-        delta = np.where(np.isfinite(now), now - rig.rest_angles[e], 0.0)
-        up = delta[0] + UPPER_FOLLOWS_PITCH * delta[2]
-        low = delta[1] + LOWER_FOLLOWS_PITCH * delta[2]
-        gap = rig.rest_angles[e, 0] - rig.rest_angles[e, 1]
-        down, rise = meet_at_closure(-up, low, gap)
-        turns[e] = (-float(down), float(rise))
-    return turns
+    fps = np.asarray(fp_positions, dtype=np.float64)[_TURN_ROWS] @ rig.axes.T  # (2, 3, 3): upper, lower, pupil
+    now = elevation(fps, rig.centres[:, None, :])
+    delta = np.where(np.isfinite(now), now - rig.rest_angles, 0.0)
+    up = delta[:, 0] + UPPER_FOLLOWS_PITCH * delta[:, 2]
+    low = delta[:, 1] + LOWER_FOLLOWS_PITCH * delta[:, 2]
+    down, rise = meet_at_closure(-up, low, rig.rest_angles[:, 0] - rig.rest_angles[:, 1])
+    return np.stack([-down, rise], axis=1)
 
 
 def hold_lids(control_ids, points: np.ndarray, control_rest: np.ndarray) -> np.ndarray:
@@ -219,6 +217,8 @@ def hold_lids(control_ids, points: np.ndarray, control_rest: np.ndarray) -> np.n
 def apply_eyelids(rig: EyelidRig, out: np.ndarray, fp_positions: np.ndarray) -> None:
     """Add the lids' turn about the eye centres to the deformed positions `out` (N, 3), in place."""
     turns = lid_turns(rig, fp_positions)
+    if not turns.any():  # lids at rest and the gaze level: every vertex would turn by exactly 0
+        return
     angle = rig.upper * turns[rig.eye, 0] + rig.lower * turns[rig.eye, 1]
     c, s = np.cos(angle), np.sin(angle)
     y, z = rig.local[:, 1], rig.local[:, 2]

@@ -79,7 +79,9 @@ def hold_missing(mask: np.ndarray, values: np.ndarray, fill_partners: bool = Fal
     return np.where(last >= 0, held, 0.0)
 
 
-def meet_at_closure(upper_down: np.ndarray, lower_up: np.ndarray, gap: float) -> tuple[np.ndarray, np.ndarray]:
+def meet_at_closure(
+    upper_down: np.ndarray, lower_up: np.ndarray, gap: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Closing motions of two opposed points -> the same motions stopped where the points meet.
 
     `upper_down` and `lower_up` (any shape) are how far each point moves toward the other (negative: away),
@@ -90,7 +92,7 @@ def meet_at_closure(upper_down: np.ndarray, lower_up: np.ndarray, gap: float) ->
     """
     a = np.asarray(upper_down, dtype=np.float64)
     b = np.asarray(lower_up, dtype=np.float64)
-    gap = max(float(gap), 0.0)
+    gap = np.maximum(np.asarray(gap, dtype=np.float64), 0.0)  # a number, or one per point (broadcast)
     over = a + b > gap
     both = over & (a > 0.0) & (b > 0.0)
     share = gap / np.where(both, a + b, 1.0)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from addon.deform.eyelids import (
+    EYE_FPS,
     LOWER_FOLLOWS_PITCH,
     UPPER_FOLLOWS_PITCH,
     apply_eyelids,
@@ -11,7 +12,9 @@ from addon.deform.eyelids import (
     elevation,
     hold_lids,
     lid_profile,
+    lid_turns,
 )
+from addon.mpeg4.decode import meet_at_closure
 from addon.mpeg4.feature_points import fp_index
 
 AXES = np.eye(3)  # mesh = face frame here: x left, y up, z forward
@@ -92,7 +95,7 @@ def test_profile_by_hand():
 
 
 def test_rest_stays_rest():
-    np.testing.assert_allclose(_pose(), REST, atol=1e-15)
+    np.testing.assert_array_equal(_pose(), REST)  # no turn: the vertices are not touched at all
 
 
 @pytest.mark.parametrize("eye", [0, 1])
@@ -172,3 +175,26 @@ def test_no_skin_folds_whatever_the_turn(upper_turn, lower_turn, pitch):
                 angles = elevation(out[column + k], CENTRES[eye])
                 step = np.diff(angles) * (1 if lid == 0 else -1)
                 assert np.all(step > 0.0)
+
+
+def _lid_turns_one_eye_at_a_time(rig, fp_positions):
+    """lid_turns spelled out eye by eye, with scalar stops (what it computed before it did both eyes at once)."""
+    fps = np.asarray(fp_positions, dtype=np.float64) @ rig.axes.T
+    turns = np.zeros((2, 2))
+    for e, (upper, lower, _inner, _outer, pupil) in enumerate(EYE_FPS):
+        now = elevation(fps[[fp_index(upper), fp_index(lower), fp_index(pupil)]], rig.centres[e])
+        delta = np.where(np.isfinite(now), now - rig.rest_angles[e], 0.0)
+        up = delta[0] + UPPER_FOLLOWS_PITCH * delta[2]
+        low = delta[1] + LOWER_FOLLOWS_PITCH * delta[2]
+        down, rise = meet_at_closure(-up, low, float(rig.rest_angles[e, 0] - rig.rest_angles[e, 1]))
+        turns[e] = (-float(down), float(rise))
+    return turns
+
+
+def test_both_eyes_at_once_equal_one_eye_at_a_time():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        fps = NEUTRAL + rng.normal(0.0, 0.004, NEUTRAL.shape)
+        if rng.random() < 0.2:
+            fps[fp_index("3.5")] = np.nan  # a missing pupil: no gaze follow
+        np.testing.assert_allclose(lid_turns(RIG, fps), _lid_turns_one_eye_at_a_time(RIG, fps), rtol=0, atol=1e-12)
