@@ -220,9 +220,11 @@ def apply_eyelids(rig: EyelidRig, out: np.ndarray, fp_positions: np.ndarray) -> 
     if not turns.any():  # lids at rest and the gaze level: every vertex would turn by exactly 0
         return
     angle = rig.upper * turns[rig.eye, 0] + rig.lower * turns[rig.eye, 1]
-    c, s = np.cos(angle), np.sin(angle)
+    # the turn about the face x axis moves only y and z: add (turned - local) straight along the y and z axes,
+    # without building the turned copy; c - 1 as -2 sin^2(angle / 2) keeps small turns exact
+    c1, s = -2.0 * np.sin(0.5 * angle) ** 2, np.sin(angle)
     y, z = rig.local[:, 1], rig.local[:, 2]
-    turned = rig.local.copy()
-    turned[:, 1] = c * y + s * z
-    turned[:, 2] = c * z - s * y
-    out[rig.vertices] += (turned - rig.local) @ rig.axes
+    moved = np.empty((len(angle), 2))
+    moved[:, 0] = c1 * y + s * z
+    moved[:, 1] = c1 * z - s * y
+    out[rig.vertices] += moved @ rig.axes[1:]

@@ -198,3 +198,33 @@ def test_both_eyes_at_once_equal_one_eye_at_a_time():
         if rng.random() < 0.2:
             fps[fp_index("3.5")] = np.nan  # a missing pupil: no gaze follow
         np.testing.assert_allclose(lid_turns(RIG, fps), _lid_turns_one_eye_at_a_time(RIG, fps), rtol=0, atol=1e-12)
+
+
+def test_apply_matches_a_plain_rotation_on_random_rigs():
+    """apply_eyelids adds exactly R_x(angle) local - local, mapped back through the face axes, per vertex."""
+    from addon.deform import eyelids as lids
+
+    rng = np.random.default_rng(7)
+    for _ in range(5):
+        k = 200
+        q, _r = np.linalg.qr(rng.normal(size=(3, 3)))
+        rig = lids.EyelidRig(
+            vertices=rng.permutation(400)[:k],
+            eye=rng.integers(0, 2, k),
+            upper=rng.random(k),
+            lower=rng.random(k),
+            local=rng.normal(size=(k, 3)),
+            centres=rng.normal(size=(2, 3)),
+            rest_angles=rng.normal(size=(2, 3)) * 0.3,
+            axes=q,
+        )
+        fps = rng.normal(size=(84, 3))
+        turns = lids.lid_turns(rig, fps)
+        out = rng.normal(size=(400, 3))
+        expected = out.copy()
+        for i in range(k):
+            a = rig.upper[i] * turns[rig.eye[i], 0] + rig.lower[i] * turns[rig.eye[i], 1]
+            rot = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), np.sin(a)], [0.0, -np.sin(a), np.cos(a)]])
+            expected[rig.vertices[i]] += (rot @ rig.local[i] - rig.local[i]) @ rig.axes
+        lids.apply_eyelids(rig, out, fps)
+        np.testing.assert_allclose(out, expected, rtol=0.0, atol=1e-12)
