@@ -274,7 +274,9 @@ def _keys(curves) -> list[np.ndarray]:
 def _checksum(keys: list[np.ndarray]) -> list[float]:
     """Key count and two weighted sums of the curves' keys: what tells an edit since keying."""
     flat = np.concatenate([k.ravel() for k in keys]).astype(np.float64) if keys else np.zeros(0)
-    return [float(len(flat)), float(flat.sum()), float(flat @ np.sin(np.arange(1, len(flat) + 1)))]
+    # numpy's own sums (pairwise, one thread): the same keys give the same figures every time, which a
+    # threaded BLAS dot product does not promise
+    return [float(len(flat)), float(flat.sum()), float((flat * np.sin(np.arange(1, len(flat) + 1))).sum())]
 
 
 def _remember(face, decoded: DecodedStream, empties) -> None:

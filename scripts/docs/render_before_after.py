@@ -22,13 +22,14 @@ from pathlib import Path
 import numpy as np
 
 TILE = 240
-EYES, BROWS, MOUTH = ("3.5", "3.6", 0.1, 0.0), ("4.3", "4.4", 0.11, 0.0), ("2.4", "2.5", 0.07, -0.004)
+EYES, BROWS, MOUTH = ("3.5", "3.6", 0.1, 0.0), ("3.5", "3.6", 0.1, 0.016), ("2.4", "2.5", 0.07, -0.004)
+EYE = ("3.5", "3.5", 0.045, 0.0)  # one eye, close: a turn shows in the eyeball and the lids
 POSES = (  # name, {FAP: value}, framing (two FPs to centre on, width, vertical shift)
     ("blink", {19: 1024, 20: 1024}, EYES),
-    ("gaze left", {23: 30000, 24: 30000}, EYES),
-    ("gaze right", {23: -30000, 24: -30000}, EYES),
-    ("gaze up", {25: -25000, 26: -25000}, EYES),
-    ("gaze down", {25: 25000, 26: 25000}, EYES),
+    ("gaze left", {23: 30000, 24: 30000}, EYE),
+    ("gaze right", {23: -30000, 24: -30000}, EYE),
+    ("gaze up", {25: -25000, 26: -25000}, EYE),
+    ("gaze down", {25: 25000, 26: 25000}, EYE),
     ("brows up", {n: 250 for n in range(31, 37)}, BROWS),
     ("brows down", {n: -150 for n in range(31, 37)}, BROWS),
     ("smile", {12: 250, 13: 250, 6: 150, 7: 150, 59: 250, 60: 250, 53: 150, 54: 150}, MOUTH),
