@@ -14,7 +14,7 @@ tree needs nothing from this one.
 from __future__ import annotations
 
 import argparse
-import importlib
+import importlib.util
 import sys
 import tempfile
 from pathlib import Path
@@ -50,8 +50,13 @@ def write_stream(path: Path) -> None:
 def render_row(code: Path, out: Path) -> None:
     import bpy
 
-    sys.path.insert(0, str(code))
-    addon = importlib.import_module("addon")
+    # DIR's add-on as the package `addon`, from its own folder (nothing else is looked up there)
+    spec = importlib.util.spec_from_file_location(
+        "addon", code / "addon" / "__init__.py", submodule_search_locations=[str(code / "addon")]
+    )
+    addon = importlib.util.module_from_spec(spec)
+    sys.modules["addon"] = addon
+    spec.loader.exec_module(addon)
     addon.register()
     bpy.ops.wm.open_mainfile(filepath=str(code / "sample_blends" / "makehuman_head.blend"))
     scene, head = bpy.context.scene, bpy.data.objects["Head"]
