@@ -39,9 +39,7 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     if "upper_eyelid" not in masks or "lower_eyelid" not in masks:
         return None
     empties = face_data.fp_empties(face)
-    neutral = face_data.neutral_array(
-        {fp_id: np.array(ob.get(face_data.EMPTY_REST_PROP, ob.location)) for fp_id, ob in empties.items()}
-    )
+    neutral = face_data.neutral_positions(empties)
     settings = face.mpeg4_face
     centres = eye_centres(neutral @ BLENDER_FACE_AXES.T, Fapu(*settings.fapu), None, BLENDER_FACE_AXES)
     centres = centres @ BLENDER_FACE_AXES

@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
+from ..deform.folds import fan_triangles
 from ..mpeg4.feature_points import FP_IDS, fp_index
 
 log = logging.getLogger(__name__)
@@ -149,6 +150,22 @@ def neutral_array(positions: dict[str, np.ndarray]) -> np.ndarray:
     for fp_id, p in positions.items():
         out[fp_index(fp_id)] = p
     return out
+
+
+def neutral_positions(empties: dict[str, bpy.types.Object]) -> np.ndarray:
+    """(84, 3) face-local rest positions of the FP empties (`mpeg4_rest`, else where they are; NaN where missing)."""
+    return neutral_array(
+        {fp_id: np.array(ob.get(EMPTY_REST_PROP, ob.location), dtype=np.float64) for fp_id, ob in empties.items()}
+    )
+
+
+def mesh_fans(mesh: bpy.types.Mesh) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh's polygons as triangle fans: (K, 3) vertex indices and each triangle's polygon (`folds`)."""
+    sizes = np.empty(len(mesh.polygons), dtype=np.int64)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    corners = np.empty(len(mesh.loops), dtype=np.int64)
+    mesh.loops.foreach_get("vertex_index", corners)
+    return fan_triangles(sizes, corners)
 
 
 def group_weights(ob: bpy.types.Object, names) -> dict[str, np.ndarray]:

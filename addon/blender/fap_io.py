@@ -34,7 +34,6 @@ from ..speech.high_level import apply_high_level
 from . import animation, binding_store, elastic_rig, face_data, followers, head_motion
 from .reporting import Warn, progress
 
-REST_PROP = face_data.EMPTY_REST_PROP
 HEAD_FAPS = slice(47, 50)
 
 
@@ -56,13 +55,6 @@ def face_fapu(face) -> Fapu:
             f"{face.name} has no FAPU yet: place the eye, nose and mouth feature points and run Set Up Face"
         )
     return Fapu(*values)
-
-
-def neutral_positions(face, empties) -> np.ndarray:
-    """(84, 3) face-local rest positions of the FP empties (NaN where missing)."""
-    return face_data.neutral_array(
-        {fp_id: np.array(ob.get(REST_PROP, ob.location), dtype=np.float64) for fp_id, ob in empties.items()}
-    )
 
 
 def eye_pivots(face) -> np.ndarray | None:
@@ -183,7 +175,7 @@ def _positions(face, empties, values: np.ndarray, has_head: bool, source: str):
         head_motion.check_rotation_mode(face)
     head = values[:, HEAD_FAPS] * AU
     values[:, HEAD_FAPS] = 0.0
-    neutral = neutral_positions(face, empties)
+    neutral = face_data.neutral_positions(empties)
     points = fap_to_fp(neutral, values, fapu, eye_pivots=eye_pivots(face))
     _check_reach(face, points, neutral, source)
     head_delta = head_motion.to_delta(face, head, head_pivot(neutral)) if has_head else None
@@ -344,7 +336,7 @@ def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[st
         raise Mpeg4Error(f"frame range {frame_start}..{frame_end} is empty")
     scene = context.scene
     frames = np.arange(frame_start, frame_end + 1, dtype=np.float64)
-    neutral = neutral_positions(face, empties)
+    neutral = face_data.neutral_positions(empties)
     positions = np.full((len(frames), len(FP_IDS), 3), np.nan)
     with progress(context, len(empties)) as step:
         for i, (fp_id, ob) in enumerate(empties.items()):

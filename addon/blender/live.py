@@ -20,7 +20,6 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..deform.folds import fan_triangles
 from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides
 from ..deform.planar_bones import Binding, evaluate
 from ..errors import Mpeg4Error
@@ -99,33 +98,24 @@ def _state(face) -> _State:
 LIP_FPS = {"2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9"}
 
 
-def _lip_guard(face, state: _State) -> LipGuard | None:
-    """The lip guard for the face's rest shape, or None when it is off or the face lacks inner-lip FPs or
-    lip masks (nothing then keeps the lips' skin apart but the FPs' order)."""
+def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]:
+    """The lip guard for the face's rest shape and the control points that move what it guards (the lips'
+    skin, the seam between them); (None, None) when it is off or the face lacks inner-lip FPs or lip masks
+    (nothing then keeps the lips' skin apart but the FPs' order)."""
     control_ids = state.reader.fp_ids[: state.n_control]
     if not face.mpeg4_face.keep_lips_apart or not LIP_FPS <= set(control_ids):
-        return None
+        return None, None
     masks = binding_store.vertex_masks(face)
     if "upper_lip" not in masks or "lower_lip" not in masks:
-        return None
-    mesh = face.data
-    sizes = np.empty(len(mesh.polygons), dtype=np.int64)
-    mesh.polygons.foreach_get("loop_total", sizes)
-    corners = np.empty(len(mesh.loops), dtype=np.int64)
-    mesh.loops.foreach_get("vertex_index", corners)
-    empties = face_data.fp_empties(face)
-    neutral = face_data.neutral_array(
-        {f: np.array(ob.get(face_data.EMPTY_REST_PROP, ob.location), dtype=np.float64) for f, ob in empties.items()}
-    )
-    rest = state.binding.rest_vertices
-    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
-    triangles = fan_triangles(sizes, corners)[0]
-    guard = bind_lip_guard(rest, state.binding.control_rest, tuple(control_ids), triangles, upper, lower)
+        return None, None
     binding = state.binding
+    neutral = face_data.neutral_positions(face_data.fp_empties(face))
+    upper, lower = mouth_sides(binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral)
+    triangles = face_data.mesh_fans(face.data)[0]
+    guard = bind_lip_guard(binding.rest_vertices, binding.control_rest, tuple(control_ids), triangles, upper, lower)
     moving = np.unique(binding.pair_triangle[np.isin(binding.pair_vertex, guard.vertices)])
     seam = [k for k, fp_id in enumerate(control_ids) if fp_id in LIP_FPS]
-    state.lip_points = np.union1d(binding.triangles[moving].ravel(), seam)
-    return guard
+    return guard, np.union1d(binding.triangles[moving].ravel(), seam)
 
 
 def control_positions(face, state: _State) -> np.ndarray:
@@ -235,7 +225,7 @@ def apply_face(face, force: bool = False) -> bool:
         control_ids = state.reader.fp_ids[: state.n_control]
         driving = eyelid_rig.hold(face, state.binding, control_ids, points)  # the lids turn on their own
         if state.lips_guarded != settings.keep_lips_apart:
-            state.lip_guard, state.lips_guarded = _lip_guard(face, state), settings.keep_lips_apart
+            (state.lip_guard, state.lip_points), state.lips_guarded = _lip_guard(face, state), settings.keep_lips_apart
         if np.array_equal(driving, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
         else:

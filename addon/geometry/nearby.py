@@ -36,9 +36,10 @@ def triangles_near(vertices: np.ndarray, triangles: np.ndarray, points: np.ndarr
     upper = np.sqrt(((sample[None, :, :] - points[:, None, :]) ** 2).sum(axis=2).min(axis=1))
     order = np.argsort(vertices[:, 0], kind="stable")
     xs = vertices[order, 0]
+    longest = edge.max()
     near = np.zeros(len(vertices), dtype=bool)
     for p, u in zip(points, upper, strict=True):
-        reach = u + edge.max()
+        reach = u + longest
         start, stop = np.searchsorted(xs, p[0] - reach, side="left"), np.searchsorted(xs, p[0] + reach, side="right")
         slab = order[start:stop]  # every vertex within `reach` >= d + L(c) of p, the nearest one among them
         distance = np.sqrt(((vertices[slab] - p) ** 2).sum(axis=1))

@@ -49,10 +49,10 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from addon.blender.face_data import group_weights
+from addon.blender.face_data import group_weights, mesh_fans
 from addon.deform import METHODS
 from addon.deform.face_binding import FADE_BELOW, face_cover
-from addon.deform.folds import count_inverted, fan_triangles
+from addon.deform.folds import count_inverted
 from addon.mpeg4.control_mesh import (
     MASK_NAMES,
     TRIANGLE_MASKS,
@@ -140,9 +140,6 @@ def load_face(path: Path) -> SampleFace:
     fp_ids = control_fp_ids(FP_IDS)
     control_rest = np.array([empties[fp_id].location for fp_id in fp_ids], dtype=np.float64)
     es0 = compute_fapu({fp_id: np.array(obj.location) for fp_id, obj in empties.items()}).ES0
-    sizes = np.array([len(p.vertices) for p in head.data.polygons])
-    corners = np.empty(len(head.data.loops), np.int64)
-    head.data.loops.foreach_get("vertex_index", corners)
     return SampleFace(
         head=head,
         rest=rest,
@@ -152,7 +149,7 @@ def load_face(path: Path) -> SampleFace:
         triangles=template_indices(fp_ids),
         vertex_masks=vertex_masks(head),
         es0=es0,
-        fans=fan_triangles(sizes, corners),
+        fans=mesh_fans(head.data),
         region=vertex_regions(rest, fp_ids, control_rest, REGION_REACH_PER_ES0 * es0),
     )
 

@@ -25,9 +25,8 @@ import time
 import bpy
 import numpy as np
 
-from addon.blender.face_data import group_weights
+from addon.blender.face_data import group_weights, mesh_fans
 from addon.deform import METHODS
-from addon.deform.folds import fan_triangles
 from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration, mouth_sides
 from addon.mpeg4.control_mesh import MASK_NAMES, control_fp_ids
 from addon.mpeg4.decode import fap_to_fp
@@ -115,9 +114,7 @@ def time_guard(level: int, neutral: np.ndarray) -> None:
         bpy.ops.object.modifier_apply(modifier=modifier.name)
     rest = evaluate.read_vertices(head.data).astype(np.float64)
     masks = group_weights(head, MASK_NAMES)
-    corners = np.empty(len(head.data.loops), np.int64)
-    head.data.loops.foreach_get("vertex_index", corners)
-    triangles = fan_triangles(np.array([len(p.vertices) for p in head.data.polygons]), corners)[0]
+    triangles = mesh_fans(head.data)[0]
     upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
     ids = control_fp_ids(FP_IDS)
     control = neutral[[fp_index(fp_id) for fp_id in ids]]

@@ -19,8 +19,8 @@ import bpy
 import numpy as np
 
 import addon
-from addon.blender import rest_shape
-from addon.deform.folds import count_inverted, fan_triangles
+from addon.blender import face_data, rest_shape
+from addon.deform.folds import count_inverted
 from scripts.bench import bench, evaluate_folds
 
 
@@ -30,11 +30,7 @@ def play(path: Path, lip_guard: bool) -> list[int]:
     bench._operator(bpy.ops.mpeg4.import_fap, filepath=str(path), start_frame=1)
     head.mpeg4_face.keep_lips_apart = lip_guard
     scene, mesh = bpy.context.scene, head.data
-    corners = np.empty(len(mesh.loops), np.int64)
-    mesh.loops.foreach_get("vertex_index", corners)
-    sizes = np.empty(len(mesh.polygons), np.int64)
-    mesh.polygons.foreach_get("loop_total", sizes)
-    fans = fan_triangles(sizes, corners)
+    fans = face_data.mesh_fans(mesh)
     rest = rest_shape.stored_rest(mesh).astype(np.float64)
     positions = np.empty(len(mesh.vertices) * 3, np.float32)
     counts = []

@@ -39,11 +39,12 @@ def pose(face, values: dict[int, float]) -> None:
     """Put the lid and pupil FP empties where the FAP values send them."""
     fap_io, decode = convert._addon("blender.fap_io"), convert._addon("mpeg4.decode")
     fp_index = convert._addon("mpeg4.feature_points").fp_index
-    empties = convert._addon("blender.face_data").fp_empties(face)
+    face_data = convert._addon("blender.face_data")
+    empties = face_data.fp_empties(face)
     row = np.zeros((1, 68))
     for number, value in values.items():
         row[0, number - 1] = value
-    neutral = fap_io.neutral_positions(face, empties)
+    neutral = face_data.neutral_positions(empties)
     points = decode.fap_to_fp(neutral, row, fap_io.face_fapu(face), eye_pivots=fap_io.eye_pivots(face))[0]
     for fp_id in MOVED:
         empties[fp_id].location = points[fp_index(fp_id)]

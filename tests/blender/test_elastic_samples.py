@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from addon.blender.face_data import group_weights
-from addon.deform.folds import count_inverted, fan_triangles
+from addon.blender.face_data import group_weights, mesh_fans
+from addon.deform.folds import count_inverted
 from addon.elastic.parameters import TRAINED, Parameters
 from addon.elastic.pose import pose_from_faps, pose_from_fps
 from addon.elastic.skeleton import BONES, place_skeleton
@@ -61,13 +61,6 @@ def test_skeleton_and_weights_on_the_sample_faces(blend):
     np.testing.assert_allclose(deformed[brow], rest[brow], atol=1e-12)
 
 
-def face_fans(mesh) -> tuple[np.ndarray, np.ndarray]:
-    sizes = np.array([len(p.vertices) for p in mesh.polygons])
-    corners = np.empty(len(mesh.loops), np.int64)
-    mesh.loops.foreach_get("vertex_index", corners)
-    return fan_triangles(sizes, corners)
-
-
 OPEN_JAW = {3: 400.0}  # open_jaw, MNS
 SMILE = {n: 150.0 for n in (6, 7, 12, 13, 53, 54, 59, 60)}  # stretch and raise the lip corners, inner and outer
 
@@ -87,4 +80,4 @@ def test_an_open_jaw_and_a_smile_turn_no_face_over(blend, faps):
     values[np.array(list(faps)) - 1] = list(faps.values())
     deformed = linear_blend_skinning(rest, weights, pose_from_faps(skeleton, values, compute_fapu(fps), TRAINED))
     assert np.abs(deformed - rest).max() > 0.003  # it moved
-    assert count_inverted(rest, deformed, *face_fans(head.data)) == 0
+    assert count_inverted(rest, deformed, *mesh_fans(head.data)) == 0

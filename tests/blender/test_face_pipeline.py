@@ -7,7 +7,6 @@ import pytest
 from addon.blender import binding_store, face_data, fap_io, rest_shape
 from addon.deform.eyelids import apply_eyelids, bind_eyelids, hold_lids
 from addon.deform.face_binding import FADE_BELOW
-from addon.deform.folds import fan_triangles
 from addon.deform.lips import bind_lip_guard, guard_lips, mouth_sides
 from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
@@ -26,7 +25,7 @@ def core_result(head, stream_path, frame_index):
     values = shape_faps(hold_missing(stream.mask, stream.values))
     values[:, 47:50] = 0.0  # head rotation goes to the object transform
     empties = face_data.fp_empties(head)
-    neutral = fap_io.neutral_positions(head, empties)
+    neutral = face_data.neutral_positions(empties)
     fapu = Fapu(*head.mpeg4_face.fapu)
     points = fap_to_fp(neutral, values[[frame_index]], fapu, eye_pivots=fap_io.eye_pivots(head))[0]
     control = head.mpeg4_face.control_object.data
@@ -43,9 +42,7 @@ def core_result(head, stream_path, frame_index):
     )
     driving = hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control)
     out = evaluate(binding, driving)
-    corners = np.empty(len(head.data.loops), np.int64)
-    head.data.loops.foreach_get("vertex_index", corners)
-    triangles = fan_triangles(np.array([len(p.vertices) for p in head.data.polygons]), corners)[0]
+    triangles = face_data.mesh_fans(head.data)[0]
     upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
     guard_lips(bind_lip_guard(rest, rest_control, tuple(ids), triangles, upper, lower), out, driving)
     centres = fap_io.eye_pivots(head)
@@ -206,7 +203,7 @@ def test_fap_export_round_trip(tmp_path):
     expected = shape_faps(hold_missing(stream.mask, stream.values))
     np.testing.assert_allclose(again.values[:, kept], expected[:, kept], atol=1.0)
     upper_lip_lift, lower_lip_lift = -again.values[:, 3], again.values[:, 4]
-    neutral = fap_io.neutral_positions(head, face_data.fp_empties(head))
+    neutral = face_data.neutral_positions(face_data.fp_empties(head))
     gap = (neutral[fp_index("2.2"), 2] - neutral[fp_index("2.3"), 2]) / Fapu(*head.mpeg4_face.fapu).unit("MNS")
     assert np.all(lower_lip_lift <= upper_lip_lift + gap + 1.0)  # the inner lips met, never crossed
     assert upper_lip_lift.max() == pytest.approx(150, abs=1.0)

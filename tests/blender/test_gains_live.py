@@ -33,7 +33,7 @@ def test_a_gain_scales_the_keyed_motion_and_going_back_restores_it(imported):
     empties = face_data.fp_empties(head)
     chin = empties["2.1"]  # moved by the jaw FAPs only (open_jaw, thrust_jaw, shift_jaw, depress_chin)
     brow = empties["4.1"]  # moved by brow FAPs only
-    neutral_chin = np.array(chin[fap_io.REST_PROP])
+    neutral_chin = np.array(chin[face_data.EMPTY_REST_PROP])
     chin_before, brow_before = _keys(chin), _keys(brow)
     assert np.abs(chin_before[:, 1:] - neutral_chin).max() > 1e-3  # the demo opens the jaw
 
@@ -52,7 +52,7 @@ def test_the_shown_frame_follows_the_new_gain(imported):
     chin = face_data.fp_empties(head)["2.1"]
     scene = bpy.context.scene
     keys = _keys(chin)
-    neutral = np.array(chin[fap_io.REST_PROP])
+    neutral = np.array(chin[face_data.EMPTY_REST_PROP])
     frame = keys[np.argmax(np.abs(keys[:, 1:] - neutral).max(axis=1)), 0]
     scene.frame_set(round(frame))  # between keys: linear keys scale with their values
     before = np.array(chin.location) - neutral

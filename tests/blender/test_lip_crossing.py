@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.deform.folds import fan_triangles
+from addon.blender.face_data import mesh_fans
 from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration, mouth_sides
 from addon.deform.planar_bones import evaluate
 from addon.mpeg4.decode import fap_to_fp
@@ -25,9 +25,7 @@ def sample():
         bound.head, bound.rest, bound.neutral, bound.fapu, bound.ids, bound.rows, bound.masks
     )  # fmt: skip
     binding = bound.binding
-    corners = np.empty(len(head.data.loops), np.int64)
-    head.data.loops.foreach_get("vertex_index", corners)
-    triangles = fan_triangles(np.array([len(p.vertices) for p in head.data.polygons]), corners)[0]
+    triangles = mesh_fans(head.data)[0]
     upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
     guard = bind_lip_guard(rest, neutral[rows], ids, triangles, upper, lower)
     return rest, neutral, fapu, rows, binding, triangles, upper, lower, guard

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from addon.deform.folds import count_inverted, fan_triangles
+from addon.blender.face_data import mesh_fans
+from addon.deform.folds import count_inverted
 from addon.deform.planar_bones import evaluate
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
@@ -53,9 +54,7 @@ def sample():
     head, rest, neutral, fapu = bound.head, bound.rest, bound.neutral, bound.fapu
     rows, binding = bound.rows, bound.binding
     mirror_vertex = np.array([np.argmin(np.linalg.norm(rest - v * FLIP, axis=1)) for v in rest])
-    corners = np.empty(len(head.data.loops), np.int64)
-    head.data.loops.foreach_get("vertex_index", corners)
-    fans = fan_triangles(np.array([len(p.vertices) for p in head.data.polygons]), corners)
+    fans = mesh_fans(head.data)
     return rest, neutral, fapu, rows, binding, mirror_vertex, fans
 
 
