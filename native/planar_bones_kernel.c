@@ -18,6 +18,10 @@
  * vertex has pairs with is a 128-bit mask per vertex (bit t % 128 for triangle t: exact up to 128 triangles,
  * beyond that a still vertex may be summed as a moving one, which is right too). In speech most triangles
  * (the brows', the cheeks') stay still while the mouth moves.
+ *
+ * The grouped entry point (pbk_evaluate_groups_*) serves a caller that keeps `out` from one frame to the next:
+ * the vertices come in groups with the same triangles, only the groups with a moved triangle are summed (from a
+ * list, split among the threads), and a still group is written only when it has just come to rest.
  */
 #include <math.h>
 #include <pthread.h>
@@ -34,11 +38,12 @@ __asm__(".symver pthread_create, pthread_create@GLIBC_2.2.5");
 __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 #endif
 
-#define PBK_ABI_VERSION 3
+#define PBK_ABI_VERSION 4
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
 #define APEX_BLOCK 256 /* apex pairs whose factors r are computed together, in one vectorised loop */
 #define VERTEX_BLOCK 256 /* vertices whose stillness is found before their pairs are summed */
+#define PARALLEL_WORK 50000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */
 
 #if defined(_WIN32)
 #define PBK_EXPORT __declspec(dllexport)
@@ -183,24 +188,32 @@ static inline __attribute__((always_inline)) Quad load_f64(const double *p) {
 #define LOAD load_f32
 #define LOAD64 load_f64
 #define RANGE range_f32
+#define LIST list_f32
+#define SUM sum_f32
 #define TARGET
 #include "planar_bones_range.h"
 #undef REAL
 #undef LOAD
 #undef LOAD64
 #undef RANGE
+#undef LIST
+#undef SUM
 #undef TARGET
 
 #define REAL double
 #define LOAD load_f64
 #define LOAD64 load_f64
 #define RANGE range_f64
+#define LIST list_f64
+#define SUM sum_f64
 #define TARGET
 #include "planar_bones_range.h"
 #undef REAL
 #undef LOAD
 #undef LOAD64
 #undef RANGE
+#undef LIST
+#undef SUM
 #undef TARGET
 
 #if PBK_AVX2
@@ -216,24 +229,32 @@ static inline __attribute__((always_inline)) AVX2_TARGET Quad load_f64_avx2(cons
 #define LOAD load_f32_avx2
 #define LOAD64 load_f64_avx2
 #define RANGE range_f32_avx2
+#define LIST list_f32_avx2
+#define SUM sum_f32_avx2
 #define TARGET AVX2_TARGET
 #include "planar_bones_range.h"
 #undef REAL
 #undef LOAD
 #undef LOAD64
 #undef RANGE
+#undef LIST
+#undef SUM
 #undef TARGET
 
 #define REAL double
 #define LOAD load_f64_avx2
 #define LOAD64 load_f64_avx2
 #define RANGE range_f64_avx2
+#define LIST list_f64_avx2
+#define SUM sum_f64_avx2
 #define TARGET AVX2_TARGET
 #include "planar_bones_range.h"
 #undef REAL
 #undef LOAD
 #undef LOAD64
 #undef RANGE
+#undef LIST
+#undef SUM
 #undef TARGET
 #endif
 
@@ -241,14 +262,32 @@ typedef void Range(int64_t, int64_t, const double *, const int32_t *, const int3
                    const int32_t *, const int32_t *, const void *, const void *, const void *, const uint64_t *,
                    const Tables *, void *);
 
-/* The loop for this CPU and output type. */
-static Range *range_for(int single) {
+typedef void List(int64_t, int64_t, const int32_t *, const double *, const int32_t *, const int32_t *,
+                  const void *, const int32_t *, const int32_t *, const void *, const void *, const Tables *, void *);
+
+static int has_avx2(void) {
 #if PBK_AVX2
     static int avx2 = -1;
     if (avx2 < 0) avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-    if (avx2) return single ? range_f32_avx2 : range_f64_avx2;
+    return avx2;
+#else
+    return 0;
+#endif
+}
+
+/* The loops for this CPU and output type. */
+static Range *range_for(int single) {
+#if PBK_AVX2
+    if (has_avx2()) return single ? range_f32_avx2 : range_f64_avx2;
 #endif
     return single ? range_f32 : range_f64;
+}
+
+static List *list_for(int single) {
+#if PBK_AVX2
+    if (has_avx2()) return single ? list_f32_avx2 : list_f64_avx2;
+#endif
+    return single ? list_f32 : list_f64;
 }
 
 /* One evaluation, shared by the calling thread and its helpers: the vertices are cut into chunks of about
@@ -256,6 +295,8 @@ static Range *range_for(int single) {
  * a helper the system does not get to run in time costs nothing; the last thread out frees the job. */
 typedef struct {
     Range *range;
+    List *list;         /* with `work`: the grouped entry point's loop over listed vertices */
+    const int32_t *work; /* the listed vertices; chunks then cut the list, not the vertices */
     const double *base;
     const int32_t *plain_start, *plain_key, *apex_start, *apex_key;
     const void *plain_coef, *apex_coef, *apex_scale, *rest_out;
@@ -269,9 +310,14 @@ typedef struct {
 
 static void work_on(Job *job) {
     for (int c; (c = atomic_fetch_add(&job->next, 1)) < job->n_chunks;) {
-        job->range(job->bounds[c], job->bounds[c + 1], job->base, job->plain_start, job->plain_key,
-                   job->plain_coef, job->apex_start, job->apex_key, job->apex_coef, job->apex_scale, job->rest_out,
-                   job->vertex_mask, &job->tables, job->out);
+        if (job->work)
+            job->list(job->bounds[c], job->bounds[c + 1], job->work, job->base, job->plain_start, job->plain_key,
+                      job->plain_coef, job->apex_start, job->apex_key, job->apex_coef, job->apex_scale,
+                      &job->tables, job->out);
+        else
+            job->range(job->bounds[c], job->bounds[c + 1], job->base, job->plain_start, job->plain_key,
+                       job->plain_coef, job->apex_start, job->apex_key, job->apex_coef, job->apex_scale,
+                       job->rest_out, job->vertex_mask, &job->tables, job->out);
         atomic_fetch_add_explicit(&job->finished, 1, memory_order_release);
     }
 }
@@ -304,16 +350,44 @@ static int64_t split(const int32_t *plain_start, const int32_t *apex_start, int6
     return lo;
 }
 
+/* The grouped entry point's selection: the vertices of each group with a moved triangle go to `work`
+ * (returned: how many), and a group that is still but not `fresh` (its vertices in `out` are not their result
+ * at rest) gets its rest result copied and becomes fresh. A moving group is no longer fresh. */
+static int64_t select_work(int single, int64_t n_groups, const uint64_t *group_mask, const int32_t *group_start,
+                           const int32_t *group_vertex, const uint64_t *moved, const void *rest_out, uint8_t *fresh,
+                           int32_t *work, void *out) {
+    int64_t n_work = 0;
+    for (int64_t g = 0; g < n_groups; ++g) {
+        int32_t first = group_start[g], last = group_start[g + 1];
+        if ((group_mask[2 * g] & moved[0]) | (group_mask[2 * g + 1] & moved[1])) {
+            memcpy(work + n_work, group_vertex + first, sizeof(int32_t) * (size_t)(last - first));
+            n_work += last - first;
+            fresh[g] = 0;
+        } else if (!fresh[g]) {
+            for (int32_t i = first; i < last; ++i) {
+                int64_t at = 3 * (int64_t)group_vertex[i];
+                if (single)
+                    memcpy((float *)out + at, (const float *)rest_out + at, 3 * sizeof(float));
+                else
+                    memcpy((double *)out + at, (const double *)rest_out + at, 3 * sizeof(double));
+            }
+            fresh[g] = 1;
+        }
+    }
+    return n_work;
+}
+
 static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const double *control,
                     const double *control_rest, const int32_t *triangles, const double *base,
                     const int32_t *plain_start, const int32_t *plain_key, const void *plain_coef,
                     const int32_t *apex_start, const int32_t *apex_key, const void *apex_coef,
-                    const void *apex_scale, const void *rest_out, const uint64_t *vertex_mask, int32_t n_threads,
-                    void *out) {
-    if (n_vertices < 0 || n_triangles < 0 || n_threads < 1 || n_threads > PBK_MAX_THREADS) return 1;
-    int n_chunks = n_threads == 1 ? 1 : CHUNKS_PER_THREAD * n_threads;
+                    const void *apex_scale, const void *rest_out, const uint64_t *vertex_mask, int64_t n_groups,
+                    const uint64_t *group_mask, const int32_t *group_start, const int32_t *group_vertex,
+                    uint8_t *fresh, int32_t *work, int32_t n_threads, void *out) {
+    if (n_vertices < 0 || n_triangles < 0 || n_groups < 0 || n_threads < 1 || n_threads > PBK_MAX_THREADS) return 1;
+    int max_chunks = n_threads == 1 ? 1 : CHUNKS_PER_THREAD * n_threads;
     /* one block: the job, the chunk bounds, then 12 plain and 9 apex Quads and 3 Gram terms per triangle */
-    size_t head = sizeof(Job) + sizeof(int64_t) * (size_t)(n_chunks + 1);
+    size_t head = sizeof(Job) + sizeof(int64_t) * (size_t)(max_chunks + 1);
     char *block = malloc(head + sizeof(Quad) + (size_t)n_triangles * (21 * sizeof(Quad) + 3 * sizeof(double)));
     if (!block) return 2;
     Job *job = (Job *)block;
@@ -321,6 +395,7 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
     Quad *apex = plain + 12 * n_triangles;
     double *gram = (double *)(apex + 9 * n_triangles);
     *job = (Job){.range = range_for(single),
+                 .list = list_for(single),
                  .base = base,
                  .plain_start = plain_start,
                  .plain_key = plain_key,
@@ -333,16 +408,30 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
                  .vertex_mask = vertex_mask,
                  .tables = {.plain = plain, .apex = apex, .gram = gram},
                  .out = out,
-                 .n_chunks = n_chunks,
                  .bounds = (int64_t *)(block + sizeof(Job))};
     build_tables(n_triangles, control, control_rest, triangles, plain, apex, gram, job->tables.shift,
                  job->tables.moved);
     atomic_init(&job->next, 0);
     atomic_init(&job->finished, 0);
     atomic_init(&job->references, 1);
-    int64_t total = cost(plain_start, apex_start, n_vertices);
-    for (int c = 0; c <= n_chunks; ++c)
-        job->bounds[c] = c == n_chunks ? n_vertices : split(plain_start, apex_start, n_vertices, total * c / n_chunks);
+    if (group_start) { /* only the listed vertices are summed; chunks of about equal count */
+        int64_t n_work = select_work(single, n_groups, group_mask, group_start, group_vertex, job->tables.moved,
+                                     rest_out, fresh, work, out);
+        int64_t work_cost = 0;
+        for (int64_t w = 0; w < n_work && work_cost < PARALLEL_WORK; ++w)
+            work_cost += cost(plain_start, apex_start, work[w] + 1) - cost(plain_start, apex_start, work[w]);
+        if (work_cost < PARALLEL_WORK) n_threads = 1;
+        job->work = work;
+        job->n_chunks = n_threads == 1 ? 1 : max_chunks;
+        for (int c = 0; c <= job->n_chunks; ++c) job->bounds[c] = n_work * c / job->n_chunks;
+    } else {
+        job->n_chunks = max_chunks;
+        int64_t total = cost(plain_start, apex_start, n_vertices);
+        for (int c = 0; c <= job->n_chunks; ++c)
+            job->bounds[c] = c == job->n_chunks ? n_vertices
+                                                : split(plain_start, apex_start, n_vertices, total * c / job->n_chunks);
+    }
+    int n_chunks = job->n_chunks;
 
     for (int i = 1; i < n_threads; ++i) {
         pthread_t thread;
@@ -367,7 +456,8 @@ PBK_EXPORT int pbk_evaluate_f32(int64_t n_vertices, int64_t n_triangles, const d
                                 const float *apex_scale, const float *rest_out, const uint64_t *vertex_mask,
                                 int32_t n_threads, float *out) {
     return evaluate(1, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, n_threads, out);
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, 0, NULL, NULL, NULL,
+                    NULL, NULL, n_threads, out);
 }
 
 PBK_EXPORT int pbk_evaluate_f64(int64_t n_vertices, int64_t n_triangles, const double *control,
@@ -377,5 +467,40 @@ PBK_EXPORT int pbk_evaluate_f64(int64_t n_vertices, int64_t n_triangles, const d
                                 const double *apex_scale, const double *rest_out, const uint64_t *vertex_mask,
                                 int32_t n_threads, double *out) {
     return evaluate(0, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, n_threads, out);
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, 0, NULL, NULL, NULL,
+                    NULL, NULL, n_threads, out);
+}
+
+/* The grouped entry point, for a caller that keeps `out` from one call to the next (the add-on's face): the
+ * vertices come in groups that have pairs with the same triangles (`group_mask`, like `vertex_mask`; group g
+ * is the vertices group_vertex[group_start[g]:group_start[g + 1]]). Only the vertices of groups with a moved
+ * triangle are summed; a still group is written (its result at rest) only when `fresh[g]` is 0, and then
+ * marked 1. So the caller must zero `fresh` for every group whose vertices it changed in `out` itself.
+ * `work` is scratch for N int32. Returns as pbk_evaluate_f32. */
+PBK_EXPORT int pbk_evaluate_groups_f32(int64_t n_vertices, int64_t n_triangles, const double *control,
+                                       const double *control_rest, const int32_t *triangles, const double *base,
+                                       const int32_t *plain_start, const int32_t *plain_key, const float *plain_coef,
+                                       const int32_t *apex_start, const int32_t *apex_key, const float *apex_coef,
+                                       const float *apex_scale, const float *rest_out, int64_t n_groups,
+                                       const uint64_t *group_mask, const int32_t *group_start,
+                                       const int32_t *group_vertex, uint8_t *fresh, int32_t *work, int32_t n_threads,
+                                       float *out) {
+    if (!group_mask || !group_start || !group_vertex || !fresh || !work) return 1;
+    return evaluate(1, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, NULL, n_groups, group_mask,
+                    group_start, group_vertex, fresh, work, n_threads, out);
+}
+
+PBK_EXPORT int pbk_evaluate_groups_f64(int64_t n_vertices, int64_t n_triangles, const double *control,
+                                       const double *control_rest, const int32_t *triangles, const double *base,
+                                       const int32_t *plain_start, const int32_t *plain_key, const double *plain_coef,
+                                       const int32_t *apex_start, const int32_t *apex_key, const double *apex_coef,
+                                       const double *apex_scale, const double *rest_out, int64_t n_groups,
+                                       const uint64_t *group_mask, const int32_t *group_start,
+                                       const int32_t *group_vertex, uint8_t *fresh, int32_t *work, int32_t n_threads,
+                                       double *out) {
+    if (!group_mask || !group_start || !group_vertex || !fresh || !work) return 1;
+    return evaluate(0, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, NULL, n_groups, group_mask,
+                    group_start, group_vertex, fresh, work, n_threads, out);
 }

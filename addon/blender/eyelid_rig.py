@@ -35,7 +35,7 @@ def forget(face=None) -> None:
 
 
 def _make_rig(face, binding: Binding) -> EyelidRig | None:
-    masks = binding_store.vertex_masks(face)
+    masks = binding_store.set_up_masks(face)
     if "upper_eyelid" not in masks or "lower_eyelid" not in masks:
         return None
     empties = face_data.fp_empties(face)
@@ -81,3 +81,9 @@ def apply(face, binding: Binding, out: np.ndarray, fps: np.ndarray) -> None:
     if rig is not None:
         apply_eyelids(rig, out, fps)
         _last[face.session_uid] = fps[_WATCHED_ROWS].copy()
+
+
+def turned_vertices(face, binding: Binding) -> np.ndarray | None:
+    """(K,) the vertices `apply` may move, or None when the lids are not rigged."""
+    rig = _rig(face, binding)
+    return None if rig is None else rig.vertices

@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ..deform import fused
 from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides
-from ..deform.planar_bones import Binding, evaluate
+from ..deform.planar_bones import Binding, evaluate, playback
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, fp_index
 from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, rest_shape
@@ -47,6 +48,7 @@ class _State:
     lip_guard: LipGuard | None = None  # keeps the lips' skin from passing through each other
     lips_guarded: bool | None = None  # the Keep Lips Apart setting `lip_guard` was made for
     lip_points: np.ndarray | None = None  # the control points that move the lips' skin or the seam between them
+    playback: fused.Playback | None = None  # the kernel's frame-to-frame evaluator of `out` in `mode`, if any
 
 
 _states: dict[int, _State] = {}
@@ -59,6 +61,7 @@ def forget(face: bpy.types.Object | None = None) -> None:
     if face is None:
         _states.clear()
         _editing.clear()
+        _scenes.clear()  # it holds objects: after undo or loading they are gone
         binding_store.forget()
         elastic_rig.forget()
     else:
@@ -105,7 +108,7 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
     control_ids = state.reader.fp_ids[: state.n_control]
     if not face.mpeg4_face.keep_lips_apart or not LIP_FPS <= set(control_ids):
         return None, None
-    masks = binding_store.vertex_masks(face)
+    masks = binding_store.set_up_masks(face)
     if "upper_lip" not in masks or "lower_lip" not in masks:
         return None, None
     binding = state.binding
@@ -116,6 +119,15 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
     moving = np.unique(binding.pair_triangle[np.isin(binding.pair_vertex, guard.vertices)])
     seam = [k for k, fp_id in enumerate(control_ids) if fp_id in LIP_FPS]
     return guard, np.union1d(binding.triangles[moving].ravel(), seam)
+
+
+def _start_playback(face, state: _State, mode: str) -> None:
+    """A frame-to-frame evaluator of the face's output in `mode` (None without the compiled kernel), told which
+    vertices the steps after the deformer (the eyelids, the lip guard) may move."""
+    lids = eyelid_rig.turned_vertices(face, state.binding)
+    lips = None if state.lip_guard is None else state.lip_guard.vertices
+    parts = [part for part in (lids, lips) if part is not None]
+    state.playback = playback(state.binding, mode, state.out, np.concatenate(parts) if parts else None)
 
 
 def control_positions(face, state: _State) -> np.ndarray:
@@ -198,8 +210,10 @@ def _resume_after_edit_mode(face) -> bool:
     return False
 
 
-def apply_face(face, force: bool = False) -> bool:
-    """Deform `face` from its empties; returns False (and disables the effect) on a problem."""
+def apply_face(face, force: bool = False, present: frozenset | None = None) -> bool:
+    """Deform `face` from its empties; returns False (and disables the effect) on a problem. `present`: the
+    session ids of the scene's objects, where the control mesh is found without looking through every
+    collection of the file (it may also be in a collection outside the scene)."""
     settings = face.mpeg4_face
     if settings.engine == elastic_rig.ELASTIC:  # the Armature modifier deforms: pose the skeleton, not the mesh
         return _apply_elastic(face, force)
@@ -210,7 +224,9 @@ def apply_face(face, force: bool = False) -> bool:
     if face.session_uid in _editing and not _resume_after_edit_mode(face):
         return False
     try:
-        if not _linked(settings.control_object):
+        control = settings.control_object
+        in_scene = present is not None and control is not None and control.session_uid in present
+        if not (in_scene or _linked(control)):
             raise LookupError("the control mesh was deleted")
         if _posed_changed_mesh(face, _states.get(face.session_uid)):
             return False
@@ -226,10 +242,17 @@ def apply_face(face, force: bool = False) -> bool:
         driving = eyelid_rig.hold(face, state.binding, control_ids, points)  # the lids turn on their own
         if state.lips_guarded != settings.keep_lips_apart:
             (state.lip_guard, state.lip_points), state.lips_guarded = _lip_guard(face, state), settings.keep_lips_apart
+            state.playback = None  # the guarded vertices changed: start again
+        if state.playback is None or state.mode != mode:
+            _start_playback(face, state, mode)
         if np.array_equal(driving, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
+            if state.playback is not None:
+                state.playback.changed()
         else:
-            evaluate(state.binding, driving, mode=mode, out=state.out)
+            if state.playback is None or not state.playback.evaluate(driving):
+                evaluate(state.binding, driving, mode=mode, out=state.out)
+                state.playback = None  # out was written whole: a new evaluator next frame
             lips = state.lip_points
             if state.lip_guard is not None and not np.array_equal(driving[lips], state.binding.control_rest[lips]):
                 guard_lips(state.lip_guard, state.out, driving)  # the lips press on each other, never pass
@@ -315,16 +338,42 @@ def refresh(face) -> None:
         pause(face)
 
 
+@dataclass
+class _Objects:
+    """A scene's objects as last seen: their session ids, and the meshes among them."""
+
+    uids: np.ndarray
+    present: frozenset
+    meshes: list
+
+
+_scenes: dict[int, _Objects] = {}  # by the scene's session_uid
+
+
+def _objects(scene) -> _Objects:
+    """The scene's objects, looked through again only when they changed: one `foreach_get` a frame instead of
+    a Python loop over every object (84 FP empties and the rest), and a set to find the control mesh in."""
+    objects = scene.objects
+    uids = np.empty(len(objects), dtype=np.int64)
+    objects.foreach_get("session_uid", uids)
+    seen = _scenes.get(scene.session_uid)
+    if seen is None or not np.array_equal(seen.uids, uids):
+        seen = _Objects(uids, frozenset(uids.tolist()), [ob for ob in objects if ob.type == "MESH"])
+        _scenes[scene.session_uid] = seen
+    return seen
+
+
 def apply_scene(scene) -> None:
     global _busy
     if _busy:
         return
     _busy = True
     try:
-        for ob in scene.objects:
-            if ob.type == "MESH" and ob.mpeg4_face.enabled:
+        seen = _objects(scene)
+        for ob in seen.meshes:
+            if ob.mpeg4_face.enabled:
                 try:
-                    apply_face(ob)
+                    apply_face(ob, present=seen.present)
                 except Exception as exc:  # a bug must not repeat on every frame: log it once, stop the face
                     log.exception("live deformation of %s failed", ob.name)
                     disable(ob, f"Deformation turned off after an internal error: {exc}")

@@ -17,7 +17,11 @@ corner), [w, h·w, a, b] and w·D, its D/d factor being computed per pair and fr
 pairs belong to triangles that have not moved takes its result at rest (``rest_out``) without its pairs
 being read (``vertex_mask`` says which triangles it has pairs with): such a triangle adds exactly nothing
 (its rows are the common translation, which the weight sum takes back), and in speech most triangles stay
-still while the mouth moves. Each frame the kernel
+still while the mouth moves. A played face goes further (`Playback`, the kernel's grouped entry point): its
+output array is kept from frame to frame, the vertices are grouped by the triangles they have pairs with, and
+only the groups with a moved triangle are summed; a still group is written once, when it comes to rest, and
+then left alone (in speech a fifth of a face's vertices, a third of its pairs, are summed per frame). Each
+frame the kernel
 builds every triangle's basis and adds to ``base`` (the float64 reference result at the rest control
 positions, less the apex pairs' in-plane part at rest) each pair's coefficients times the change of its
 rows since rest, the mean translation of the control mesh taken apart and weighted by each vertex's exact
@@ -43,7 +47,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, deformation_basis
 
-ABI_VERSION = 3  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 4  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -55,6 +59,8 @@ APEX_CORNERS = 3  # APEX + 0..2: key = triangle × 3 + corner
 
 _POINTER = ctypes.c_void_p
 _ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 13, ctypes.c_int32, _POINTER]
+_GROUPED_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 12, ctypes.c_int64, *[_POINTER] * 5]
+_GROUPED_ARGUMENTS += [ctypes.c_int32, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -74,6 +80,10 @@ class Layout:
     apex_scale: np.ndarray | None  # (A,): w·D
     rest_out: np.ndarray  # (N, 3) of dtype: the result at rest, for vertices whose triangles all are at rest
     vertex_mask: np.ndarray  # (N, 2) uint64: bit t % 128 set when the vertex has a pair with triangle t
+    group_mask: np.ndarray  # (G, 2) uint64: the distinct rows of vertex_mask, each a group of vertices
+    group_start: np.ndarray  # (G + 1,) int32: group g is group_vertex[group_start[g]:group_start[g + 1]]
+    group_vertex: np.ndarray  # (N,) int32: the vertices, group by group
+    vertex_group: np.ndarray  # (N,) intp: each vertex's group
 
     @property
     def n_vertices(self) -> int:
@@ -122,6 +132,10 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         for name in ("pbk_evaluate_f32", "pbk_evaluate_f64"):
             function = getattr(library, name)
             function.argtypes = _ARGUMENTS
+            function.restype = ctypes.c_int
+        for name in ("pbk_evaluate_groups_f32", "pbk_evaluate_groups_f64"):
+            function = getattr(library, name)
+            function.argtypes = _GROUPED_ARGUMENTS
             function.restype = ctypes.c_int
     except (OSError, AttributeError):
         return None
@@ -198,6 +212,10 @@ def build_layout(
         # comes off the base here once
         rest_basis = deformation_basis(np.asarray(control_rest, dtype=np.float64)[triangles])
         base[:, :3] -= _apex_in_plane(apex_coef, apex_scale, apex_key, rest_basis, vertex[apex], n)
+    vertex_mask = _vertex_mask(vertex, triangle, n)
+    group_mask, vertex_group = np.unique(vertex_mask, axis=0, return_inverse=True)
+    vertex_group = vertex_group.reshape(-1).astype(np.intp)
+    group_vertex = np.argsort(vertex_group, kind="stable")
     return Layout(
         dtype=dtype,
         control_rest=np.ascontiguousarray(control_rest, dtype=np.float64),
@@ -211,7 +229,11 @@ def build_layout(
         apex_coef=apex_coef,
         apex_scale=apex_scale,
         rest_out=rest_out,
-        vertex_mask=_vertex_mask(vertex, triangle, n),
+        vertex_mask=vertex_mask,
+        group_mask=np.ascontiguousarray(group_mask),
+        group_start=_starts(vertex_group, len(group_mask)),
+        group_vertex=group_vertex.astype(np.int32),
+        vertex_group=vertex_group,
     )
 
 
@@ -284,3 +306,59 @@ def evaluate_into(layout: Layout, control: np.ndarray, out: np.ndarray, threads:
         layout.n_vertices, len(layout.triangles), control.ctypes.data, *layout.arguments, threads, out.ctypes.data
     )
     return status == 0
+
+
+class Playback:
+    """Successive evaluations of one layout into one output array that nothing else writes between them
+    (the add-on's played face): only the vertices of groups with a moved triangle are summed, and a still
+    group's vertices are written only when they last held something else (`Layout.group_mask`).
+
+    ``rewritten`` are vertices that someone changes in ``out`` after every evaluation (the add-on's eyelids
+    and lip guard): each evaluation writes their groups again. Any other change to ``out`` between evaluations
+    is announced with `changed` (all vertices when none are given)."""
+
+    def __init__(self, layout: Layout, out: np.ndarray, rewritten: np.ndarray | None = None):
+        if out.dtype != layout.dtype or out.shape != (layout.n_vertices, 3) or not out.flags.c_contiguous:
+            raise DeformError(f"out must be a C-contiguous {np.dtype(layout.dtype).name} array of shape (N, 3)")
+        self.layout, self.out = layout, out
+        self._fresh = np.zeros(len(layout.group_mask), dtype=np.uint8)  # 1: the group's vertices hold their rest
+        self._work = np.empty(layout.n_vertices, dtype=np.int32)
+        arrays = (layout.control_rest, layout.triangles, layout.base, layout.plain_start, layout.plain_key)
+        apex = (layout.apex_start, layout.apex_key, layout.apex_coef, layout.apex_scale)
+        groups = (layout.group_mask, layout.group_start, layout.group_vertex, self._fresh, self._work)
+        self._arguments = (
+            *(array.ctypes.data for array in arrays),
+            layout.plain_coef.ctypes.data,
+            *(None if a is None else a.ctypes.data for a in apex),
+            layout.rest_out.ctypes.data,
+            len(layout.group_mask),
+            *(array.ctypes.data for array in groups),
+        )
+        self._at = out.ctypes.data
+        every = np.zeros(0, np.intp) if rewritten is None else layout.vertex_group[np.asarray(rewritten, np.intp)]
+        self._rewritten = np.unique(every)
+
+    def changed(self, vertices: np.ndarray | None = None) -> None:
+        """Vertices of ``out`` (all by default) were written by someone else since the last evaluation."""
+        if vertices is None:
+            self._fresh.fill(0)
+        else:
+            self._fresh[self.layout.vertex_group[vertices]] = 0
+
+    def evaluate(self, control: np.ndarray, threads: int | None = None) -> bool:
+        """Write the deformed positions for the control points (M, 3) into ``out``, as `evaluate_into` does; False,
+        with ``out`` untouched, where the kernel is unavailable or refuses."""
+        kernel = _kernel() if available() else None
+        layout = self.layout
+        if kernel is None or control.shape != layout.control_rest.shape or not self.out.flags.writeable:
+            return False
+        control = np.ascontiguousarray(control, dtype=np.float64)
+        function = kernel.pbk_evaluate_groups_f32 if layout.dtype == np.float32 else kernel.pbk_evaluate_groups_f64
+        threads = max(1, min(thread_count(layout) if threads is None else threads, MAX_THREADS))
+        self._fresh[self._rewritten] = 0
+        status = function(
+            layout.n_vertices, len(layout.triangles), control.ctypes.data, *self._arguments, threads, self._at
+        )
+        if status != 0:
+            self.changed()
+        return status == 0

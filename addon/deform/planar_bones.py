@@ -101,7 +101,8 @@ class Binding:
     _evaluation: dict = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "_evaluation", _evaluation_arrays(self))
+        _check_pairs(self)
+        object.__setattr__(self, "_evaluation", {})  # what evaluating needs, made on first use
 
     @property
     def n_vertices(self) -> int:
@@ -119,7 +120,7 @@ class Binding:
     @property
     def n_static(self) -> int:
         """Vertices no triangle affects; `evaluate` returns them bit-identical to the rest pose."""
-        return self._evaluation["n_static"]
+        return self.n_vertices - len(np.unique(self.pair_vertex))
 
 
 def bind(
@@ -363,6 +364,21 @@ def evaluate(
     return _evaluate_numpy(binding, deformation_basis(control[binding.triangles]), mode, out)
 
 
+def playback(
+    binding: Binding, mode: str, out: np.ndarray, rewritten: np.ndarray | None = None
+) -> fused.Playback | None:
+    """An evaluator for playing frames one after another into ``out`` (N, 3): ``evaluate(binding, control,
+    mode, out)`` in effect, summing only the vertices whose triangles moved and writing the others only when
+    they do not already hold their rest result. Only it writes ``out`` between frames but for the vertices
+    ``rewritten`` after each frame and what the caller reports with `fused.Playback.changed`. None where the
+    compiled kernel is unavailable (use `evaluate`)."""
+    if mode not in MODES:
+        raise DeformError(f"unknown mode {mode!r}; expected one of {MODES}")
+    if not fused.available():
+        return None
+    return fused.Playback(_fused_layout(binding, mode, out.dtype.type), out, rewritten)
+
+
 def _evaluate_numpy(binding: Binding, basis: np.ndarray, mode: str, out: np.ndarray | None) -> np.ndarray:
     """The reference implementation of `evaluate` for the deformed basis (T, 7, 3), and its fallback."""
     n = binding.n_vertices
@@ -462,18 +478,7 @@ _SAVED_ARRAYS = (
 )
 
 
-def _evaluation_arrays(binding: Binding) -> dict:
-    """Per-pair coefficients on the rows of `regions.deformation_basis`, pre-multiplied by the weight.
-
-    Laid out so that a frame is one batched matrix product and one `bincount` per axis, with no
-    Python loop: the pairs are ordered by (apex or not, triangle), each triangle's run is cut into
-    chunks of `CHUNK` pairs (zero-padded), and a chunk holds its pairs' coefficients as a (7, CHUNK)
-    matrix that its triangle's (3, 7) transposed basis multiplies. (One product per triangle costs more
-    in numpy's per-call overhead at face-mesh sizes; longer chunks cost more in padding.) The apex
-    coefficients on b'_j, b'_{j−1} of eq. 13 are a·w·D/d and b·w·D/d, which depend on the deformed
-    triangle: `evaluate` rewrites that block of the trailing apex chunks each frame, so a binding must
-    not be evaluated from two threads at once.
-    """
+def _check_pairs(binding: Binding) -> None:
     n = len(binding.rest_vertices)
     p = len(binding.pair_vertex)
     if not (
@@ -484,6 +489,15 @@ def _evaluation_arrays(binding: Binding) -> dict:
         and (p == 0 or (binding.pair_vertex.min() >= 0 and binding.pair_vertex.max() < n))
     ):
         raise DeformError("inconsistent binding arrays")
+
+
+def _pair_coefficients(binding: Binding) -> dict:
+    """Per-pair coefficients on the rows of `regions.deformation_basis`, pre-multiplied by the weight, the
+    pairs ordered by (apex or not, triangle): what both the numpy path's layout and the result at rest are
+    made from (cached on the binding)."""
+    if "pairs" in binding._evaluation:
+        return binding._evaluation["pairs"]
+    p = len(binding.pair_vertex)
     is_apex = binding.pair_region >= APEX
     order = np.concatenate([np.flatnonzero(~is_apex), np.flatnonzero(is_apex)])  # each part stays by triangle
     vertex = binding.pair_vertex.astype(np.intp)[order]
@@ -514,7 +528,72 @@ def _evaluation_arrays(binding: Binding) -> dict:
     apex_rows[np.arange(len(apex)), apex_j] = a
     apex_rows[np.arange(len(apex)), (apex_j + 2) % 3] = b
     apex_scale = weight[apex] * binding.pair_apex_distance[order][apex]  # w · D of eq. 13–14
+    # 1 for unaffected vertices, 0 where the weights were normalised, in between when fading to rest
+    rest_weight = 1.0 - np.bincount(vertex, weight, minlength=binding.n_vertices)
+    rest_weight[np.abs(rest_weight) < 1e-12] = 0.0
+    coefficients = {
+        "vertex": vertex,
+        "triangle": triangle,
+        "is_apex": is_apex,
+        "soffd": soffd,
+        "bones": bones,
+        "a": a,
+        "b": b,
+        "apex_j": apex_j,
+        "apex_rows": apex_rows,
+        "apex_scale": apex_scale,
+        "static": binding.rest_vertices.T * rest_weight,  # (3, N) the rest pose's share of each vertex
+    }
+    binding._evaluation["pairs"] = coefficients
+    return coefficients
 
+
+def _rest_result(binding: Binding, mode: str) -> np.ndarray:
+    """(N, 3) float64: `evaluate` at the rest control points, summed pair by pair (without the numpy path's
+    padded layout, which a binding played by the compiled kernel never needs)."""
+    pairs = _pair_coefficients(binding)
+    basis = deformation_basis(binding.control_rest[binding.triangles])  # (T, 7, 3)
+    coefficients = pairs["bones"].copy() if mode == "planar_bones" else pairs["soffd"]
+    if mode == "planar_bones" and len(pairs["a"]):
+        edge_normals = basis[:, 4:7]
+        gram = np.einsum("tjk,tjk->tj", edge_normals, edge_normals[:, [2, 0, 1]]).ravel()
+        apex = pairs["is_apex"]
+        gram = gram[pairs["triangle"][apex] * 3 + pairs["apex_j"]]
+        a, b = pairs["a"], pairs["b"]
+        d = np.sqrt(np.maximum(a * a + b * b + 2.0 * a * b * gram, 0.0))
+        ratio = np.divide(pairs["apex_scale"], d, out=np.zeros_like(d), where=d > 0.0)  # eq. 13-14
+        coefficients[apex, 4:7] = pairs["apex_rows"] * ratio[:, None]
+    rows = coefficients.shape[1]
+    images = np.empty((len(coefficients), 3))
+    key = pairs["triangle"] * 2 + pairs["is_apex"]
+    bounds = np.flatnonzero(np.r_[True, key[1:] != key[:-1], True]) if len(key) else np.zeros(1, np.intp)
+    for start, end in zip(bounds[:-1], bounds[1:], strict=True):  # one product per triangle's run
+        images[start:end] = coefficients[start:end] @ basis[pairs["triangle"][start], :rows]
+    result = np.empty((binding.n_vertices, 3))
+    for axis in range(3):
+        summed = np.bincount(pairs["vertex"], images[:, axis], minlength=binding.n_vertices)
+        np.add(summed, pairs["static"][axis], out=result[:, axis])
+    return result
+
+
+def _evaluation_arrays(binding: Binding) -> dict:
+    """The numpy path's layout of `_pair_coefficients`.
+
+    Laid out so that a frame is one batched matrix product and one `bincount` per axis, with no
+    Python loop: the pairs are ordered by (apex or not, triangle), each triangle's run is cut into
+    chunks of `CHUNK` pairs (zero-padded), and a chunk holds its pairs' coefficients as a (7, CHUNK)
+    matrix that its triangle's (3, 7) transposed basis multiplies. (One product per triangle costs more
+    in numpy's per-call overhead at face-mesh sizes; longer chunks cost more in padding.) The apex
+    coefficients on b'_j, b'_{j−1} of eq. 13 are a·w·D/d and b·w·D/d, which depend on the deformed
+    triangle: `evaluate` rewrites that block of the trailing apex chunks each frame, so a binding must
+    not be evaluated from two threads at once.
+    """
+    pairs = _pair_coefficients(binding)
+    p = len(binding.pair_vertex)
+    vertex, triangle, is_apex = pairs["vertex"], pairs["triangle"], pairs["is_apex"]
+    soffd, bones, apex_rows, apex_scale = pairs["soffd"], pairs["bones"], pairs["apex_rows"], pairs["apex_scale"]
+    a, b, apex_j = pairs["a"], pairs["b"], pairs["apex_j"]
+    apex = np.flatnonzero(is_apex)
     chunk_run, run_start, slot = _chunks(triangle * 2 + is_apex)
     n_chunks = len(chunk_run)
     n_apex_chunks = int(np.count_nonzero(is_apex[run_start][chunk_run]))
@@ -527,11 +606,6 @@ def _evaluation_arrays(binding: Binding) -> dict:
         rows = values.shape[1] if values.ndim == 2 else 1
         return np.ascontiguousarray(np.moveaxis(result.reshape(chunks, CHUNK, rows), 1, 2))
 
-    affected = np.zeros(n, dtype=bool)
-    affected[vertex] = True
-    # 1 for unaffected vertices, 0 where the weights were normalised, in between when fading to rest
-    rest_weight = 1.0 - np.bincount(vertex, weight, minlength=n)
-    rest_weight[np.abs(rest_weight) < 1e-12] = 0.0
     return {
         "dtype": np.float64,
         "chunk_triangle": triangle[run_start][chunk_run],
@@ -546,8 +620,7 @@ def _evaluation_arrays(binding: Binding) -> dict:
         "apex_group": padded(triangle[apex] * 3 + apex_j, apex_slot, n_apex_chunks)[:, 0],
         "apex_scale": padded(apex_scale, apex_slot, n_apex_chunks)[:, 0],
         "apex_ratio": np.empty((n_apex_chunks, CHUNK)),
-        "static": binding.rest_vertices.T * rest_weight,  # (3, N) the rest pose's share of each vertex
-        "n_static": int(np.count_nonzero(~affected)),
+        "static": pairs["static"],
     }
 
 
@@ -566,7 +639,6 @@ def _fused_layout(binding: Binding, mode: str, dtype: type) -> fused.Layout:
     """The compiled kernel's layout for this binding, mode and output dtype, built on first use."""
     key = ("fused", mode, np.dtype(dtype).name)
     if key not in binding._evaluation:
-        rest_basis = deformation_basis(binding.control_rest[binding.triangles])
         binding._evaluation[key] = fused.build_layout(
             mode=mode,
             dtype=dtype,
@@ -579,14 +651,16 @@ def _fused_layout(binding: Binding, mode: str, dtype: type) -> fused.Layout:
             pair_face_local=binding.pair_face_local,
             pair_region_local=binding.pair_region_local,
             pair_apex_distance=binding.pair_apex_distance,
-            base=_evaluate_numpy(binding, rest_basis, mode, None),
+            base=_rest_result(binding, mode),
         )
     return binding._evaluation[key]
 
 
 def _evaluation_arrays_for(binding: Binding, dtype: type | None) -> dict:
-    """The float64 arrays, or a float32 copy of the per-pair arrays made on first use."""
-    arrays = binding._evaluation
+    """The numpy path's float64 arrays, or a float32 copy of the per-pair arrays, made on first use."""
+    if "numpy" not in binding._evaluation:
+        binding._evaluation["numpy"] = _evaluation_arrays(binding)
+    arrays = binding._evaluation["numpy"]
     if dtype is None:
         return arrays
     if "float32" not in arrays:

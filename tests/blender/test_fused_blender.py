@@ -62,3 +62,37 @@ def test_the_add_on_plays_without_the_kernel(monkeypatch):
     rest = positions(head.data).copy()
     assert np.abs(play(head, 40) - rest).max() > 1e-3
     assert kernel_layouts(head) == []
+
+
+@needs_kernel
+def test_played_frames_equal_frames_evaluated_whole(monkeypatch):
+    """The face played frame after frame (the kernel sums only what moved, and the eyelids and lip guard write
+    over it) shows, frame by frame, exactly what a whole evaluation of each frame gives; so do jumps back to
+    rest, a mode switch and Keep Lips Apart turned off and on."""
+    head = set_up()
+    scene = bpy.context.scene
+    play(head, 1)
+
+    def run(toggle_guard: bool) -> list[np.ndarray]:
+        shown = []
+        for frame in [*range(30, 75), 1, 1, 200, 40, "soffd", 60, "guard", 61, "planar_bones", 62]:
+            if frame in MODES:
+                head.mpeg4_face.mode = frame.upper()
+                continue
+            if frame == "guard":
+                if toggle_guard:
+                    head.mpeg4_face.keep_lips_apart = False
+                    head.mpeg4_face.keep_lips_apart = True
+                continue
+            scene.frame_set(frame)
+            shown.append(positions(head.data).copy())
+        return shown
+
+    played = run(toggle_guard=True)
+    assert live._states[head.session_uid].playback is not None
+    monkeypatch.setattr(live, "playback", lambda *args: None)  # every frame evaluated whole
+    live.forget(head)
+    whole = run(toggle_guard=False)
+    assert max(np.abs(p - played[0]).max() for p in played) > 1e-3
+    for k, (a, b) in enumerate(zip(played, whole, strict=True)):
+        np.testing.assert_array_equal(a, b, err_msg=f"played frame {k}")

@@ -300,3 +300,73 @@ def test_the_environment_switch_turns_the_kernel_off(monkeypatch):
     for value, on in (("1", False), ("0", loaded), ("", loaded)):
         monkeypatch.setenv(fused.DISABLE, value)
         assert fused.available() is on
+
+
+def _frames(binding) -> list[np.ndarray]:
+    """A played sequence: rest, one point, still frames, motion, back to rest, one point again."""
+    moves = motions(binding)
+    one = moves["one point"]
+    return [moves["rest"], one, one, moves["fap-like"], moves["fap-like"], moves["large"], one, moves["rest"], one]
+
+
+@needs_kernel
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("case", ["head", "apex_heavy"])
+def test_playback_equals_evaluate_frame_after_frame(case, mode, dtype, threads, request):
+    binding = request.getfixturevalue(case)
+    out = np.full((binding.n_vertices, 3), np.nan, dtype)  # nothing of the start survives the first frame
+    playback = planar_bones.playback(binding, mode, out)
+    for control in _frames(binding):
+        assert playback.evaluate(control, threads=threads)
+        expected = evaluate(binding, control, mode, out=np.empty_like(out))
+        np.testing.assert_array_equal(out, expected)  # the same kernel sums: bit-identical
+
+
+@needs_kernel
+def test_playback_writes_again_what_others_changed(head):
+    out = np.empty((head.n_vertices, 3), np.float32)
+    playback = planar_bones.playback(head, "planar_bones", out)
+    one = _one_moved(head)
+    expected = evaluate(head, one, out=np.empty_like(out))
+    assert playback.evaluate(one)
+    still = np.flatnonzero((out == expected).all(axis=1) & (expected == head.rest_vertices.astype(np.float32)).all(1))
+    out[still[:50]] += 1.0  # someone else writes these (the eyelids, the lip guard) and says so
+    playback.changed(still[:50])
+    assert playback.evaluate(one)
+    np.testing.assert_array_equal(out, expected)
+    out[:] = 0.0  # and all of them
+    playback.changed()
+    assert playback.evaluate(one)
+    np.testing.assert_array_equal(out, expected)
+
+
+@needs_kernel
+def test_playback_skips_the_still_vertices_it_wrote_at_rest(head):
+    """What it does not write is what makes it fast: a vertex of a still group, already at rest, is left
+    alone (here: a mark put there unannounced stays)."""
+    out = np.empty((head.n_vertices, 3), np.float64)
+    playback = planar_bones.playback(head, "planar_bones", out)
+    one = _one_moved(head)
+    assert playback.evaluate(one)
+    moved_triangle = (head.triangles == _busiest(head)).any(axis=1)
+    touched = np.unique(head.pair_vertex[moved_triangle[head.pair_triangle]])
+    untouched = np.setdiff1d(np.arange(head.n_vertices), touched)
+    out[untouched[0]] = 7.0
+    out[touched[0]] = 7.0
+    assert playback.evaluate(one)
+    assert (out[untouched[0]] == 7.0).all() and not (out[touched[0]] == 7.0).any()
+
+
+def test_playback_groups_hold_every_vertex_once(head):
+    layout = planar_bones._fused_layout(head, "planar_bones", np.float64)
+    np.testing.assert_array_equal(np.sort(layout.group_vertex), np.arange(head.n_vertices))
+    groups = np.repeat(np.arange(len(layout.group_mask)), np.diff(layout.group_start))
+    np.testing.assert_array_equal(layout.vertex_group[layout.group_vertex], groups)
+    np.testing.assert_array_equal(layout.group_mask[layout.vertex_group], layout.vertex_mask)
+
+
+def test_no_playback_without_the_kernel(head, monkeypatch):
+    monkeypatch.setenv(fused.DISABLE, "1")
+    assert planar_bones.playback(head, "planar_bones", np.empty((head.n_vertices, 3))) is None
