@@ -213,9 +213,12 @@ def build_layout(
         rest_basis = deformation_basis(np.asarray(control_rest, dtype=np.float64)[triangles])
         base[:, :3] -= _apex_in_plane(apex_coef, apex_scale, apex_key, rest_basis, vertex[apex], n)
     vertex_mask = _vertex_mask(vertex, triangle, n)
-    group_mask, vertex_group = np.unique(vertex_mask, axis=0, return_inverse=True)
-    vertex_group = vertex_group.reshape(-1).astype(np.intp)
-    group_vertex = np.argsort(vertex_group, kind="stable")
+    group_vertex = np.lexsort((vertex_mask[:, 1], vertex_mask[:, 0]))  # equal masks together, by vertex
+    sorted_mask = vertex_mask[group_vertex]
+    first = np.r_[True, np.any(sorted_mask[1:] != sorted_mask[:-1], axis=1)] if n else np.zeros(0, bool)
+    group_mask = sorted_mask[first]
+    vertex_group = np.empty(n, dtype=np.intp)
+    vertex_group[group_vertex] = np.cumsum(first) - 1
     return Layout(
         dtype=dtype,
         control_rest=np.ascontiguousarray(control_rest, dtype=np.float64),

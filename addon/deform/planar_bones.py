@@ -277,11 +277,11 @@ def cover_over_control_mesh(
     nearest = np.full(len(rest), np.inf)
     nearest_triangle = np.zeros(len(rest), np.intp)
     nearest_region = np.zeros(len(rest), np.intp)
-    squared = np.einsum("ij,ij->i", rest, rest) - 2.0 * (centre @ rest.T)  # (T, N) to the sphere centres
-    squared += np.einsum("ij,ij->i", centre, centre)[:, None]
-    rounding = 1e-12 * float(squared.max(initial=0.0))
+    squared_norms = np.einsum("ij,ij->i", rest, rest)
+    rounding = 1e-12 * (squared_norms.max(initial=0.0) + np.einsum("ij,ij->i", centre, centre).max(initial=0.0))
     for t in range(len(tris)):
-        near = np.flatnonzero(squared[t] <= (sphere_radius[t] + reach) ** 2 + rounding)
+        squared = squared_norms - 2.0 * (rest @ centre[t]) + centre[t] @ centre[t]  # to the sphere's centre
+        near = np.flatnonzero(squared <= (sphere_radius[t] + reach) ** 2 + rounding)
         bound = distance_lower_bound(frames, t, rest[near])
         near = near[bound < np.minimum(nearest[near], reach) * (1.0 + BOUND_SLACK)]
         location = locate(frames, t, rest[near])

@@ -98,6 +98,11 @@ class Location:
     apex_distance: np.ndarray  # (n,) D_j(S) of eq. 14 for apex regions, 0 elsewhere
 
 
+# eq. 4's cells by sign bits (u < 0, v < 0, w > 1): inside; across QO (u < 0); across OP (v < 0); behind O
+# (u, v < 0); across PQ (w > 1); behind Q (u < 0, w > 1); behind P (v < 0, w > 1, whatever u)
+_CELL_REGION = np.array([FACE, EDGE + 2, EDGE + 0, APEX + 0, EDGE + 1, APEX + 2, APEX + 1, APEX + 1], dtype=np.int8)
+
+
 def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     """Region, distance and local coordinates of (n, 3) points for triangle t (eq. 4–7, 10, 11, 14).
 
@@ -127,21 +132,10 @@ def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     height = face_local[:, 2]
 
     u, v = face_local[:, 0], face_local[:, 1]
-    w = u + v
-    region = np.select(  # eq. 4
-        [
-            (u >= 0) & (v >= 0) & (w <= 1),
-            (u >= 0) & (v < 0) & (w <= 1),
-            (u >= 0) & (v >= 0) & (w > 1),
-            (u < 0) & (v >= 0) & (w <= 1),
-            (v < 0) & (w > 1),
-            (u < 0) & (w > 1),
-        ],
-        [FACE, EDGE + 0, EDGE + 1, EDGE + 2, APEX + 1, APEX + 2],
-        default=APEX + 0,
-    ).astype(np.int8)
+    # eq. 4 by the signs of u, v and 1 - w (w = u + v): bit 0 u < 0, bit 1 v < 0, bit 2 w > 1
+    cell = (u < 0).view(np.int8) | ((v < 0).view(np.int8) << 1) | (((u + v) > 1).view(np.int8) << 2)
+    region = _CELL_REGION[cell]
 
-    rows = np.arange(len(points))
     corner = np.flatnonzero(region >= APEX)  # eq. 6
     i = region[corner] - APEX
     previous = (i + 2) % 3
@@ -155,14 +149,16 @@ def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     c = along[edge, j]
     region[edge] = np.where(c < 0, APEX + j, np.where(c > lengths[j], APEX + (j + 1) % 3, EDGE + j))
 
-    k = (region.astype(np.intp) - 1) % 3  # feature index j of edge and apex regions
+    # the face region's values are its own coordinates: only the other points (often the fewer) go on
+    other = np.flatnonzero(region != FACE)
+    k = (region[other].astype(np.intp) - 1) % 3  # feature index j of edge and apex regions
     k_previous = (k + 2) % 3
-    is_edge = (region >= EDGE) & (region < APEX)
-    is_apex = region >= APEX
-    c_k = along[rows, k]
-    y_k = outward[rows, k]
-    y_previous = outward[rows, k_previous]
-    apex_distance = np.where(is_apex, np.hypot(c_k, y_k), 0.0)  # D_j(S) = ‖Π(S) − V_j‖, eq. 14
+    is_apex = region[other] >= APEX
+    c_k = along[other, k]
+    y_k = outward[other, k]
+    y_previous = outward[other, k_previous]
+    apex_distance = np.zeros(len(points))
+    apex_distance[other] = np.where(is_apex, np.hypot(c_k, y_k), 0.0)  # D_j(S) = ‖Π(S) − V_j‖, eq. 14
 
     # In-plane coordinates (a, b) of Π(S) − V_j on the non-orthogonal rows b_j, b_{j−1} of C_j (eq. 11),
     # from the dot products y_j, y_{j−1} and the Gram term g = b_j · b_{j−1}.
@@ -172,12 +168,11 @@ def locate(frames: TriangleFrames, t: int, points: np.ndarray) -> Location:
     b = (y_previous - g * y_k) / gram
 
     region_local = face_local.copy()
-    region_local[is_edge, 0] = c_k[is_edge] / lengths[k[is_edge]]  # e_j is un-normalised in B_j, eq. 10
-    region_local[is_edge, 1] = y_k[is_edge]
-    region_local[is_apex, 0] = a[is_apex]
-    region_local[is_apex, 1] = b[is_apex]
+    region_local[other, 0] = np.where(is_apex, a, c_k / lengths[k])  # e_j is un-normalised in B_j, eq. 10
+    region_local[other, 1] = np.where(is_apex, b, y_k)
 
-    distance = np.select([is_edge, is_apex], [np.hypot(height, y_k), np.hypot(height, apex_distance)], np.abs(height))
+    distance = np.abs(height)
+    distance[other] = np.hypot(height[other], np.where(is_apex, apex_distance[other], y_k))
     return Location(region, distance, face_local, region_local, apex_distance)
 
 
@@ -194,7 +189,10 @@ def distance_lower_bound(frames: TriangleFrames, t: int, points: np.ndarray) -> 
     corners = frames.corners[t]
     offsets = np.concatenate([[corners[0] @ normal], np.einsum("jk,jk->j", corners, edge_normals)])
     projected = points @ probes - offsets
-    return np.hypot(projected[:, 0], np.maximum(projected[:, 1:].max(axis=1), 0.0))
+    # the largest of the three edge columns, column by column (a max along axis 1 of an (n, 3) array is
+    # several times slower in numpy)
+    beyond = np.maximum(np.maximum(projected[:, 1], projected[:, 2]), projected[:, 3])
+    return np.hypot(projected[:, 0], np.maximum(beyond, 0.0, out=beyond), out=beyond)
 
 
 def affection_weight(distance: np.ndarray, radius: float, exponent: float) -> np.ndarray:
