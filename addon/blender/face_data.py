@@ -106,6 +106,7 @@ class FpReader:
         self.fp_ids = fp_ids
         self._uids: np.ndarray | None = None
         self._rows: np.ndarray | None = None
+        self._buffers: tuple[np.ndarray, ...] = ()  # uids, locations, world matrices: reused while n holds
 
     def _find_rows(self, face: bpy.types.Object, objects, uids: np.ndarray) -> None:
         empties = fp_empties(face)
@@ -123,21 +124,24 @@ class FpReader:
             raise LookupError("the face's FP collection is missing")
         objects = coll.all_objects
         n = len(objects)
-        uids = np.empty(n, dtype=np.int64)
+        if not self._buffers or len(self._buffers[0]) != n:
+            self._buffers = (np.empty(n, np.int64), np.empty((n, 3), np.float32), np.empty((n, 4, 4), np.float32))
+        uids, location, world = self._buffers
         objects.foreach_get("session_uid", uids)
         if self._uids is None or not np.array_equal(uids, self._uids):
             self._find_rows(face, objects, uids)
-        location = np.empty(n * 3, dtype=np.float32)
-        objects.foreach_get("location", location)
-        world = np.empty(n * 16, dtype=np.float32)
-        objects.foreach_get("matrix_world", world)
-        local = location.reshape(n, 3)[self._rows].astype(np.float64)
-        translation = world.reshape(n, 4, 4)[self._rows, 3, :3].astype(np.float64)  # column-major: row 3
+        objects.foreach_get("location", location.reshape(-1))
+        objects.foreach_get("matrix_world", world.reshape(-1))
+        local = location.take(self._rows, axis=0).astype(np.float64)
+        translation = world[:, 3, :3].take(self._rows, axis=0).astype(np.float64)  # column-major: row 3
         face_world = np.array(face.matrix_world, dtype=np.float64)
-        expected = local @ face_world[:3, :3].T + face_world[:3, 3]
+        expected = local @ face_world[:3, :3].T
+        expected += face_world[:3, 3]
         # float32 matrices: agreement to ~16 ulps of the largest term
-        scale = 1.0 + np.abs(face_world[:3, 3]).sum() + np.abs(local).sum(axis=1, keepdims=True)
-        other = np.flatnonzero(np.any(np.abs(expected - translation) > 1e-6 * scale, axis=1))
+        scale = np.abs(local).sum(axis=1)
+        scale += 1.0 + np.abs(face_world[:3, 3]).sum()
+        expected -= translation
+        other = np.flatnonzero((np.abs(expected).max(axis=1) > 1e-6 * scale))
         if len(other):
             obs = {k: objects[int(self._rows[k])] for k in other}
             local[other] = np.array(list(local_positions(face, obs).values()))
