@@ -41,8 +41,6 @@ __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 #define PBK_ABI_VERSION 4
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
-#define APEX_BLOCK 256 /* apex pairs whose factors r are computed together, in one vectorised loop */
-#define VERTEX_BLOCK 256 /* vertices whose stillness is found before their pairs are summed */
 #define PARALLEL_WORK 50000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */
 
 #if defined(_WIN32)
@@ -68,8 +66,9 @@ typedef int64_t Lanes __attribute__((vector_size(32)));
 typedef struct {
     double shift[4];    /* the translation every vertex takes times its weight sum (x, y, z, 0) */
     const Quad *plain;  /* per plain key: x, y, z of its 4 rows */
-    const Quad *apex;   /* per apex key: x, y, z of dVj, dn, b'j, b'(j-1) */
-    const double *gram; /* per apex key: g' = b'j . b'(j-1) */
+    const Quad *apex;   /* per apex key: x, y, z of dVj, dn, b'j, b'(j-1), then of bj, b(j-1) at rest, 0, 0 */
+    const double *gram; /* per apex key: g' = b'j . b'(j-1) now, then g at rest */
+    const unsigned char *moved_triangle; /* per triangle: 1 when it moved since rest */
     uint64_t moved[2]; /* bit t % 128: triangle t moved since rest */
 } Tables;
 
@@ -117,7 +116,7 @@ static void transpose(const double *r0, const double *r1, const double *r2, cons
  * vertex gets with its exact weight sum: so no rounded coefficient multiplies a translation. */
 static void build_tables(int64_t n_triangles, const double *control, const double *control_rest,
                          const int32_t *triangles, Quad *plain, Quad *apex, double *gram, double *shift,
-                         uint64_t *moved_bits) {
+                         unsigned char *moved_triangle, uint64_t *moved_bits) {
     double mean[3] = {0.0, 0.0, 0.0};
     for (int64_t t = 0; t < n_triangles; ++t)
         for (int k = 0; k < 3; ++k) {
@@ -135,6 +134,7 @@ static void build_tables(int64_t n_triangles, const double *control, const doubl
                 moved |= control[at] != control_rest[at];
             }
         if (moved) moved_bits[(t / 64) % 2] |= (uint64_t)1 << (t % 64);
+        moved_triangle[t] = moved;
         Basis now = triangle_basis(control, triangles + 3 * t);
         Basis rest = triangle_basis(control_rest, triangles + 3 * t);
         double d[7][3], along[3][3];
@@ -146,10 +146,14 @@ static void build_tables(int64_t n_triangles, const double *control, const doubl
         transpose(d[0], along[0], diagonal, d[3], plain + 12 * t);
         for (int j = 0; j < 3; ++j) {
             const double *edge_normal = now.v[4 + j], *previous = now.v[4 + (j + 2) % 3];
+            const double *rest_normal = rest.v[4 + j], *rest_previous = rest.v[4 + (j + 2) % 3], zero[3] = {0.0};
+            int64_t key = 3 * t + j;
             transpose(d[j], along[j], d[4 + j], d[3], plain + 12 * t + 3 * (1 + j));
-            transpose(d[j], d[3], edge_normal, previous, apex + 3 * (3 * t + j));
-            gram[3 * t + j] =
-                edge_normal[0] * previous[0] + edge_normal[1] * previous[1] + edge_normal[2] * previous[2];
+            transpose(d[j], d[3], edge_normal, previous, apex + 6 * key);
+            transpose(rest_normal, rest_previous, zero, zero, apex + 6 * key + 3);
+            gram[2 * key] = edge_normal[0] * previous[0] + edge_normal[1] * previous[1] + edge_normal[2] * previous[2];
+            gram[2 * key + 1] = rest_normal[0] * rest_previous[0] + rest_normal[1] * rest_previous[1] +
+                                rest_normal[2] * rest_previous[2];
         }
     }
 }
@@ -386,14 +390,16 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
                     uint8_t *fresh, int32_t *work, int32_t n_threads, void *out) {
     if (n_vertices < 0 || n_triangles < 0 || n_groups < 0 || n_threads < 1 || n_threads > PBK_MAX_THREADS) return 1;
     int max_chunks = n_threads == 1 ? 1 : CHUNKS_PER_THREAD * n_threads;
-    /* one block: the job, the chunk bounds, then 12 plain and 9 apex Quads and 3 Gram terms per triangle */
+    /* one block: the job, the chunk bounds, then per triangle 12 plain and 18 apex Quads, 6 Gram terms and a byte */
     size_t head = sizeof(Job) + sizeof(int64_t) * (size_t)(max_chunks + 1);
-    char *block = malloc(head + sizeof(Quad) + (size_t)n_triangles * (21 * sizeof(Quad) + 3 * sizeof(double)));
+    size_t per_triangle = 30 * sizeof(Quad) + 6 * sizeof(double) + 1;
+    char *block = malloc(head + sizeof(Quad) + (size_t)n_triangles * per_triangle);
     if (!block) return 2;
     Job *job = (Job *)block;
     Quad *plain = (Quad *)(block + head + (sizeof(Quad) - (uintptr_t)(block + head) % sizeof(Quad)) % sizeof(Quad));
     Quad *apex = plain + 12 * n_triangles;
-    double *gram = (double *)(apex + 9 * n_triangles);
+    double *gram = (double *)(apex + 18 * n_triangles);
+    unsigned char *moved_triangle = (unsigned char *)(gram + 6 * n_triangles);
     *job = (Job){.range = range_for(single),
                  .list = list_for(single),
                  .base = base,
@@ -406,10 +412,10 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
                  .apex_scale = apex_scale,
                  .rest_out = rest_out,
                  .vertex_mask = vertex_mask,
-                 .tables = {.plain = plain, .apex = apex, .gram = gram},
+                 .tables = {.plain = plain, .apex = apex, .gram = gram, .moved_triangle = moved_triangle},
                  .out = out,
                  .bounds = (int64_t *)(block + sizeof(Job))};
-    build_tables(n_triangles, control, control_rest, triangles, plain, apex, gram, job->tables.shift,
+    build_tables(n_triangles, control, control_rest, triangles, plain, apex, gram, job->tables.shift, moved_triangle,
                  job->tables.moved);
     atomic_init(&job->next, 0);
     atomic_init(&job->finished, 0);
@@ -504,3 +510,5 @@ PBK_EXPORT int pbk_evaluate_groups_f64(int64_t n_vertices, int64_t n_triangles, 
                     plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, NULL, n_groups, group_mask,
                     group_start, group_vertex, fresh, work, n_threads, out);
 }
+
+#include "lip_guard.h"

@@ -23,15 +23,18 @@ WATCHED = [fp_id for eye in EYE_FPS for fp_id in (eye[0], eye[1], eye[4])]  # th
 _WATCHED_ROWS = [fp_index(fp_id) for fp_id in WATCHED]
 _rigs: dict[int, tuple[Binding, EyelidRig | None]] = {}
 _last: dict[int, np.ndarray] = {}
+_at_rest: dict[int, np.ndarray] = {}  # the watched FPs' rest positions the rig was made from, by face
 
 
 def forget(face=None) -> None:
     if face is None:
         _rigs.clear()
         _last.clear()
+        _at_rest.clear()
     else:
         _rigs.pop(face.session_uid, None)
         _last.pop(face.session_uid, None)
+        _at_rest.pop(face.session_uid, None)
 
 
 def _make_rig(face, binding: Binding) -> EyelidRig | None:
@@ -40,6 +43,7 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
         return None
     empties = face_data.fp_empties(face)
     neutral = face_data.neutral_positions(empties)
+    _at_rest[face.session_uid] = neutral[_WATCHED_ROWS]
     settings = face.mpeg4_face
     centres = eye_centres(neutral @ BLENDER_FACE_AXES.T, Fapu(*settings.fapu), None, BLENDER_FACE_AXES)
     centres = centres @ BLENDER_FACE_AXES
@@ -79,8 +83,11 @@ def apply(face, binding: Binding, out: np.ndarray, fps: np.ndarray) -> None:
     """Turn the lids of the deformed positions `out` (N, 3) by the FPs `fps` (84, 3; NaN where absent), in place."""
     rig = _rig(face, binding)
     if rig is not None:
-        apply_eyelids(rig, out, fps)
-        _last[face.session_uid] = fps[_WATCHED_ROWS].copy()
+        watched = fps[_WATCHED_ROWS]
+        # at rest the lids turn by exactly 0 (most frames of speech): skip working that out
+        if not np.array_equal(watched, _at_rest.get(face.session_uid)):
+            apply_eyelids(rig, out, fps)
+        _last[face.session_uid] = watched
 
 
 def turned_vertices(face, binding: Binding) -> np.ndarray | None:

@@ -141,7 +141,7 @@ class FpReader:
         scale = np.abs(local).sum(axis=1)
         scale += 1.0 + np.abs(face_world[:3, 3]).sum()
         expected -= translation
-        other = np.flatnonzero((np.abs(expected).max(axis=1) > 1e-6 * scale))
+        other = np.flatnonzero(np.abs(expected).max(axis=1) > 1e-6 * scale)
         if len(other):
             obs = {k: objects[int(self._rows[k])] for k in other}
             local[other] = np.array(list(local_positions(face, obs).values()))

@@ -48,6 +48,7 @@ class _State:
     lip_guard: LipGuard | None = None  # keeps the lips' skin from passing through each other
     lips_guarded: bool | None = None  # the Keep Lips Apart setting `lip_guard` was made for
     lip_points: np.ndarray | None = None  # the control points that move the lips' skin or the seam between them
+    lip_arrays: fused.GuardArrays | None = None  # `lip_guard` for the compiled kernel
     playback: fused.Playback | None = None  # the kernel's frame-to-frame evaluator of `out` in `mode`, if any
 
 
@@ -119,6 +120,21 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
     moving = np.unique(binding.pair_triangle[np.isin(binding.pair_vertex, guard.vertices)])
     seam = [k for k, fp_id in enumerate(control_ids) if fp_id in LIP_FPS]
     return guard, np.union1d(binding.triangles[moving].ravel(), seam)
+
+
+def _guard_arrays(guard: LipGuard) -> fused.GuardArrays:
+    return fused.GuardArrays.of(
+        guard.vertices,
+        guard.side,
+        guard.slack,
+        guard.knots,
+        guard.order,
+        guard.starts,
+        guard.spread,
+        guard.axes,
+        guard.reach,
+        guard.width,
+    )
 
 
 def _start_playback(face, state: _State, mode: str) -> None:
@@ -242,6 +258,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
         driving = eyelid_rig.hold(face, state.binding, control_ids, points)  # the lids turn on their own
         if state.lips_guarded != settings.keep_lips_apart:
             (state.lip_guard, state.lip_points), state.lips_guarded = _lip_guard(face, state), settings.keep_lips_apart
+            state.lip_arrays = None if state.lip_guard is None else _guard_arrays(state.lip_guard)
             state.playback = None  # the guarded vertices changed: start again
         if state.playback is None or state.mode != mode:
             _start_playback(face, state, mode)
@@ -255,7 +272,9 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                 state.playback = None  # out was written whole: a new evaluator next frame
             lips = state.lip_points
             if state.lip_guard is not None and not np.array_equal(driving[lips], state.binding.control_rest[lips]):
-                guard_lips(state.lip_guard, state.out, driving)  # the lips press on each other, never pass
+                # the lips press on each other, never pass
+                if not fused.guard_lips_into(state.lip_arrays, state.out, driving):
+                    guard_lips(state.lip_guard, state.out, driving)
         eyelid_rig.apply(face, state.binding, state.out, fps)  # lids turn over the eyeballs (no V, no crossing)
         rest_shape.write_positions(face.data, state.out)
         state.last, state.mode = points, mode

@@ -45,7 +45,7 @@ from pathlib import Path
 import numpy as np
 
 from .inputs import DeformError
-from .regions import APEX, FACE, deformation_basis
+from .regions import APEX, FACE
 
 ABI_VERSION = 4  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
@@ -61,6 +61,9 @@ _POINTER = ctypes.c_void_p
 _ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 13, ctypes.c_int32, _POINTER]
 _GROUPED_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 12, ctypes.c_int64, *[_POINTER] * 5]
 _GROUPED_ARGUMENTS += [ctypes.c_int32, _POINTER]
+GUARD_KNOTS = 17  # GUARD_KNOTS in native/lip_guard.h, lips.N_KNOTS
+_GUARD_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, *[_POINTER] * 4, ctypes.c_int64]
+_GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, _POINTER, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -137,6 +140,8 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
             function = getattr(library, name)
             function.argtypes = _GROUPED_ARGUMENTS
             function.restype = ctypes.c_int
+        library.pbk_guard_lips.argtypes = _GUARD_ARGUMENTS
+        library.pbk_guard_lips.restype = ctypes.c_int
     except (OSError, AttributeError):
         return None
     return library
@@ -190,9 +195,12 @@ def build_layout(
     weight = np.asarray(pair_weight, dtype=np.float64)
     face_local = np.asarray(pair_face_local, dtype=np.float64)
     region_local = np.asarray(pair_region_local, dtype=np.float64)
-    # x, y, z of the reference at rest, and each vertex's exact weight sum, which multiplies the
-    # translation part of every motion in the kernel
-    base = np.concatenate([base, np.bincount(vertex, weight, minlength=n)[:, None]], axis=1, dtype=np.float64)
+    # x, y, z of the reference at rest, and each vertex's exact weight sum less the weights of its coefficients
+    # as rounded to `dtype`: the kernel adds these back for the pairs whose triangles moved (all of them in a
+    # rigid motion, which so moves a vertex by exactly its weight sum times the translation)
+    rounded = weight.astype(dtype).astype(np.float64)
+    correction = np.bincount(vertex, weight, minlength=n) - np.bincount(vertex, rounded, minlength=n)
+    base = np.concatenate([base, correction[:, None]], axis=1, dtype=np.float64)
     by_vertex = np.argsort(vertex, kind="stable")  # each vertex's pairs stay in binding order
 
     soffd = mode == "soffd"
@@ -208,10 +216,6 @@ def build_layout(
         apex_key = (triangle * APEX_CORNERS + region - APEX)[apex].astype(np.int32)
         apex_coef = _gathered((weight, h * weight, x, y), apex, dtype)
         apex_scale = (weight * np.asarray(pair_apex_distance, dtype=np.float64))[apex].astype(dtype)
-        # the kernel adds the in-plane part as it is; its value at rest, from the same rounded numbers,
-        # comes off the base here once
-        rest_basis = deformation_basis(np.asarray(control_rest, dtype=np.float64)[triangles])
-        base[:, :3] -= _apex_in_plane(apex_coef, apex_scale, apex_key, rest_basis, vertex[apex], n)
     vertex_mask = _vertex_mask(vertex, triangle, n)
     group_vertex = np.lexsort((vertex_mask[:, 1], vertex_mask[:, 0]))  # equal masks together, by vertex
     sorted_mask = vertex_mask[group_vertex]
@@ -238,22 +242,6 @@ def build_layout(
         group_vertex=group_vertex.astype(np.int32),
         vertex_group=vertex_group,
     )
-
-
-def _apex_in_plane(
-    coef: np.ndarray, scale: np.ndarray, key: np.ndarray, basis: np.ndarray, vertex: np.ndarray, n: int
-) -> np.ndarray:
-    """(N, 3): per vertex, the sum of its apex pairs' w·D/d (a b_j + b b_{j−1}) (eq. 13) in ``basis``."""
-    edge_normals = basis[:, 4:7]
-    b_j = edge_normals.reshape(-1, 3)  # by key: triangle × 3 + corner
-    b_previous = edge_normals[:, [2, 0, 1]].reshape(-1, 3)
-    gram = np.einsum("ij,ij->i", b_j, b_previous)[key]
-    a, b = coef[:, 2].astype(np.float64), coef[:, 3].astype(np.float64)
-    d = np.sqrt(np.maximum(a * a + b * b + 2.0 * a * b * gram, 0.0))
-    ratio = np.divide(scale.astype(np.float64), d, out=np.zeros_like(d), where=d > 0.0)
-    a, b = a * ratio, b * ratio
-    sums = [np.bincount(vertex, a * b_j[key, k] + b * b_previous[key, k], minlength=n) for k in range(3)]
-    return np.stack(sums, axis=1)
 
 
 def _vertex_mask(vertex: np.ndarray, triangle: np.ndarray, n: int) -> np.ndarray:
@@ -365,3 +353,100 @@ class Playback:
         if status != 0:
             self.changed()
         return status == 0
+
+
+@dataclass(frozen=True, eq=False)
+class GuardArrays:
+    """A lip guard's arrays as the kernel's `pbk_guard_lips_*` takes them (`lips.LipGuard` makes them once)."""
+
+    vertices: np.ndarray  # (V,) int32
+    side: np.ndarray  # (V,) float64
+    slack: np.ndarray  # (V,) float64
+    knots: np.ndarray  # (J,) int32
+    order: np.ndarray  # int32
+    starts: np.ndarray  # (2J + 1,) int32: where each run starts in order, then len(order)
+    spread: np.ndarray  # (K, M) float64
+    axes: np.ndarray  # (3, 3) float64
+    reach: np.ndarray  # (2,) float64
+    width: float
+    scratch: np.ndarray  # (2V,) float64
+    n_vertices: int  # the least vertex count of a mesh these vertices index
+    points: np.ndarray  # (M, 3) float64: each call's control points are copied here
+
+    @functools.cached_property
+    def arguments(self) -> tuple:
+        """The kernel's arguments but the output (numpy's `.ctypes.data` costs about a microsecond a call)."""
+        return (
+            len(self.vertices),
+            self.vertices.ctypes.data,
+            self.side.ctypes.data,
+            self.slack.ctypes.data,
+            len(self.knots),
+            self.knots.ctypes.data,
+            self.order.ctypes.data,
+            self.starts.ctypes.data,
+            self.spread.ctypes.data,
+            len(self.points),
+            self.points.ctypes.data,
+            self.axes.ctypes.data,
+            self.reach.ctypes.data,
+            self.width,
+            self.scratch.ctypes.data,
+        )
+
+    @classmethod
+    def of(cls, vertices, side, slack, knots, order, starts, spread, axes, reach, width) -> GuardArrays:
+        def contiguous(array, dtype):
+            return np.ascontiguousarray(array, dtype=dtype)
+
+        vertices, order, starts = (np.asarray(a, dtype=np.int64) for a in (vertices, order, starts))
+        if not (
+            np.shape(spread)[0] == GUARD_KNOTS
+            and np.shape(axes) == (3, 3)
+            and np.shape(reach) == (2,)
+            and len(starts) == 2 * len(knots)
+            and np.all((0 <= np.asarray(knots)) & (np.asarray(knots) < GUARD_KNOTS))
+            and np.all((0 <= order) & (order < len(vertices)))
+            and np.all(np.diff(np.r_[starts, len(order)]) > 0)
+            and (len(starts) == 0 or starts[0] == 0)
+            and np.all(vertices >= 0)
+            and len(vertices) == len(side) == len(slack)
+            and width > 0.0
+        ):
+            raise DeformError("inconsistent lip guard arrays")
+        return cls(
+            vertices=contiguous(vertices, np.int32),
+            side=contiguous(side, np.float64),
+            slack=contiguous(slack, np.float64),
+            knots=contiguous(knots, np.int32),
+            order=contiguous(order, np.int32),
+            starts=contiguous(np.r_[starts, len(order)], np.int32),
+            spread=contiguous(spread, np.float64),
+            axes=contiguous(axes, np.float64),
+            reach=contiguous(reach, np.float64),
+            width=float(width),
+            scratch=np.empty(2 * len(vertices)),
+            n_vertices=int(vertices.max(initial=-1)) + 1,
+            points=np.empty((np.shape(spread)[1], 3)),
+        )
+
+
+def guard_lips_into(arrays: GuardArrays, out: np.ndarray, points: np.ndarray) -> bool:
+    """`lips.guard_lips` by the kernel, in place on ``out`` (N, 3, C-contiguous float32 or float64) for the control
+    points (M, 3); False, with ``out`` untouched, where the kernel is unavailable. Not thread-safe (``scratch``)."""
+    kernel = _kernel() if available() else None
+    if (
+        kernel is None
+        or out.dtype not in (np.float32, np.float64)
+        or out.ndim != 2
+        or out.shape[1] != 3
+        or not out.flags.c_contiguous
+        or not out.flags.writeable
+        or points.shape != arrays.points.shape
+        or arrays.n_vertices > len(out)
+    ):
+        return False
+    arguments = arrays.arguments
+    arrays.points[...] = points
+    status = kernel.pbk_guard_lips(int(out.dtype == np.float32), *arguments, out.ctypes.data)
+    return status == 0

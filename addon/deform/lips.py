@@ -27,6 +27,7 @@ from ..mpeg4.feature_points import fp_index
 
 MIN_PROJECTED_AREA = 1e-12  # m^2: a triangle seen edge-on from above has no height to give
 BOX_MARGIN = 2e-3  # m: the mouth box reaches this far above and below the outer lip contour
+EDGE_SLACK = 1e-9  # barycentric: a column this close to a triangle's edge goes through it
 
 
 def mouth_sides(
@@ -102,7 +103,8 @@ def _depth(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
     wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
     wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
     wa = 1.0 - wb - wc
-    inside = (wa >= 0.0) & (wb >= 0.0) & (wc >= 0.0)
+    # a column through an edge belongs to both triangles, whichever way rounding puts it
+    inside = (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wc >= -EDGE_SLACK)
     height = wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1]
     offset = up * (height - points[:, None, 1])  # > 0: the surface lies ahead, looking along `up`
     faces_up = up * normal_y > 0.0

@@ -96,3 +96,34 @@ def test_played_frames_equal_frames_evaluated_whole(monkeypatch):
     assert max(np.abs(p - played[0]).max() for p in played) > 1e-3
     for k, (a, b) in enumerate(zip(played, whole, strict=True)):
         np.testing.assert_array_equal(a, b, err_msg=f"played frame {k}")
+
+
+@needs_kernel
+def test_the_kernel_guards_the_lips_as_the_numpy_guard_does(monkeypatch):
+    """Keep Lips Apart by the compiled kernel (the default) and by its numpy reference give the same played
+    frames, to float32 rounding; the demo presses the lips together at frames 72-75."""
+    head = set_up()
+    scene = bpy.context.scene
+    play(head, 1)
+    frames = [*range(60, 90), 1, 75]
+    calls = []
+    guard_into = fused.guard_lips_into
+
+    def counted(*args):
+        calls.append(1)
+        return guard_into(*args)
+
+    monkeypatch.setattr(fused, "guard_lips_into", counted)
+    kernel = []
+    for frame in frames:
+        scene.frame_set(frame)
+        kernel.append(positions(head.data).copy())
+    assert len(calls) >= 20  # the kernel's guard ran
+    monkeypatch.setattr(fused, "guard_lips_into", lambda *args: False)  # the numpy guard instead
+    live.forget(head)
+    for frame, expected in zip(frames, kernel, strict=True):
+        scene.frame_set(frame)
+        np.testing.assert_allclose(positions(head.data), expected, rtol=0.0, atol=2e-7, err_msg=f"frame {frame}")
+    head.mpeg4_face.keep_lips_apart = False
+    scene.frame_set(75)
+    assert np.abs(positions(head.data) - kernel[-1]).max() > 1e-4  # the guard did move the lips there
