@@ -38,10 +38,10 @@ __asm__(".symver pthread_create, pthread_create@GLIBC_2.2.5");
 __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 #endif
 
-#define PBK_ABI_VERSION 4
+#define PBK_ABI_VERSION 5
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
-#define PARALLEL_WORK 50000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */
+#define PARALLEL_WORK 150000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */
 
 #if defined(_WIN32)
 #define PBK_EXPORT __declspec(dllexport)
@@ -67,8 +67,9 @@ typedef struct {
     double shift[4];    /* the translation every vertex takes times its weight sum (x, y, z, 0) */
     const Quad *plain;  /* per plain key: x, y, z of its 4 rows */
     const Quad *apex;   /* per apex key: x, y, z of dVj, dn, b'j, b'(j-1), then of bj, b(j-1) at rest, 0, 0 */
-    const double *gram; /* per apex key: g' = b'j . b'(j-1) now, then g at rest */
+    const double *gram; /* per apex key: g' = b'j . b'(j-1) */
     const unsigned char *moved_triangle; /* per triangle: 1 when it moved since rest */
+    const double *apex_rest;             /* per apex pair: its factor r = w D / d at rest (eq. 13-14) */
     uint64_t moved[2]; /* bit t % 128: triangle t moved since rest */
 } Tables;
 
@@ -115,7 +116,7 @@ static void transpose(const double *r0, const double *r1, const double *r2, cons
  * dVj are taken relative to `shift`, the mean motion of the triangles' first corners, whose share every
  * vertex gets with its exact weight sum: so no rounded coefficient multiplies a translation. */
 static void build_tables(int64_t n_triangles, const double *control, const double *control_rest,
-                         const int32_t *triangles, Quad *plain, Quad *apex, double *gram, double *shift,
+                         const double *rest_bases, const int32_t *triangles, Quad *plain, Quad *apex, double *gram, double *shift,
                          unsigned char *moved_triangle, uint64_t *moved_bits) {
     double mean[3] = {0.0, 0.0, 0.0};
     for (int64_t t = 0; t < n_triangles; ++t)
@@ -136,7 +137,8 @@ static void build_tables(int64_t n_triangles, const double *control, const doubl
         if (moved) moved_bits[(t / 64) % 2] |= (uint64_t)1 << (t % 64);
         moved_triangle[t] = moved;
         Basis now = triangle_basis(control, triangles + 3 * t);
-        Basis rest = triangle_basis(control_rest, triangles + 3 * t);
+        Basis rest;
+        memcpy(&rest, rest_bases + 21 * t, sizeof rest);
         double d[7][3], along[3][3];
         for (int r = 0; r < 7; ++r)
             for (int k = 0; k < 3; ++k) d[r][k] = now.v[r][k] - rest.v[r][k] - (r < 3 ? mean[k] : 0.0);
@@ -151,9 +153,7 @@ static void build_tables(int64_t n_triangles, const double *control, const doubl
             transpose(d[j], along[j], d[4 + j], d[3], plain + 12 * t + 3 * (1 + j));
             transpose(d[j], d[3], edge_normal, previous, apex + 6 * key);
             transpose(rest_normal, rest_previous, zero, zero, apex + 6 * key + 3);
-            gram[2 * key] = edge_normal[0] * previous[0] + edge_normal[1] * previous[1] + edge_normal[2] * previous[2];
-            gram[2 * key + 1] = rest_normal[0] * rest_previous[0] + rest_normal[1] * rest_previous[1] +
-                                rest_normal[2] * rest_previous[2];
+            gram[key] = edge_normal[0] * previous[0] + edge_normal[1] * previous[1] + edge_normal[2] * previous[2];
         }
     }
 }
@@ -382,24 +382,25 @@ static int64_t select_work(int single, int64_t n_groups, const uint64_t *group_m
 }
 
 static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const double *control,
-                    const double *control_rest, const int32_t *triangles, const double *base,
+                    const double *control_rest, const double *rest_bases, const int32_t *triangles, const double *base,
                     const int32_t *plain_start, const int32_t *plain_key, const void *plain_coef,
                     const int32_t *apex_start, const int32_t *apex_key, const void *apex_coef,
-                    const void *apex_scale, const void *rest_out, const uint64_t *vertex_mask, int64_t n_groups,
+                    const void *apex_scale, const double *apex_rest, const void *rest_out,
+                    const uint64_t *vertex_mask, int64_t n_groups,
                     const uint64_t *group_mask, const int32_t *group_start, const int32_t *group_vertex,
                     uint8_t *fresh, int32_t *work, int32_t n_threads, void *out) {
     if (n_vertices < 0 || n_triangles < 0 || n_groups < 0 || n_threads < 1 || n_threads > PBK_MAX_THREADS) return 1;
     int max_chunks = n_threads == 1 ? 1 : CHUNKS_PER_THREAD * n_threads;
-    /* one block: the job, the chunk bounds, then per triangle 12 plain and 18 apex Quads, 6 Gram terms and a byte */
+    /* one block: the job, the chunk bounds, then per triangle 12 plain and 18 apex Quads, 3 Gram terms and a byte */
     size_t head = sizeof(Job) + sizeof(int64_t) * (size_t)(max_chunks + 1);
-    size_t per_triangle = 30 * sizeof(Quad) + 6 * sizeof(double) + 1;
+    size_t per_triangle = 30 * sizeof(Quad) + 3 * sizeof(double) + 1;
     char *block = malloc(head + sizeof(Quad) + (size_t)n_triangles * per_triangle);
     if (!block) return 2;
     Job *job = (Job *)block;
     Quad *plain = (Quad *)(block + head + (sizeof(Quad) - (uintptr_t)(block + head) % sizeof(Quad)) % sizeof(Quad));
     Quad *apex = plain + 12 * n_triangles;
     double *gram = (double *)(apex + 18 * n_triangles);
-    unsigned char *moved_triangle = (unsigned char *)(gram + 6 * n_triangles);
+    unsigned char *moved_triangle = (unsigned char *)(gram + 3 * n_triangles);
     *job = (Job){.range = range_for(single),
                  .list = list_for(single),
                  .base = base,
@@ -412,10 +413,14 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
                  .apex_scale = apex_scale,
                  .rest_out = rest_out,
                  .vertex_mask = vertex_mask,
-                 .tables = {.plain = plain, .apex = apex, .gram = gram, .moved_triangle = moved_triangle},
+                 .tables = {.plain = plain,
+                            .apex = apex,
+                            .gram = gram,
+                            .moved_triangle = moved_triangle,
+                            .apex_rest = apex_rest},
                  .out = out,
                  .bounds = (int64_t *)(block + sizeof(Job))};
-    build_tables(n_triangles, control, control_rest, triangles, plain, apex, gram, job->tables.shift, moved_triangle,
+    build_tables(n_triangles, control, control_rest, rest_bases, triangles, plain, apex, gram, job->tables.shift, moved_triangle,
                  job->tables.moved);
     atomic_init(&job->next, 0);
     atomic_init(&job->finished, 0);
@@ -456,24 +461,26 @@ static int evaluate(int single, int64_t n_vertices, int64_t n_triangles, const d
 /* out (N, 3) for the control points (M, 3) now and at rest. Returns 0; 1 for bad sizes or thread count
  * or 2 when memory ran out, leaving out untouched. The apex arrays are NULL in SoFFD mode. */
 PBK_EXPORT int pbk_evaluate_f32(int64_t n_vertices, int64_t n_triangles, const double *control,
-                                const double *control_rest, const int32_t *triangles, const double *base,
+                                const double *control_rest, const double *rest_bases, const int32_t *triangles,
+                                const double *base,
                                 const int32_t *plain_start, const int32_t *plain_key, const float *plain_coef,
                                 const int32_t *apex_start, const int32_t *apex_key, const float *apex_coef,
-                                const float *apex_scale, const float *rest_out, const uint64_t *vertex_mask,
+                                const float *apex_scale, const double *apex_rest, const float *rest_out, const uint64_t *vertex_mask,
                                 int32_t n_threads, float *out) {
-    return evaluate(1, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, 0, NULL, NULL, NULL,
+    return evaluate(1, n_vertices, n_triangles, control, control_rest, rest_bases, triangles, base, plain_start, plain_key,
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, apex_rest, rest_out, vertex_mask, 0, NULL, NULL, NULL,
                     NULL, NULL, n_threads, out);
 }
 
 PBK_EXPORT int pbk_evaluate_f64(int64_t n_vertices, int64_t n_triangles, const double *control,
-                                const double *control_rest, const int32_t *triangles, const double *base,
+                                const double *control_rest, const double *rest_bases, const int32_t *triangles,
+                                const double *base,
                                 const int32_t *plain_start, const int32_t *plain_key, const double *plain_coef,
                                 const int32_t *apex_start, const int32_t *apex_key, const double *apex_coef,
-                                const double *apex_scale, const double *rest_out, const uint64_t *vertex_mask,
+                                const double *apex_scale, const double *apex_rest, const double *rest_out, const uint64_t *vertex_mask,
                                 int32_t n_threads, double *out) {
-    return evaluate(0, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, vertex_mask, 0, NULL, NULL, NULL,
+    return evaluate(0, n_vertices, n_triangles, control, control_rest, rest_bases, triangles, base, plain_start, plain_key,
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, apex_rest, rest_out, vertex_mask, 0, NULL, NULL, NULL,
                     NULL, NULL, n_threads, out);
 }
 
@@ -484,31 +491,42 @@ PBK_EXPORT int pbk_evaluate_f64(int64_t n_vertices, int64_t n_triangles, const d
  * marked 1. So the caller must zero `fresh` for every group whose vertices it changed in `out` itself.
  * `work` is scratch for N int32. Returns as pbk_evaluate_f32. */
 PBK_EXPORT int pbk_evaluate_groups_f32(int64_t n_vertices, int64_t n_triangles, const double *control,
-                                       const double *control_rest, const int32_t *triangles, const double *base,
+                                       const double *control_rest, const double *rest_bases, const int32_t *triangles,
+                                const double *base,
                                        const int32_t *plain_start, const int32_t *plain_key, const float *plain_coef,
                                        const int32_t *apex_start, const int32_t *apex_key, const float *apex_coef,
-                                       const float *apex_scale, const float *rest_out, int64_t n_groups,
+                                       const float *apex_scale, const double *apex_rest, const float *rest_out, int64_t n_groups,
                                        const uint64_t *group_mask, const int32_t *group_start,
                                        const int32_t *group_vertex, uint8_t *fresh, int32_t *work, int32_t n_threads,
                                        float *out) {
     if (!group_mask || !group_start || !group_vertex || !fresh || !work) return 1;
-    return evaluate(1, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, NULL, n_groups, group_mask,
+    return evaluate(1, n_vertices, n_triangles, control, control_rest, rest_bases, triangles, base, plain_start, plain_key,
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, apex_rest, rest_out, NULL, n_groups, group_mask,
                     group_start, group_vertex, fresh, work, n_threads, out);
 }
 
 PBK_EXPORT int pbk_evaluate_groups_f64(int64_t n_vertices, int64_t n_triangles, const double *control,
-                                       const double *control_rest, const int32_t *triangles, const double *base,
+                                       const double *control_rest, const double *rest_bases, const int32_t *triangles,
+                                const double *base,
                                        const int32_t *plain_start, const int32_t *plain_key, const double *plain_coef,
                                        const int32_t *apex_start, const int32_t *apex_key, const double *apex_coef,
-                                       const double *apex_scale, const double *rest_out, int64_t n_groups,
+                                       const double *apex_scale, const double *apex_rest, const double *rest_out, int64_t n_groups,
                                        const uint64_t *group_mask, const int32_t *group_start,
                                        const int32_t *group_vertex, uint8_t *fresh, int32_t *work, int32_t n_threads,
                                        double *out) {
     if (!group_mask || !group_start || !group_vertex || !fresh || !work) return 1;
-    return evaluate(0, n_vertices, n_triangles, control, control_rest, triangles, base, plain_start, plain_key,
-                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, rest_out, NULL, n_groups, group_mask,
+    return evaluate(0, n_vertices, n_triangles, control, control_rest, rest_bases, triangles, base, plain_start, plain_key,
+                    plain_coef, apex_start, apex_key, apex_coef, apex_scale, apex_rest, rest_out, NULL, n_groups, group_mask,
                     group_start, group_vertex, fresh, work, n_threads, out);
 }
 
 #include "lip_guard.h"
+
+/* rest_bases (T, 7, 3) for the grouped and plain entry points: each triangle's basis V0, V1, V2, n, b0, b1, b2
+ * (regions.deformation_basis) at the rest control points, made once per layout by this same code. */
+PBK_EXPORT void pbk_bases(int64_t n_triangles, const double *control, const int32_t *triangles, double *bases) {
+    for (int64_t t = 0; t < n_triangles; ++t) {
+        Basis basis = triangle_basis(control, triangles + 3 * t);
+        memcpy(bases + 21 * t, &basis, sizeof basis);
+    }
+}

@@ -33,8 +33,8 @@ TARGET static inline __attribute__((always_inline)) void SUM(int64_t u, const do
             if (!moved[key / 3]) continue;
             const Quad *rows = tables->apex + 6 * key;
             const REAL *coef = apex_coef + 4 * (int64_t)p;
-            double r = apex_ratio(coef[2], coef[3], tables->gram[2 * key], scale[p]);
-            double r_rest = apex_ratio(coef[2], coef[3], tables->gram[2 * key + 1], scale[p]);
+            double r = apex_ratio(coef[2], coef[3], tables->gram[key], scale[p]);
+            double r_rest = tables->apex_rest[p];
             Quad c = LOAD(coef) * (Quad){1.0, 1.0, r, r}; /* [w, h w, a r, b r] on [dVj, dn, b'j, b'(j-1)] */
             Quad c_rest = {-coef[2] * r_rest, -coef[3] * r_rest, 0.0, 0.0}; /* less a r b_j + b r b(j-1) at rest */
             weight += c[0];

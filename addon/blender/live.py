@@ -31,6 +31,7 @@ log = logging.getLogger(__name__)
 
 MODES = {"PLANAR_BONES": "planar_bones", "SOFFD": "soffd"}
 PAUSED_IN_EDIT_MODE = "Paused in Edit Mode (the rest shape is shown)"
+_NATIVE_GUARD = True  # the compiled guard where the kernel has it (its numpy reference: lips.guard_lips)
 
 
 @dataclass
@@ -273,7 +274,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             lips = state.lip_points
             if state.lip_guard is not None and not np.array_equal(driving[lips], state.binding.control_rest[lips]):
                 # the lips press on each other, never pass
-                if not fused.guard_lips_into(state.lip_arrays, state.out, driving):
+                if not (_NATIVE_GUARD and fused.guard_lips_into(state.lip_arrays, state.out, driving)):
                     guard_lips(state.lip_guard, state.out, driving)
         eyelid_rig.apply(face, state.binding, state.out, fps)  # lids turn over the eyeballs (no V, no crossing)
         rest_shape.write_positions(face.data, state.out)

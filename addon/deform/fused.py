@@ -45,9 +45,9 @@ from pathlib import Path
 import numpy as np
 
 from .inputs import DeformError
-from .regions import APEX, FACE
+from .regions import APEX, FACE, deformation_basis
 
-ABI_VERSION = 4  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 5  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -58,8 +58,8 @@ PLAIN_REGIONS = 4  # FACE, EDGE + 0..2: key = triangle × 4 + region
 APEX_CORNERS = 3  # APEX + 0..2: key = triangle × 3 + corner
 
 _POINTER = ctypes.c_void_p
-_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 13, ctypes.c_int32, _POINTER]
-_GROUPED_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 12, ctypes.c_int64, *[_POINTER] * 5]
+_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 15, ctypes.c_int32, _POINTER]
+_GROUPED_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 14, ctypes.c_int64, *[_POINTER] * 5]
 _GROUPED_ARGUMENTS += [ctypes.c_int32, _POINTER]
 GUARD_KNOTS = 17  # GUARD_KNOTS in native/lip_guard.h, lips.N_KNOTS
 _GUARD_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, *[_POINTER] * 4, ctypes.c_int64]
@@ -72,6 +72,7 @@ class Layout:
 
     dtype: type
     control_rest: np.ndarray  # (M, 3) float64
+    rest_bases: np.ndarray  # (T, 7, 3) float64: each triangle's deformation basis at rest, by the kernel's own code
     triangles: np.ndarray  # (T, 3) int32
     base: np.ndarray  # (N, 4) float64: the reference at rest (less the apex in-plane part), weight sum
     plain_start: np.ndarray  # (N + 1,) int32: vertex v's face/edge pairs are plain_start[v]:plain_start[v + 1]
@@ -81,6 +82,7 @@ class Layout:
     apex_key: np.ndarray | None  # (A,) int32
     apex_coef: np.ndarray | None  # (A, 4): w, h·w, a, b
     apex_scale: np.ndarray | None  # (A,): w·D
+    apex_rest: np.ndarray | None  # (A,) float64: the factor r = w·D/d at rest, from the rounded a, b and w·D
     rest_out: np.ndarray  # (N, 3) of dtype: the result at rest, for vertices whose triangles all are at rest
     vertex_mask: np.ndarray  # (N, 2) uint64: bit t % 128 set when the vertex has a pair with triangle t
     group_mask: np.ndarray  # (G, 2) uint64: the distinct rows of vertex_mask, each a group of vertices
@@ -100,8 +102,9 @@ class Layout:
     def arguments(self) -> tuple:
         """The kernel's arguments between the control points and the thread count (the arrays stay alive
         as long as the layout)."""
-        arrays = (self.control_rest, self.triangles, self.base, self.plain_start, self.plain_key, self.plain_coef)
-        apex = (self.apex_start, self.apex_key, self.apex_coef, self.apex_scale)
+        arrays = (self.control_rest, self.rest_bases, self.triangles, self.base, self.plain_start, self.plain_key)
+        arrays += (self.plain_coef,)
+        apex = (self.apex_start, self.apex_key, self.apex_coef, self.apex_scale, self.apex_rest)
         return (
             *(array.ctypes.data for array in arrays),
             *(None if a is None else a.ctypes.data for a in apex),
@@ -140,6 +143,8 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
             function = getattr(library, name)
             function.argtypes = _GROUPED_ARGUMENTS
             function.restype = ctypes.c_int
+        library.pbk_bases.argtypes = [ctypes.c_int64, _POINTER, _POINTER, _POINTER]
+        library.pbk_bases.restype = None
         library.pbk_guard_lips.argtypes = _GUARD_ARGUMENTS
         library.pbk_guard_lips.restype = ctypes.c_int
     except (OSError, AttributeError):
@@ -192,6 +197,9 @@ def build_layout(
     if n >= 2**31 or len(vertex) >= 2**31:
         raise DeformError("binding too large for the compiled kernel")
     rest_out = np.ascontiguousarray(base, dtype=dtype)
+    control_rest = np.ascontiguousarray(control_rest, dtype=np.float64)
+    triangles = np.ascontiguousarray(triangles, dtype=np.int32)
+    rest_bases = _rest_bases(control_rest, triangles)
     weight = np.asarray(pair_weight, dtype=np.float64)
     face_local = np.asarray(pair_face_local, dtype=np.float64)
     region_local = np.asarray(pair_region_local, dtype=np.float64)
@@ -209,13 +217,14 @@ def build_layout(
     plain = by_vertex if soffd else by_vertex[region[by_vertex] < APEX]
     plain_key = (triangle * PLAIN_REGIONS + (0 if soffd else region))[plain].astype(np.int32)
     plain_coef = _gathered((weight, x * weight, y * weight, h * weight), plain, dtype)  # eq. 1, eq. 12
-    apex_start = apex_key = apex_coef = apex_scale = None
+    apex_start = apex_key = apex_coef = apex_scale = apex_rest = None
     if not soffd:  # eq. 13–14
         apex = by_vertex[region[by_vertex] >= APEX]
         apex_start = _starts(vertex[apex], n)
         apex_key = (triangle * APEX_CORNERS + region - APEX)[apex].astype(np.int32)
         apex_coef = _gathered((weight, h * weight, x, y), apex, dtype)
         apex_scale = (weight * np.asarray(pair_apex_distance, dtype=np.float64))[apex].astype(dtype)
+        apex_rest = _apex_ratio(apex_coef, apex_scale, apex_key, rest_bases)
     vertex_mask = _vertex_mask(vertex, triangle, n)
     group_vertex = np.lexsort((vertex_mask[:, 1], vertex_mask[:, 0]))  # equal masks together, by vertex
     sorted_mask = vertex_mask[group_vertex]
@@ -225,8 +234,9 @@ def build_layout(
     vertex_group[group_vertex] = np.cumsum(first) - 1
     return Layout(
         dtype=dtype,
-        control_rest=np.ascontiguousarray(control_rest, dtype=np.float64),
-        triangles=np.ascontiguousarray(triangles, dtype=np.int32),
+        control_rest=control_rest,
+        rest_bases=rest_bases,
+        triangles=triangles,
         base=base,
         plain_start=_starts(vertex[plain], n),
         plain_key=plain_key,
@@ -235,6 +245,7 @@ def build_layout(
         apex_key=apex_key,
         apex_coef=apex_coef,
         apex_scale=apex_scale,
+        apex_rest=apex_rest,
         rest_out=rest_out,
         vertex_mask=vertex_mask,
         group_mask=np.ascontiguousarray(group_mask),
@@ -242,6 +253,27 @@ def build_layout(
         group_vertex=group_vertex.astype(np.int32),
         vertex_group=vertex_group,
     )
+
+
+def _rest_bases(control_rest: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T, 7, 3) the triangles' bases at rest as the kernel computes them each frame for the moved control points
+    (so a triangle's rows change by exactly 0 where its corners did not move); numpy's where there is no kernel."""
+    kernel = _kernel()
+    if kernel is None:
+        return np.ascontiguousarray(deformation_basis(control_rest[triangles]))
+    bases = np.empty((len(triangles), 7, 3))
+    kernel.pbk_bases(len(triangles), control_rest.ctypes.data, triangles.ctypes.data, bases.ctypes.data)
+    return bases
+
+
+def _apex_ratio(coef: np.ndarray, scale: np.ndarray, key: np.ndarray, rest_bases: np.ndarray) -> np.ndarray:
+    """(A,) each apex pair's r = w·D/d at rest (eq. 13-14), d = ‖a b_j + b b_{j−1}‖ from the rounded a, b and
+    the rest Gram term, 0 where d = 0: the kernel takes each pair's in-plane part as its change from this."""
+    edge_normals = rest_bases[:, 4:7]
+    gram = np.einsum("tjk,tjk->tj", edge_normals, edge_normals[:, [2, 0, 1]]).ravel()[key]
+    a, b = coef[:, 2].astype(np.float64), coef[:, 3].astype(np.float64)
+    d = np.sqrt(np.maximum(a * a + b * b + 2.0 * a * b * gram, 0.0))
+    return np.divide(scale.astype(np.float64), d, out=np.zeros_like(d), where=d > 0.0)
 
 
 def _vertex_mask(vertex: np.ndarray, triangle: np.ndarray, n: int) -> np.ndarray:
@@ -314,8 +346,9 @@ class Playback:
         self.layout, self.out = layout, out
         self._fresh = np.zeros(len(layout.group_mask), dtype=np.uint8)  # 1: the group's vertices hold their rest
         self._work = np.empty(layout.n_vertices, dtype=np.int32)
-        arrays = (layout.control_rest, layout.triangles, layout.base, layout.plain_start, layout.plain_key)
-        apex = (layout.apex_start, layout.apex_key, layout.apex_coef, layout.apex_scale)
+        arrays = (layout.control_rest, layout.rest_bases, layout.triangles, layout.base, layout.plain_start)
+        arrays += (layout.plain_key,)
+        apex = (layout.apex_start, layout.apex_key, layout.apex_coef, layout.apex_scale, layout.apex_rest)
         groups = (layout.group_mask, layout.group_start, layout.group_vertex, self._fresh, self._work)
         self._arguments = (
             *(array.ctypes.data for array in arrays),
