@@ -68,11 +68,14 @@ static void shifted_grid(const double *kx, double r, double *grid) {
  * guarded knots `knots` (the upper lip's runs, then the lower's; starts has 2 n_runs + 1 entries, the last
  * the length of order); spread (17, M)
  * the seam's knots as weights of the control points (M, 3) `points`; axes (3, 3) the face frame; reach (2,)
- * the widest triangle of the lower and upper lip across; width the seam's width at rest. scratch: 2 V doubles. */
+ * the widest triangle of the lower and upper lip across; width the seam's width at rest; skin (n_skin,) the guarded
+ * vertices, then the skin beside them that follows, sources and shares (n_sources, n_skin) whose push each shares
+ * and how much (lips._carry). scratch: 2 V doubles. */
 static void guard(int single, int64_t n_guarded, const int32_t *vertices, const double *side, const double *slack,
                   int64_t n_runs, const int32_t *knots, const int32_t *order, const int32_t *starts,
                   const double *spread, int64_t n_points, const double *points, const double *axes,
-                  const double *reach, double width, double *scratch, void *output) {
+                  const double *reach, double width, int64_t n_skin, const int32_t *skin, int64_t n_sources,
+                  const int32_t *sources, const double *shares, double *scratch, void *output) {
     float *out32 = output;
     double *out64 = output;
     double *x = scratch, *signed_y = scratch + n_guarded;
@@ -131,13 +134,26 @@ static void guard(int single, int64_t n_guarded, const int32_t *vertices, const 
             envelope[lip][g] = best;
         }
     }
-    /* a vertex past the seam (more than at rest) goes straight along the face's up back onto it */
+    /* a vertex past the seam (more than at rest) goes straight along the face's up back onto it, and the skin
+     * beside it follows with its shares of the pushes (each push in place of the vertex's x, used no more) */
+    double *push = x;
+    int any = 0;
     for (int64_t i = 0; i < n_guarded; ++i) {
         int lip = side[i] > 0.0 ? 0 : 1;
         double past = slack[i] - signed_y[i] + interp(x[i], grid[lip], envelope[lip], GUARD_GRID);
-        if (!(past > 0.0)) continue;
-        double step = side[i] * past;
-        int64_t v = 3 * (int64_t)vertices[i];
+        push[i] = past > 0.0 ? past : 0.0;
+        any |= past > 0.0;
+    }
+    if (!any) return;
+    for (int64_t j = 0; j < n_skin; ++j) {
+        double step = 0.0;
+        for (int64_t k = 0; k < n_sources; ++k) { /* numpy's sum over axis 0: row by row */
+            double term = shares[k * n_skin + j] * push[sources[k * n_skin + j]];
+            step = k == 0 ? term : step + term;
+        }
+        if (j < n_guarded) step = side[j] * (push[j] > step ? push[j] : step);
+        if (step == 0.0) continue;
+        int64_t v = 3 * (int64_t)skin[j];
         for (int k = 0; k < 3; ++k) {
             if (axes[3 + k] == 0.0) continue;
             if (single)
@@ -152,9 +168,11 @@ static void guard(int single, int64_t n_guarded, const int32_t *vertices, const 
 PBK_EXPORT int pbk_guard_lips(int32_t single, int64_t n_guarded, const int32_t *vertices, const double *side,
                               const double *slack, int64_t n_runs, const int32_t *knots, const int32_t *order,
                               const int32_t *starts, const double *spread, int64_t n_points, const double *points,
-                              const double *axes, const double *reach, double width, double *scratch, void *out) {
-    if (n_guarded < 0 || n_runs < 0 || n_points < 0) return 1;
+                              const double *axes, const double *reach, double width, int64_t n_skin,
+                              const int32_t *skin, int64_t n_sources, const int32_t *sources, const double *shares,
+                              double *scratch, void *out) {
+    if (n_guarded < 0 || n_runs < 0 || n_points < 0 || n_skin < n_guarded || n_sources < 0) return 1;
     guard(single != 0, n_guarded, vertices, side, slack, n_runs, knots, order, starts, spread, n_points, points,
-          axes, reach, width, scratch, out);
+          axes, reach, width, n_skin, skin, n_sources, sources, shares, scratch, out);
     return 0;
 }

@@ -38,7 +38,7 @@ __asm__(".symver pthread_create, pthread_create@GLIBC_2.2.5");
 __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 #endif
 
-#define PBK_ABI_VERSION 5
+#define PBK_ABI_VERSION 6
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
 #define PARALLEL_WORK 150000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */

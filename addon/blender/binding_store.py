@@ -328,6 +328,7 @@ class _Job:
     inputs: BindInputs
     done: Callable
     start_at: float
+    prepare: Callable | None = None  # called with the new binding on the worker thread (to build what it can)
     thread: threading.Thread | None = None
     result: Binding | None = None
     error: BaseException | None = None
@@ -336,10 +337,11 @@ class _Job:
 _jobs: dict[int, _Job] = {}
 
 
-def request_rebind(face, done: Callable) -> None:
+def request_rebind(face, done: Callable, prepare: Callable | None = None) -> None:
     """Rebind after a setting changed without blocking the interface: the old binding keeps playing, the
-    new one is computed on a worker thread (the binder is numpy and needs no bpy) and stored, then
-    `done(face)` runs, on the main thread. Without a user interface (background mode) it binds at once."""
+    new one is computed on a worker thread (the binder is numpy and needs no bpy), `prepare(binding)` runs
+    there too, and it is stored, then `done(face)` runs, on the main thread. Without a user interface
+    (background mode) it binds at once."""
     inputs = stored_inputs(face)
     if inputs.key == stored_key(face):
         _jobs.pop(face.session_uid, None)
@@ -349,7 +351,7 @@ def request_rebind(face, done: Callable) -> None:
         save(face, inputs.bind(), inputs.key)
         done(face)
         return
-    _jobs[face.session_uid] = _Job(face.name, inputs, done, time.monotonic() + REBIND_DELAY)
+    _jobs[face.session_uid] = _Job(face.name, inputs, done, time.monotonic() + REBIND_DELAY, prepare)
     if not bpy.app.timers.is_registered(poll_jobs):
         bpy.app.timers.register(poll_jobs, first_interval=POLL)
 
@@ -357,6 +359,8 @@ def request_rebind(face, done: Callable) -> None:
 def _work(job: _Job) -> None:
     try:
         job.result = job.inputs.bind()
+        if job.prepare is not None:
+            job.prepare(job.result)
     except BaseException as exc:  # handed to the main thread, which reports it
         job.error = exc
 

@@ -47,7 +47,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, deformation_basis
 
-ABI_VERSION = 5  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 6  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -63,7 +63,7 @@ _GROUPED_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 14, ctypes.c
 _GROUPED_ARGUMENTS += [ctypes.c_int32, _POINTER]
 GUARD_KNOTS = 17  # GUARD_KNOTS in native/lip_guard.h, lips.N_KNOTS
 _GUARD_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, *[_POINTER] * 4, ctypes.c_int64]
-_GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, _POINTER, _POINTER]
+_GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, ctypes.c_int64, _POINTER, ctypes.c_int64, *[_POINTER] * 4]
 
 
 @dataclass(frozen=True, eq=False)
@@ -402,6 +402,9 @@ class GuardArrays:
     axes: np.ndarray  # (3, 3) float64
     reach: np.ndarray  # (2,) float64
     width: float
+    skin: np.ndarray  # (S,) int32: the guarded vertices, then the skin beside them that follows their push
+    sources: np.ndarray  # (k, S) int32: rows into vertices whose push each of skin shares
+    shares: np.ndarray  # (k, S) float64: how much of each
     scratch: np.ndarray  # (2V,) float64
     n_vertices: int  # the least vertex count of a mesh these vertices index
     points: np.ndarray  # (M, 3) float64: each call's control points are copied here
@@ -424,15 +427,24 @@ class GuardArrays:
             self.axes.ctypes.data,
             self.reach.ctypes.data,
             self.width,
+            len(self.skin),
+            self.skin.ctypes.data,
+            len(self.sources),
+            self.sources.ctypes.data,
+            self.shares.ctypes.data,
             self.scratch.ctypes.data,
         )
 
     @classmethod
-    def of(cls, vertices, side, slack, knots, order, starts, spread, axes, reach, width) -> GuardArrays:
+    def of(
+        cls, vertices, side, slack, knots, order, starts, spread, axes, reach, width, skin, sources, shares
+    ) -> GuardArrays:
         def contiguous(array, dtype):
             return np.ascontiguousarray(array, dtype=dtype)
 
-        vertices, order, starts = (np.asarray(a, dtype=np.int64) for a in (vertices, order, starts))
+        vertices, order, starts, skin, sources = (
+            np.asarray(a, dtype=np.int64) for a in (vertices, order, starts, skin, sources)
+        )
         if not (
             np.shape(spread)[0] == GUARD_KNOTS
             and np.shape(axes) == (3, 3)
@@ -445,6 +457,13 @@ class GuardArrays:
             and np.all(vertices >= 0)
             and len(vertices) == len(side) == len(slack)
             and width > 0.0
+            and skin.ndim == 1
+            and np.array_equal(skin[: len(vertices)], vertices)
+            and np.all(skin >= 0)
+            and sources.ndim == 2
+            and np.shape(shares) == (len(sources), len(skin))
+            and sources.shape[1] == len(skin)
+            and np.all((0 <= sources) & (sources < len(vertices)))
         ):
             raise DeformError("inconsistent lip guard arrays")
         return cls(
@@ -458,8 +477,11 @@ class GuardArrays:
             axes=contiguous(axes, np.float64),
             reach=contiguous(reach, np.float64),
             width=float(width),
+            skin=contiguous(skin, np.int32),
+            sources=contiguous(sources, np.int32),
+            shares=contiguous(shares, np.float64),
             scratch=np.empty(2 * len(vertices)),
-            n_vertices=int(vertices.max(initial=-1)) + 1,
+            n_vertices=int(skin.max(initial=-1)) + 1,
             points=np.empty((np.shape(spread)[1], 3)),
         )
 

@@ -18,6 +18,7 @@ inner-lip FPs and moves to lie between the lips where they come close.
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 
 import numpy as np
@@ -125,6 +126,9 @@ N_KNOTS = SEAM_STEPS * (len(SEAM_PAIRS) - 1) + 1
 CHORDS = (0.5, 1.0)  # half-widths of the seam's chords that bound each lip, x the other lip's reach
 ENDS = np.array([0.0, *(end for half in CHORDS for end in (-half, half))])  # the seam's point, chords' ends
 SHIFTS = np.unique(ENDS)  # where the bounds bend, x the reach from the seam's knots
+CARRY_RADIUS = 8e-3  # m along the skin: beside the lips, how far their push reaches
+CARRY_SOURCES = 3  # the guarded vertices nearest a carried one that share their push with it (and any tied)
+TIE = 1e-12  # m: distances along the skin this close are one
 LOWER_SHIFT = 1e6  # face x, beyond any mesh: the lower lip's bound is looked up past the upper lip's
 
 
@@ -144,7 +148,10 @@ class LipGuard:
     reach: tuple[float, float]  # the widest triangle of the lower / upper lip across (face x) at rest
     width: float  # the seam's width at rest (face x, corner to corner)
     shift: np.ndarray  # (V,) 0 on the upper lip, LOWER_SHIFT on the lower
-    lift: tuple[tuple[int, float], ...]  # (mesh axis, part) of the face's up along each mesh axis it has a part on
+    skin: np.ndarray  # (V + C,) `vertices`, then the skin beside them (within CARRY_RADIUS) that follows
+    sources: np.ndarray  # (CARRY_SOURCES, V + C) rows into `vertices`: whose push each of `skin` shares
+    shares: np.ndarray  # (CARRY_SOURCES, V + C) how much (signed: along a guarded vertex's side, else face up)
+    lift: tuple[tuple[np.ndarray, float], ...]  # (flat index of `skin` along a mesh axis, the face's up on it)
 
 
 def seam(guard: LipGuard, points: np.ndarray, signed_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -204,6 +211,7 @@ def bind_lip_guard(
     nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
     members = [np.flatnonzero((side == s) & (nearest == k)) for s in (1.0, -1.0) for k in knots]
+    carry = _carry(rest, tris, vertices, side)
     guard = LipGuard(
         vertices=vertices,
         n_upper=n_upper,
@@ -217,7 +225,8 @@ def bind_lip_guard(
         reach=reach,
         width=float(knots_x[-1] - knots_x[0]),
         shift=np.where(side > 0.0, 0.0, LOWER_SHIFT),
-        lift=tuple((int(axis), float(axes[1, axis])) for axis in np.flatnonzero(axes[1])),
+        **carry,
+        lift=tuple((3 * carry["skin"] + axis, float(axes[1, axis])) for axis in np.flatnonzero(axes[1])),
     )
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
@@ -229,21 +238,115 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> None:
 
     `points` are the control points as deformed (the FP positions the deformer was given). A vertex that
     has passed the seam (more than it did at rest) moves straight up or down onto it: the lips press on
-    each other there instead of passing through. Continuous (clamps, minima and maxima), and
-    mirror-symmetric for a mirror-symmetric face, as the seam's knots come in mirror pairs.
+    each other there instead of passing through. The skin beside it follows with a share of that push
+    that fades along the skin (`_carry`), so the faces between do not turn over. Continuous (clamps,
+    minima, maxima and fixed weights), and mirror-symmetric for a mirror-symmetric face and mesh, as the
+    seam's knots come in mirror pairs and tied distances along the skin share alike.
     """
     x, y = guard.axes[:2].astype(out.dtype) @ out.take(guard.vertices, axis=0).T  # take: 3x faster than out[...]
     signed_y = guard.side * y
     past = guard.slack - signed_y + _bound(guard, x, *seam(guard, points, signed_y))
-    moved = np.flatnonzero(past > 0.0)  # these move back onto the seam
-    if len(moved):
-        step = guard.side.take(moved) * past.take(moved)
-        if out.flags.c_contiguous:  # along the face's up, by flat index: 3x faster than out[rows] +=
-            flat, rows = out.reshape(-1), 3 * guard.vertices.take(moved)
-            for axis, part in guard.lift:
-                flat.put(rows + axis, flat.take(rows + axis) + step * part)
+    if past.max(initial=0.0) <= 0.0:
+        return
+    push = np.maximum(past, 0.0)
+    step = (guard.shares * push.take(guard.sources)).sum(axis=0)  # (k, V + C): 3x faster than (V + C, k)
+    n = len(guard.vertices)
+    step[:n] = guard.side * np.maximum(push, step[:n])
+    if out.flags.c_contiguous:  # along the face's up, by flat index: 3x faster than out[rows] +=
+        flat = out.reshape(-1)
+        for rows, part in guard.lift:
+            flat.put(rows, flat.take(rows) + step * part)
+    else:
+        out[guard.skin] += step[:, None] * guard.axes[1]
+
+
+def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: np.ndarray) -> dict:
+    """The skin that follows the guard's push (`LipGuard.skin`, `sources`, `shares`).
+
+    Each vertex within CARRY_RADIUS along the mesh's edges of the guarded `vertices` takes the average of
+    the pushes of its CARRY_SOURCES nearest guarded vertices, each weighted by 1 - smoothstep(d / radius) of
+    its distance d along the skin, times the largest of those weights: the push fades out smoothly over the
+    skin instead of folding the faces beside a pushed vertex. Beside the lips, vertices of both lips share
+    (where a push up meets a push down, at the mouth's corners, they cancel); a guarded vertex shares only
+    its own lip's pushes (toward its side: never toward the other lip) and moves by its own or the shared
+    push, whichever is more."""
+    rest = np.asarray(rest, dtype=np.float64)
+    n = len(rest)
+    near = np.zeros(n, bool)  # no path along the edges as long as CARRY_RADIUS leaves the lips' box grown by it
+    if len(vertices):
+        low, high = rest[vertices].min(axis=0) - CARRY_RADIUS, rest[vertices].max(axis=0) + CARRY_RADIUS
+        near = np.all((rest >= low) & (rest <= high), axis=1)
+    tris = triangles[near[triangles].all(axis=1)]
+    pairs = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]).astype(np.int64)
+    key = np.unique(np.concatenate([pairs[:, 0] * n + pairs[:, 1], pairs[:, 1] * n + pairs[:, 0]]))
+    begin, end = np.divmod(key, n)  # each edge both ways, by start then end
+    length = np.linalg.norm(rest[begin] - rest[end], axis=1)
+
+    def graph(keep: np.ndarray) -> tuple[list, list, list]:
+        starts = np.searchsorted(begin[keep], np.arange(n + 1))
+        return starts.tolist(), end[keep].tolist(), length[keep].tolist()
+
+    k = CARRY_SOURCES
+    beside = _nearest_sources(graph(np.ones(len(key), bool)), vertices, k)
+    skin = [vertices.tolist(), sorted(set(beside) - set(vertices.tolist()))]
+    lists = [[] for _ in vertices]
+    for lip in (1.0, -1.0):
+        rows = np.flatnonzero(side == lip)
+        on_lip = np.zeros(n, bool)
+        on_lip[vertices[rows]] = True
+        # along the lip's own edges: the nearest of its vertices are its neighbours on it (3x faster than
+        # searching the skin beside it too, at 68k vertices)
+        own = _nearest_sources(graph(on_lip[begin] & on_lip[end]), vertices[rows], k + 1)
+        for row, v in zip(rows.tolist(), vertices[rows].tolist(), strict=True):
+            lists[row] = [(d, int(rows[r])) for d, r in own[v] if rows[r] != row]
+    lists += [beside[v] for v in skin[1]]
+    width = max(map(len, lists), default=0)
+    sources, dist = np.zeros((len(lists), width), np.intp), np.full((len(lists), width), np.inf)
+    for i, found in enumerate(lists):
+        for j, (d, r) in enumerate(found):
+            dist[i, j], sources[i, j] = d, r
+    t = np.clip(dist / CARRY_RADIUS, 0.0, 1.0)
+    falloff = 1.0 - t * t * (3.0 - 2.0 * t)
+    shares = falloff / np.maximum(falloff.sum(axis=1, keepdims=True), 1e-300) * falloff.max(axis=1, keepdims=True)
+    shares *= side[sources] * np.concatenate([side, np.ones(len(skin[1]))])[:, None]
+    return {
+        "skin": np.array(skin[0] + skin[1], np.intp),
+        "sources": np.ascontiguousarray(sources.T),
+        "shares": np.ascontiguousarray(shares.T),
+    }
+
+
+def _nearest_sources(graph: tuple[list, list, list], sources: np.ndarray, k: int) -> dict[int, list]:
+    """{vertex: [(distance along the edges, row into `sources`), ...]}: up to `k` nearest of `sources`, nearest
+    first, for every vertex within CARRY_RADIUS of one. Dijkstra from all sources at once, each vertex
+    settled once per source until it has k: a source beaten k times at a vertex is beaten beyond it too."""
+    starts, ends, length = graph
+    heap = [(0.0, v, row) for row, v in enumerate(sources.tolist())]
+    heapq.heapify(heap)
+    found: dict[int, list] = {}
+    rows_at: dict[int, list] = {}  # the rows of found[v]: a short list, quicker to search than a set of pairs
+    pop, push = heapq.heappop, heapq.heappush
+    while heap:
+        d, v, row = pop(heap)
+        near = found.get(v)
+        if near is None:
+            near, rows = [], []
+            found[v], rows_at[v] = near, rows
         else:
-            out[guard.vertices.take(moved)] += step[:, None] * guard.axes[1]
+            rows = rows_at[v]
+            if (len(near) >= k and d > near[k - 1][0] + TIE) or row in rows:
+                continue  # ties with the k-th are all kept: which of two mirror sources came first must not matter
+        near.append((d, row))
+        rows.append(row)
+        for e in range(starts[v], starts[v + 1]):
+            du = d + length[e]
+            if du > CARRY_RADIUS:
+                continue
+            u = ends[e]
+            there = found.get(u)
+            if there is None or ((len(there) < k or du <= there[k - 1][0] + TIE) and row not in rows_at[u]):
+                push(heap, (du, u, row))  # else it would be passed over
+    return found
 
 
 def _bound(guard: LipGuard, x: np.ndarray, knots_x: np.ndarray, knots_y: np.ndarray) -> np.ndarray:

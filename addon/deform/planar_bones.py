@@ -364,6 +364,15 @@ def evaluate(
     return _evaluate_numpy(binding, deformation_basis(control[binding.triangles]), mode, out)
 
 
+def prepare_playback(binding: Binding, mode: str, dtype: type = np.float32) -> None:
+    """Build what `playback` needs for this binding, mode and output dtype now (on a worker thread, say),
+    so that its first call does not; nothing where the compiled kernel is unavailable."""
+    if mode not in MODES:
+        raise DeformError(f"unknown mode {mode!r}; expected one of {MODES}")
+    if fused.available():
+        _fused_layout(binding, mode, dtype)
+
+
 def playback(
     binding: Binding, mode: str, out: np.ndarray, rewritten: np.ndarray | None = None
 ) -> fused.Playback | None:

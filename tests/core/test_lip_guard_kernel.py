@@ -8,7 +8,7 @@ from addon.deform import fused
 from addon.deform.inputs import DeformError
 from addon.deform.lips import bind_lip_guard, guard_lips
 
-from .test_lips import FACE, FP_IDS, mouth, pressed
+from .test_lips import FACE, FP_IDS, mouth, mouth_with_skin, pressed
 
 needs_kernel = pytest.mark.skipif(not fused.available(), reason="no compiled kernel (python -m scripts.build_kernel)")
 TOLERANCE = 1e-9  # m: the kernel sums in double where numpy rounds the projections to the output's float32
@@ -17,14 +17,13 @@ TOLERANCE = 1e-9  # m: the kernel sums in double where numpy rounds the projecti
 def arrays(guard) -> fused.GuardArrays:
     return fused.GuardArrays.of(
         guard.vertices, guard.side, guard.slack, guard.knots, guard.order, guard.starts, guard.spread, guard.axes,
-        guard.reach, guard.width,
+        guard.reach, guard.width, guard.skin, guard.sources, guard.shares,
     )  # fmt: skip
 
 
-def cases():
-    """(deformed, control points) of the mouth: pressed by several amounts, and pressed with random jitter up and
+def cases(rest, upper, fps):
+    """(deformed, control points) of a mouth: pressed by several amounts, and pressed with random jitter up and
     down, some lip FPs moved too, so that the seam moves between the lips and bends."""
-    rest, _triangles, upper, _lower, fps = mouth()
     rng = np.random.default_rng(5)
     for amount in (0.0, 0.3, 0.75, 1.0, 1.5):
         yield pressed(rest, upper, fps, amount)
@@ -37,19 +36,23 @@ def cases():
 
 @needs_kernel
 @pytest.mark.parametrize("dtype", [np.float64, np.float32])
-def test_the_kernel_moves_the_lips_as_the_numpy_guard_does(dtype):
-    rest, triangles, upper, lower, fps = mouth()
+def test_the_kernel_moves_the_lips_and_the_skin_beside_them_as_the_numpy_guard_does(dtype):
+    """On the mouth whose upper lip turns up into skin: the skin beside the lips follows alike too."""
+    rest, triangles, upper, lower, fps, _edge, _above = mouth_with_skin()
     guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
     native = arrays(guard)
-    moved = 0
-    for deformed, points in cases():
+    moved = carried = 0
+    for deformed, points in cases(rest, upper | ~lower, fps):
         expected = deformed.astype(dtype)
         guard_lips(guard, expected, points)
         got = deformed.astype(dtype)
         assert fused.guard_lips_into(native, got, points)
         np.testing.assert_allclose(got, expected, rtol=0.0, atol=TOLERANCE if dtype == np.float64 else 1e-7)
         moved += int(np.any(expected != deformed.astype(dtype)))
+        beside = guard.skin[len(guard.vertices) :]
+        carried += int(np.any(expected[beside] != deformed.astype(dtype)[beside]))
     assert moved >= 15  # the guard did act in most cases
+    assert carried >= 15  # and the skin beside the lips followed
 
 
 @needs_kernel
@@ -67,7 +70,12 @@ def test_inconsistent_guard_arrays_are_refused():
     with pytest.raises(DeformError):
         fused.GuardArrays.of(
             guard.vertices, guard.side, guard.slack, guard.knots, guard.order + len(guard.vertices), guard.starts,
-            guard.spread, guard.axes, guard.reach, guard.width,
+            guard.spread, guard.axes, guard.reach, guard.width, guard.skin, guard.sources, guard.shares,
+        )  # fmt: skip
+    with pytest.raises(DeformError):  # a share from beyond the guarded vertices
+        fused.GuardArrays.of(
+            guard.vertices, guard.side, guard.slack, guard.knots, guard.order, guard.starts, guard.spread, guard.axes,
+            guard.reach, guard.width, guard.skin, guard.sources + len(guard.vertices), guard.shares,
         )  # fmt: skip
 
 

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from addon.deform.folds import count_inverted
 from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration
 
 FACE = np.eye(3)  # the test mesh is built in the face frame
@@ -13,14 +14,17 @@ FP_IDS = ("2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9")
 
 
 def sheet(y: float, faces_up: bool) -> tuple[np.ndarray, np.ndarray]:
-    """A flat grid at height y over XS x ZS: (vertices, triangles facing up or down)."""
+    """A flat grid at height y over XS x ZS: (vertices, triangles facing up or down), mirror-symmetric in x."""
     x, z = np.meshgrid(XS, ZS, indexing="ij")
     vertices = np.stack([x.ravel(), np.full(x.size, y), z.ravel()], axis=1)
     tris = []
     for i in range(len(XS) - 1):
         for j in range(len(ZS) - 1):
             a, b, c, d = i * len(ZS) + j, i * len(ZS) + j + 1, (i + 1) * len(ZS) + j, (i + 1) * len(ZS) + j + 1
-            tris += [(a, b, c), (c, b, d)] if faces_up else [(a, c, b), (c, d, b)]
+            if XS[i + 1] > 0.0:
+                tris += [(a, b, c), (c, b, d)] if faces_up else [(a, c, b), (c, d, b)]
+            else:  # the mirror image's diagonal: the mesh is mirror-symmetric (the guard's carry follows its edges)
+                tris += [(a, b, d), (a, d, c)] if faces_up else [(a, d, b), (a, c, d)]
     return vertices, np.array(tris)
 
 
@@ -129,3 +133,38 @@ def test_the_guard_writes_into_any_memory_layout_alike():
     guard_lips(guard, columns, points)
     assert not np.array_equal(rows, deformed)
     np.testing.assert_array_equal(columns, rows)
+
+
+def mouth_with_skin():
+    """The hand-made mouth whose upper lip's front edge (z = 8 mm) turns up into the skin above it: a row of
+    faces standing 2 mm tall. Also the front edge's and the skin row's vertices, x ascending."""
+    rest, triangles, upper, lower, fps = mouth()
+    n = len(XS)
+    edge = np.flatnonzero(upper & np.isclose(rest[:, 2], ZS[-1]))
+    skin = rest[edge] + [0.0, 0.002, 0.001]
+    rest = np.concatenate([rest, skin])
+    above = len(rest) - n + np.arange(n)
+    wall = [(edge[i], above[i], edge[i + 1]) for i in range(n - 1) if XS[i + 1] > 0.0]
+    wall += [(edge[i], above[i], above[i + 1]) for i in range(n - 1) if XS[i + 1] <= 0.0]
+    wall += [(edge[i + 1], above[i], above[i + 1]) for i in range(n - 1) if XS[i + 1] > 0.0]
+    wall += [(edge[i], above[i + 1], edge[i + 1]) for i in range(n - 1) if XS[i + 1] <= 0.0]
+    triangles = np.concatenate([triangles, wall])
+    upper, lower = np.r_[upper, np.zeros(n, bool)], np.r_[lower, np.zeros(n, bool)]
+    return rest, triangles, upper, lower, fps, edge, above
+
+
+def test_the_skin_beside_a_pushed_lip_follows_it_and_no_face_turns_over():
+    """The deformer takes lip and skin 4 mm down at the mid line; the guard lifts the lip back onto the
+    seam. Moving the lip alone (the old guard) would put its edge above the skin row and turn those faces
+    over; the skin carried along keeps them standing."""
+    rest, triangles, upper, lower, fps, edge, above = mouth_with_skin()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    deformed, points = pressed(rest, upper | ~lower, fps, 2.0)
+    assert count_inverted(rest, deformed, triangles) == 0
+    old = deformed.copy()
+    old[upper, 1] = np.maximum(old[upper, 1], -GAP)  # the lip alone lifted onto the seam (here at most -GAP)
+    assert count_inverted(rest, old, triangles) > 0
+    guard_lips(guard, deformed, points)
+    assert depth(deformed, triangles, upper, lower) <= 1e-12
+    assert count_inverted(rest, deformed, triangles) == 0
+    assert np.all(deformed[above, 1] > deformed[edge, 1])  # the skin still stands above the lip's edge
