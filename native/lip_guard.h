@@ -71,7 +71,7 @@ static void shifted_grid(const double *kx, double r, double *grid) {
  * the widest triangle of the lower and upper lip across; width the seam's width at rest; skin (n_skin,) the guarded
  * vertices, then the skin beside them that follows, sources and shares (n_sources, n_skin) whose push each shares
  * and how much (lips._carry). scratch: 2 V doubles. */
-static void guard(int single, int64_t n_guarded, const int32_t *vertices, const double *side, const double *slack,
+static int guard(int single, int64_t n_guarded, const int32_t *vertices, const double *side, const double *slack,
                   int64_t n_runs, const int32_t *knots, const int32_t *order, const int32_t *starts,
                   const double *spread, int64_t n_points, const double *points, const double *axes,
                   const double *reach, double width, int64_t n_skin, const int32_t *skin, int64_t n_sources,
@@ -144,7 +144,7 @@ static void guard(int single, int64_t n_guarded, const int32_t *vertices, const 
         push[i] = past > 0.0 ? past : 0.0;
         any |= past > 0.0;
     }
-    if (!any) return;
+    if (!any) return 0;
     for (int64_t j = 0; j < n_skin; ++j) {
         double step = 0.0;
         for (int64_t k = 0; k < n_sources; ++k) { /* numpy's sum over axis 0: row by row */
@@ -162,9 +162,11 @@ static void guard(int single, int64_t n_guarded, const int32_t *vertices, const 
                 out64[v + k] += step * axes[3 + k];
         }
     }
+    return 1;
 }
 
-/* `single`: out is float32 (else float64). Returns 0, or 1 for bad counts (out untouched). */
+/* `single`: out is float32 (else float64). Returns 0 (no vertex moved), 2 (some moved), or 1 for bad counts (out
+ * untouched). */
 PBK_EXPORT int pbk_guard_lips(int32_t single, int64_t n_guarded, const int32_t *vertices, const double *side,
                               const double *slack, int64_t n_runs, const int32_t *knots, const int32_t *order,
                               const int32_t *starts, const double *spread, int64_t n_points, const double *points,
@@ -172,7 +174,6 @@ PBK_EXPORT int pbk_guard_lips(int32_t single, int64_t n_guarded, const int32_t *
                               const int32_t *skin, int64_t n_sources, const int32_t *sources, const double *shares,
                               double *scratch, void *out) {
     if (n_guarded < 0 || n_runs < 0 || n_points < 0 || n_skin < n_guarded || n_sources < 0) return 1;
-    guard(single != 0, n_guarded, vertices, side, slack, n_runs, knots, order, starts, spread, n_points, points,
-          axes, reach, width, n_skin, skin, n_sources, sources, shares, scratch, out);
-    return 0;
+    return 2 * guard(single != 0, n_guarded, vertices, side, slack, n_runs, knots, order, starts, spread, n_points,
+                     points, axes, reach, width, n_skin, skin, n_sources, sources, shares, scratch, out);
 }

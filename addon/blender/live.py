@@ -53,6 +53,7 @@ class _State:
     lip_arrays: fused.GuardArrays | None = None  # `lip_guard` for the compiled kernel
     playback: fused.Playback | None = None  # the kernel's frame-to-frame evaluator of `out` in `mode`, if any
     guard_made: tuple | None = None  # (its inputs, the guard): a rebind keeps it when they did not change
+    lip_skin_groups: np.ndarray | None = None  # the playback's groups of what the lip guard may move
 
 
 _states: dict[int, _State] = {}
@@ -155,11 +156,10 @@ def _guard_arrays(guard: LipGuard) -> fused.GuardArrays:
 
 def _start_playback(face, state: _State, mode: str) -> None:
     """A frame-to-frame evaluator of the face's output in `mode` (None without the compiled kernel), told which
-    vertices the steps after the deformer (the eyelids, the lip guard) may move."""
-    lids = eyelid_rig.turned_vertices(face, state.binding)
-    lips = None if state.lip_guard is None else state.lip_guard.skin
-    parts = [part for part in (lids, lips) if part is not None]
-    state.playback = playback(state.binding, mode, state.out, np.concatenate(parts) if parts else None)
+    vertices the eyelids may move after the deformer (the lip guard says when it moved the lips' skin)."""
+    state.playback = playback(state.binding, mode, state.out, eyelid_rig.turned_vertices(face, state.binding))
+    skin = None if state.lip_guard is None or state.playback is None else state.lip_guard.skin
+    state.lip_skin_groups = None if skin is None else state.playback.groups_of(skin)
 
 
 def control_positions(face, state: _State) -> np.ndarray:
@@ -289,8 +289,11 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             lips = state.lip_points
             if state.lip_guard is not None and not np.array_equal(driving[lips], state.binding.control_rest[lips]):
                 # the lips press on each other, never pass
-                if not (_NATIVE_GUARD and fused.guard_lips_into(state.lip_arrays, state.out, driving)):
-                    guard_lips(state.lip_guard, state.out, driving)
+                moved = fused.guard_lips_into(state.lip_arrays, state.out, driving) if _NATIVE_GUARD else None
+                if moved is None:
+                    moved = guard_lips(state.lip_guard, state.out, driving)
+                if moved and state.playback is not None:
+                    state.playback.changed(state.lip_skin_groups)  # the next frame writes them afresh
         eyelid_rig.apply(face, state.binding, state.out, fps)  # lids turn over the eyeballs (no V, no crossing)
         rest_shape.write_positions(face.data, state.out)
         state.last, state.mode = points, mode

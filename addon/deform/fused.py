@@ -47,7 +47,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, deformation_basis
 
-ABI_VERSION = 6  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 7  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -64,6 +64,10 @@ _GROUPED_ARGUMENTS += [ctypes.c_int32, _POINTER]
 GUARD_KNOTS = 17  # GUARD_KNOTS in native/lip_guard.h, lips.N_KNOTS
 _GUARD_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, *[_POINTER] * 4, ctypes.c_int64]
 _GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, ctypes.c_int64, _POINTER, ctypes.c_int64, *[_POINTER] * 4]
+
+_NEAREST_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, _POINTER, ctypes.c_int32, ctypes.c_double]
+_NEAREST_ARGUMENTS += [ctypes.c_double, ctypes.c_int32, *[_POINTER] * 3]
+NEAREST_TIES = 8  # room for this many ties with the k-th nearest per vertex; more, and the caller uses Python
 
 
 @dataclass(frozen=True, eq=False)
@@ -147,6 +151,8 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_bases.restype = None
         library.pbk_guard_lips.argtypes = _GUARD_ARGUMENTS
         library.pbk_guard_lips.restype = ctypes.c_int
+        library.pbk_nearest_sources.argtypes = _NEAREST_ARGUMENTS
+        library.pbk_nearest_sources.restype = ctypes.c_int
     except (OSError, AttributeError):
         return None
     return library
@@ -359,15 +365,19 @@ class Playback:
             *(array.ctypes.data for array in groups),
         )
         self._at = out.ctypes.data
-        every = np.zeros(0, np.intp) if rewritten is None else layout.vertex_group[np.asarray(rewritten, np.intp)]
-        self._rewritten = np.unique(every)
+        self._rewritten = self.groups_of(np.zeros(0, np.intp) if rewritten is None else rewritten)
 
-    def changed(self, vertices: np.ndarray | None = None) -> None:
-        """Vertices of ``out`` (all by default) were written by someone else since the last evaluation."""
-        if vertices is None:
+    def groups_of(self, vertices: np.ndarray) -> np.ndarray:
+        """The groups of these vertices, for `changed`."""
+        return np.unique(self.layout.vertex_group[np.asarray(vertices, np.intp)])
+
+    def changed(self, groups: np.ndarray | None = None) -> None:
+        """The vertices of these groups (`groups_of`; all by default) of ``out`` were written by someone else since
+        the last evaluation."""
+        if groups is None:
             self._fresh.fill(0)
         else:
-            self._fresh[self.layout.vertex_group[vertices]] = 0
+            self._fresh[groups] = 0
 
     def evaluate(self, control: np.ndarray, threads: int | None = None) -> bool:
         """Write the deformed positions for the control points (M, 3) into ``out``, as `evaluate_into` does; False,
@@ -486,9 +496,10 @@ class GuardArrays:
         )
 
 
-def guard_lips_into(arrays: GuardArrays, out: np.ndarray, points: np.ndarray) -> bool:
+def guard_lips_into(arrays: GuardArrays, out: np.ndarray, points: np.ndarray) -> bool | None:
     """`lips.guard_lips` by the kernel, in place on ``out`` (N, 3, C-contiguous float32 or float64) for the control
-    points (M, 3); False, with ``out`` untouched, where the kernel is unavailable. Not thread-safe (``scratch``)."""
+    points (M, 3): True when it moved any vertex, False when none; None, with ``out`` untouched, where the kernel is
+    unavailable. Not thread-safe (``scratch``)."""
     kernel = _kernel() if available() else None
     if (
         kernel is None
@@ -500,8 +511,44 @@ def guard_lips_into(arrays: GuardArrays, out: np.ndarray, points: np.ndarray) ->
         or points.shape != arrays.points.shape
         or arrays.n_vertices > len(out)
     ):
-        return False
+        return None
     arguments = arrays.arguments
     arrays.points[...] = points
     status = kernel.pbk_guard_lips(int(out.dtype == np.float32), *arguments, out.ctypes.data)
-    return status == 0
+    return None if status == 1 else status == 2
+
+
+def nearest_sources(
+    starts: np.ndarray, ends: np.ndarray, length: np.ndarray, sources: np.ndarray, k: int, radius: float, tie: float
+) -> dict[int, list] | None:
+    """`lips._nearest_sources` by the kernel (the same lists, in the same order), for the graph of edges
+    ``starts`` (n + 1,), ``ends``, ``length`` and the vertices ``sources``; None where the kernel is unavailable
+    or a vertex has more ties with its k-th nearest than it has room for."""
+    kernel = _kernel() if available() else None
+    starts, ends = np.ascontiguousarray(starts, np.int32), np.ascontiguousarray(ends, np.int32)
+    length, sources = np.ascontiguousarray(length, np.float64), np.ascontiguousarray(sources, np.int32)
+    n = len(starts) - 1
+    if not (
+        kernel is not None
+        and n >= 0
+        and len(ends) == len(length)
+        and (n == 0 or (starts[0] == 0 and starts[-1] == len(ends) and np.all(np.diff(starts) >= 0)))
+        and np.all((0 <= ends) & (ends < n))
+        and np.all((0 <= sources) & (sources < n))
+    ):
+        return None
+    cap = k + NEAREST_TIES
+    count, dist, row = np.zeros(n, np.int32), np.empty((n, cap)), np.empty((n, cap), np.int32)
+    pointers = (a.ctypes.data for a in (starts, ends, length))
+    status = kernel.pbk_nearest_sources(
+        n, *pointers, len(sources), sources.ctypes.data, k, radius, tie, cap, count.ctypes.data, dist.ctypes.data,
+        row.ctypes.data,
+    )  # fmt: skip
+    if status != 0:
+        return None
+    reached = np.flatnonzero(count)
+    counts, dists, rows = count[reached].tolist(), dist[reached].tolist(), row[reached].tolist()
+    return {
+        v: list(zip(d[:c], r[:c], strict=True))
+        for v, c, d, r in zip(reached.tolist(), counts, dists, rows, strict=True)
+    }

@@ -333,7 +333,7 @@ def test_playback_writes_again_what_others_changed(head):
     assert playback.evaluate(one)
     still = np.flatnonzero((out == expected).all(axis=1) & (expected == head.rest_vertices.astype(np.float32)).all(1))
     out[still[:50]] += 1.0  # someone else writes these (the eyelids, the lip guard) and says so
-    playback.changed(still[:50])
+    playback.changed(playback.groups_of(still[:50]))
     assert playback.evaluate(one)
     np.testing.assert_array_equal(out, expected)
     out[:] = 0.0  # and all of them

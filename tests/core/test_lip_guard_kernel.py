@@ -4,7 +4,7 @@
 import numpy as np
 import pytest
 
-from addon.deform import fused
+from addon.deform import fused, lips
 from addon.deform.inputs import DeformError
 from addon.deform.lips import bind_lip_guard, guard_lips
 
@@ -44,9 +44,12 @@ def test_the_kernel_moves_the_lips_and_the_skin_beside_them_as_the_numpy_guard_d
     moved = carried = 0
     for deformed, points in cases(rest, upper | ~lower, fps):
         expected = deformed.astype(dtype)
-        guard_lips(guard, expected, points)
+        assert guard_lips(guard, expected, points) == bool(np.any(expected != deformed.astype(dtype)))
         got = deformed.astype(dtype)
-        assert fused.guard_lips_into(native, got, points)
+        moves = fused.guard_lips_into(native, got, points)
+        assert moves is not None and moves == guard_lips(
+            guard, deformed.astype(dtype), points
+        )  # both say if they moved
         np.testing.assert_allclose(got, expected, rtol=0.0, atol=TOLERANCE if dtype == np.float64 else 1e-7)
         moved += int(np.any(expected != deformed.astype(dtype)))
         beside = guard.skin[len(guard.vertices) :]
@@ -60,7 +63,7 @@ def test_the_kernel_leaves_the_rest_mesh_unchanged():
     rest, triangles, upper, lower, fps = mouth()
     guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
     out = rest.copy()
-    assert fused.guard_lips_into(arrays(guard), out, fps)
+    assert fused.guard_lips_into(arrays(guard), out, fps) is False  # it ran, and moved nothing
     np.testing.assert_array_equal(out, rest)
 
 
@@ -83,5 +86,59 @@ def test_inconsistent_guard_arrays_are_refused():
 def test_the_kernel_refuses_an_output_it_cannot_write():
     rest, triangles, upper, lower, fps = mouth()
     guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
-    assert not fused.guard_lips_into(arrays(guard), rest[: len(rest) // 2].copy(), fps)  # too few vertices
-    assert not fused.guard_lips_into(arrays(guard), np.asfortranarray(rest), fps)
+    assert fused.guard_lips_into(arrays(guard), rest[: len(rest) // 2].copy(), fps) is None  # too few vertices
+    assert fused.guard_lips_into(arrays(guard), np.asfortranarray(rest), fps) is None
+
+
+def grid_lips():
+    """A flat 21 x 21 grid, 1 mm apart, split by its diagonals (every distance along the edges ties with many
+    others), with two bands of rows as the upper and lower lip."""
+    n = 21
+    x, y = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    rest = np.stack([x.ravel() * 1e-3, y.ravel() * 1e-3, np.zeros(x.size)], axis=1)
+    corner = (x[:-1, :-1] * n + y[:-1, :-1]).ravel()
+    triangles = np.concatenate(
+        [np.stack([corner, corner + n, corner + n + 1], 1), np.stack([corner, corner + n + 1, corner + 1], 1)]
+    )
+    row = y.ravel()
+    return rest, triangles, np.flatnonzero((row >= 11) & (row <= 13)), np.flatnonzero((row >= 7) & (row <= 9))
+
+
+@needs_kernel
+@pytest.mark.parametrize("mesh", ["grid", "mouth"])
+def test_the_kernel_finds_the_skin_beside_the_lips_as_python_does(mesh, monkeypatch):
+    """`lips._carry` with the kernel's Dijkstra and with Python's: the same skin, sources and shares, on a grid whose
+    distances tie everywhere and on the mouth whose lip turns up into skin."""
+    if mesh == "grid":
+        rest, triangles, upper, lower = grid_lips()
+    else:
+        rest, triangles, up, low, *_ = mouth_with_skin()
+        upper, lower = np.flatnonzero(up), np.flatnonzero(low)
+    vertices = np.concatenate([upper, lower])
+    side = np.r_[np.ones(len(upper)), -np.ones(len(lower))]
+    found, kernel = [], fused.nearest_sources
+    monkeypatch.setattr(fused, "nearest_sources", lambda *args: found.append(kernel(*args)) or found[-1])
+    native = lips._carry(rest, triangles, vertices, side)
+    assert len(found) == 3 and all(f is not None for f in found)  # the kernel found them, ties and all
+    monkeypatch.setattr(fused, "nearest_sources", lambda *args: None)
+    python = lips._carry(rest, triangles, vertices, side)
+    assert len(native["skin"]) > len(vertices)  # the skin beside was reached
+    for name in ("skin", "sources", "shares"):
+        np.testing.assert_array_equal(native[name], python[name])
+
+
+@needs_kernel
+def test_the_kernel_leaves_more_ties_than_it_has_room_for_to_python():
+    """A hub equally far from 20 sources keeps all 20 (ties with the k-th are all kept): more than the kernel has
+    room for, so it says so and Python finds them."""
+    spokes = 20
+    ends = np.r_[np.arange(1, spokes + 1), np.zeros(spokes, int)]  # hub 0 to each spoke, each spoke to the hub
+    starts = np.r_[0, spokes, spokes + 1 + np.arange(spokes)]
+    length = np.full(len(ends), 1e-3)
+    sources = np.arange(1, spokes + 1)
+    assert fused.nearest_sources(starts, ends, length, sources, 1, lips.CARRY_RADIUS, lips.TIE) is None
+    found = lips._nearest((starts, ends, length), sources, 1)
+    assert sorted(row for _d, row in found[0]) == list(range(spokes))
+    assert all(d == pytest.approx(1e-3) for d, _row in found[0])
+    small = fused.nearest_sources(starts, ends, length, sources[:5], 1, lips.CARRY_RADIUS, lips.TIE)
+    assert small is not None and sorted(row for _d, row in small[0]) == list(range(5))
