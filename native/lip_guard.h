@@ -14,13 +14,13 @@ static double interp(double x, const double *xp, const double *fp, int n) {
     if (x != x) return x;
     if (x < xp[0]) return fp[0];
     if (x >= xp[n - 1]) return fp[n - 1];
-    int lo = 0, hi = n - 1; /* xp[lo] <= x < xp[hi] */
-    while (hi - lo > 1) {
-        int mid = (lo + hi) / 2;
-        if (xp[mid] <= x)
-            lo = mid;
-        else
-            hi = mid;
+    /* lo = the last i with xp[i] <= x (then x < xp[lo + 1]), by halving without branches: a vertex's x is
+     * anywhere on the grid, and a mispredicted branch per halving cost more than the rest of the guard */
+    int lo = 0;
+    for (int len = n - 1; len > 1;) {
+        int half = len / 2;
+        lo = xp[lo + half] <= x ? lo + half : lo;
+        len -= half;
     }
     double slope = (fp[lo + 1] - fp[lo]) / (xp[lo + 1] - xp[lo]);
     double value = slope * (x - xp[lo]) + fp[lo];
