@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import logging
 import threading
 import time
 from collections.abc import Callable
@@ -29,6 +30,8 @@ from ..mpeg4.control_mesh import MASK_NAMES
 from . import face_data, rest_shape
 from .face_data import CREATED_PROP
 from .reporting import report_outside_operator
+
+log = logging.getLogger(__name__)
 
 BINDING_PROP = "mpeg4_binding"
 BINDING_KEY_PROP = "mpeg4_binding_key"
@@ -359,10 +362,14 @@ def request_rebind(face, done: Callable, prepare: Callable | None = None) -> Non
 def _work(job: _Job) -> None:
     try:
         job.result = job.inputs.bind()
-        if job.prepare is not None:
-            job.prepare(job.result)
     except BaseException as exc:  # handed to the main thread, which reports it
         job.error = exc
+        return
+    if job.prepare is not None:
+        try:
+            job.prepare(job.result)
+        except Exception:  # only a head start: the first frame builds it again, and reports what goes wrong
+            log.debug("preparing the new binding failed", exc_info=True)
 
 
 def poll_jobs() -> float | None:

@@ -464,3 +464,24 @@ def test_set_up_while_posed_snaps_onto_the_rest_surface():
     _nearest, _normal, _index, distance = tree.find_nearest(chin.location)
     assert distance < 1e-6
     np.testing.assert_array_equal(rest_shape.stored_rest(head.data), rest)  # the rest shape, not the pose
+
+
+def test_a_failure_preparing_the_new_binding_still_takes_it_in(monkeypatch):
+    """Building the kernel's layout on the worker thread is only a head start: if it fails, the new binding is
+    stored and shown all the same (the first frame builds the layout)."""
+    head = set_up_sample()
+    monkeypatch.setattr(binding_store, "BACKGROUND_REBIND", True)
+    monkeypatch.setattr(binding_store, "REBIND_DELAY", 0.0)
+    old_key = binding_store.stored_key(head)
+
+    def broken(*_args, **_kwargs):
+        raise RuntimeError("no layout today")
+
+    monkeypatch.setattr(live, "prepare_playback", broken)
+    head.mpeg4_face.radius_fraction = 1.5
+    deadline = time.monotonic() + 30
+    while binding_store.busy(head) and time.monotonic() < deadline:
+        binding_store.poll_jobs()
+        time.sleep(0.01)
+    assert binding_store.stored_key(head) != old_key
+    assert head.mpeg4_face.enabled and not head.mpeg4_face.status
