@@ -45,9 +45,9 @@ from pathlib import Path
 import numpy as np
 
 from .inputs import DeformError
-from .regions import APEX, FACE, deformation_basis
+from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 7  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 8  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -68,6 +68,9 @@ _GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, ctypes.c_int64, _POINTER,
 _NEAREST_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, _POINTER, ctypes.c_int32, ctypes.c_double]
 _NEAREST_ARGUMENTS += [ctypes.c_double, ctypes.c_int32, *[_POINTER] * 3]
 NEAREST_TIES = 8  # room for this many ties with the k-th nearest per vertex; more, and the caller uses Python
+BIND_FRAME = 48  # doubles per triangle in `bind_frames` (BIND_FRAME in native/bind_regions.h)
+_LOCATE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 7]
+_COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *[_POINTER] * 6]
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,6 +156,12 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_guard_lips.restype = ctypes.c_int
         library.pbk_nearest_sources.argtypes = _NEAREST_ARGUMENTS
         library.pbk_nearest_sources.restype = ctypes.c_int
+        library.pbk_locate.argtypes = _LOCATE_ARGUMENTS
+        library.pbk_locate.restype = None
+        library.pbk_distance_bound.argtypes = [ctypes.c_int64, *[_POINTER] * 3]
+        library.pbk_distance_bound.restype = None
+        library.pbk_collect.argtypes = _COLLECT_ARGUMENTS
+        library.pbk_collect.restype = ctypes.c_int64
     except (OSError, AttributeError):
         return None
     return library
@@ -552,3 +561,101 @@ def nearest_sources(
         v: list(zip(d[:c], r[:c], strict=True))
         for v, c, d, r in zip(reached.tolist(), counts, dists, rows, strict=True)
     }
+
+
+def bind_frames(frames: TriangleFrames, centres: np.ndarray) -> np.ndarray:
+    """(T, BIND_FRAME) float64: each triangle's frame and bounding-sphere centre as the kernel's binding
+    functions read them (laid out in native/bind_regions.h)."""
+    t = len(frames.corners)
+    edge_normals = frames.edge_normals
+    gram = np.einsum("tjk,tjk->tj", edge_normals, np.roll(edge_normals, 1, axis=1))  # g_j = b_j · b_(j−1)
+    parts = (frames.corners, frames.inverse_frames, frames.unit_edges, edge_normals, frames.edge_lengths)
+    parts += (frames.normals, gram, centres)
+    return np.ascontiguousarray(np.concatenate([np.reshape(a, (t, -1)) for a in parts], axis=1), dtype=np.float64)
+
+
+def _frame_row(frame: np.ndarray) -> np.ndarray:
+    if frame.shape != (BIND_FRAME,) or frame.dtype != np.float64 or not frame.flags.c_contiguous:
+        raise ValueError("a triangle's frame must be a row of bind_frames")
+    return frame
+
+
+def locate(frame: np.ndarray, points: np.ndarray) -> Location | None:
+    """`regions.locate` by the kernel for the triangle whose `bind_frames` row is ``frame``; None where the
+    kernel is unavailable."""
+    kernel = _kernel() if available() else None
+    if kernel is None:
+        return None
+    frame = _frame_row(frame)
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    n = len(points)
+    region, distance, apex_distance = np.empty(n, np.int8), np.empty(n), np.empty(n)
+    face_local, region_local = np.empty((n, 3)), np.empty((n, 3))
+    pointers = (a.ctypes.data for a in (points, frame, region, distance, face_local, region_local, apex_distance))
+    kernel.pbk_locate(n, *pointers)
+    return Location(region, distance, face_local, region_local, apex_distance)
+
+
+def distance_bound(frame: np.ndarray, points: np.ndarray) -> np.ndarray | None:
+    """`regions.distance_lower_bound` by the kernel (see `locate`); None where the kernel is unavailable."""
+    kernel = _kernel() if available() else None
+    if kernel is None:
+        return None
+    frame = _frame_row(frame)
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    bound = np.empty(len(points))
+    kernel.pbk_distance_bound(len(points), points.ctypes.data, frame.ctypes.data, bound.ctypes.data)
+    return bound
+
+
+class Collector:
+    """`planar_bones.bind`'s per-triangle pairs by the kernel (`pbk_collect`), over one set of rest vertices;
+    `collect` returns None where the kernel is unavailable."""
+
+    FIELDS = ("vertex", "weight", "region", "face_local", "region_local", "apex_distance")
+
+    def __init__(self, rest: np.ndarray, squared_norms: np.ndarray):
+        self.rest = np.ascontiguousarray(rest, dtype=np.float64)
+        n = len(self.rest)
+        self.squared_norms = np.ascontiguousarray(squared_norms, dtype=np.float64)
+        if self.rest.shape != (n, 3) or self.squared_norms.shape != (n,) or n >= 2**31:
+            raise ValueError("rest must be (N, 3) and squared_norms (N,)")
+        self._out = {
+            "vertex": np.empty(n, np.int32),
+            "weight": np.empty(n),
+            "region": np.empty(n, np.int8),
+            "face_local": np.empty((n, 3)),
+            "region_local": np.empty((n, 3)),
+            "apex_distance": np.empty(n),
+        }
+
+    def collect(
+        self,
+        frame: np.ndarray,
+        mask: np.ndarray | None,
+        reach_squared: float,
+        bound_limit: float,
+        radius: float,
+        exponent: float,
+    ) -> dict[str, np.ndarray] | None:
+        """The kept pairs (vertex order) of the triangle whose `bind_frames` row is ``frame``: candidates within
+        ``reach_squared`` of its bounding-sphere centre, with a ``mask`` weight above 0, a distance bound below
+        ``bound_limit``; kept where the eq. 9 weight (``radius``, ``exponent``) times the mask is above 0."""
+        kernel = _kernel() if available() else None
+        if kernel is None:
+            return None
+        frame = _frame_row(frame)
+        n = len(self.rest)
+        if mask is not None:
+            mask = np.ascontiguousarray(mask, dtype=np.float64)
+            if mask.shape != (n,):
+                raise ValueError("mask must be (N,)")
+        out = self._out
+        count = kernel.pbk_collect(
+            n, self.rest.ctypes.data, self.squared_norms.ctypes.data, None if mask is None else mask.ctypes.data,
+            frame.ctypes.data, reach_squared, bound_limit, radius, exponent,
+            *(out[name].ctypes.data for name in self.FIELDS),
+        )  # fmt: skip
+        result = {name: out[name][:count].copy() for name in self.FIELDS}
+        result["vertex"] = result["vertex"].astype(np.intp)
+        return result

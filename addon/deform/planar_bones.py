@@ -52,6 +52,7 @@ from .regions import (
     APEX,
     EDGE,
     FACE,
+    Location,
     TriangleFrames,
     affection_weight,
     deformation_basis,
@@ -170,8 +171,17 @@ def bind(
     squared_norms = np.einsum("ij,ij->i", rest, rest)
     rounding = 1e-12 * (squared_norms.max() + np.einsum("ij,ij->i", sphere_centre, sphere_centre).max())
 
+    # the compiled kernel's `collect` (native/bind_regions.h) where it is available; the numpy below is the reference
+    located = _Regions(frames, sphere_centre)
+    collector = None if located.rows is None else fused.Collector(rest, squared_norms)
+
     def collect(t: int) -> dict[str, np.ndarray]:
         reach = sphere_radius[t] + radius[t]
+        if collector is not None:
+            limits = (reach * reach + rounding, radius[t] * (1.0 + BOUND_SLACK), radius[t], exponent)
+            pairs = collector.collect(located.rows[t], mask_values[t], *limits)
+            if pairs is not None:
+                return pairs
         centre = sphere_centre[t]
         squared = squared_norms - 2.0 * (rest @ centre) + centre @ centre
         candidates = np.flatnonzero(squared <= reach * reach + rounding)  # cheap pre-filters
@@ -202,7 +212,7 @@ def bind(
     # radius / distance at which a single triangle's eq. 9 weight is fade_below (RAISE_MARGIN at least)
     reach = np.pi / np.arccos(2.0 * fade ** (1.0 / exponent) - 1.0) if fade > 0.0 else 0.0
     factor = max(1.0 + RAISE_MARGIN, reach)
-    raised_radius = _raised_radius(frames, rest, uncovered, radius, active_ids, mask_values, tolerance, factor)
+    raised_radius = _raised_radius(located, rest, uncovered, radius, active_ids, mask_values, tolerance, factor)
     raised = np.flatnonzero(raised_radius > radius)
     radius = raised_radius
     for t in raised:
@@ -257,6 +267,23 @@ def _drop_faint_pairs(vertex: np.ndarray, weight: np.ndarray, n_vertices: int) -
     return keep, weight * scale[vertex]
 
 
+class _Regions:
+    """`regions.locate` and `regions.distance_lower_bound` for the triangles of ``frames``, by the compiled kernel
+    (native/bind_regions.h) where it is available; the numpy functions are the reference."""
+
+    def __init__(self, frames: TriangleFrames, centres: np.ndarray):
+        self.frames = frames
+        self.rows = fused.bind_frames(frames, centres) if fused.available() else None
+
+    def locate(self, t: int, points: np.ndarray) -> Location:
+        located = None if self.rows is None else fused.locate(self.rows[t], points)
+        return locate(self.frames, t, points) if located is None else located
+
+    def bound(self, t: int, points: np.ndarray) -> np.ndarray:
+        bound = None if self.rows is None else fused.distance_bound(self.rows[t], points)
+        return distance_lower_bound(self.frames, t, points) if bound is None else bound
+
+
 def cover_over_control_mesh(
     rest_vertices: np.ndarray, control_rest: np.ndarray, triangles: np.ndarray, max_distance: float
 ) -> np.ndarray:
@@ -274,6 +301,7 @@ def cover_over_control_mesh(
     reach = check_positive(max_distance, "max_distance")
     frames = triangle_frames(control[tris])
     centre, sphere_radius = _bounding_spheres(frames)
+    located = _Regions(frames, centre)
     nearest = np.full(len(rest), np.inf)
     nearest_triangle = np.zeros(len(rest), np.intp)
     nearest_region = np.zeros(len(rest), np.intp)
@@ -282,9 +310,9 @@ def cover_over_control_mesh(
     for t in range(len(tris)):
         squared = squared_norms - 2.0 * (rest @ centre[t]) + centre[t] @ centre[t]  # to the sphere's centre
         near = np.flatnonzero(squared <= (sphere_radius[t] + reach) ** 2 + rounding)
-        bound = distance_lower_bound(frames, t, rest[near])
+        bound = located.bound(t, rest[near])
         near = near[bound < np.minimum(nearest[near], reach) * (1.0 + BOUND_SLACK)]
-        location = locate(frames, t, rest[near])
+        location = located.locate(t, rest[near])
         closer = location.distance < nearest[near]
         chosen = near[closer]
         nearest[chosen] = location.distance[closer]
@@ -557,34 +585,6 @@ def _pair_coefficients(binding: Binding) -> dict:
     return coefficients
 
 
-def _rest_result(binding: Binding, mode: str) -> np.ndarray:
-    """(N, 3) float64: `evaluate` at the rest control points, summed pair by pair (without the numpy path's
-    padded layout, which a binding played by the compiled kernel never needs)."""
-    pairs = _pair_coefficients(binding)
-    basis = deformation_basis(binding.control_rest[binding.triangles])  # (T, 7, 3)
-    coefficients = pairs["bones"].copy() if mode == "planar_bones" else pairs["soffd"]
-    if mode == "planar_bones" and len(pairs["a"]):
-        edge_normals = basis[:, 4:7]
-        gram = np.einsum("tjk,tjk->tj", edge_normals, edge_normals[:, [2, 0, 1]]).ravel()
-        apex = pairs["is_apex"]
-        gram = gram[pairs["triangle"][apex] * 3 + pairs["apex_j"]]
-        a, b = pairs["a"], pairs["b"]
-        d = np.sqrt(np.maximum(a * a + b * b + 2.0 * a * b * gram, 0.0))
-        ratio = np.divide(pairs["apex_scale"], d, out=np.zeros_like(d), where=d > 0.0)  # eq. 13-14
-        coefficients[apex, 4:7] = pairs["apex_rows"] * ratio[:, None]
-    rows = coefficients.shape[1]
-    images = np.empty((len(coefficients), 3))
-    key = pairs["triangle"] * 2 + pairs["is_apex"]
-    bounds = np.flatnonzero(np.r_[True, key[1:] != key[:-1], True]) if len(key) else np.zeros(1, np.intp)
-    for start, end in zip(bounds[:-1], bounds[1:], strict=True):  # one product per triangle's run
-        images[start:end] = coefficients[start:end] @ basis[pairs["triangle"][start], :rows]
-    result = np.empty((binding.n_vertices, 3))
-    for axis in range(3):
-        summed = np.bincount(pairs["vertex"], images[:, axis], minlength=binding.n_vertices)
-        np.add(summed, pairs["static"][axis], out=result[:, axis])
-    return result
-
-
 def _evaluation_arrays(binding: Binding) -> dict:
     """The numpy path's layout of `_pair_coefficients`.
 
@@ -660,7 +660,11 @@ def _fused_layout(binding: Binding, mode: str, dtype: type) -> fused.Layout:
             pair_face_local=binding.pair_face_local,
             pair_region_local=binding.pair_region_local,
             pair_apex_distance=binding.pair_apex_distance,
-            base=_rest_result(binding, mode),
+            # Eq. 1-14 give the identity at rest (every region's frame rebuilds its vertex exactly), so the
+            # kernel's base is the rest shape itself; the reference differs from it only by the binding's
+            # local coordinates rounded to float32 (3e-9 m on the sample faces, tests/core/test_fused.py), and
+            # summing it pair by pair cost 0.08 s (0.2 s on fresh memory) of Set Up Face at 68k vertices.
+            base=binding.rest_vertices,
         )
     return binding._evaluation[key]
 
@@ -718,7 +722,7 @@ def _initial_radius(
 
 
 def _raised_radius(
-    frames: TriangleFrames,
+    located: _Regions,
     rest: np.ndarray,
     uncovered: np.ndarray,
     radius: np.ndarray,
@@ -746,14 +750,14 @@ def _raised_radius(
     nearest_distance = np.full(len(uncovered), np.inf)
     for t in active_ids:
         candidates = allowed(t)
-        bound = distance_lower_bound(frames, t, points[candidates])
+        bound = located.bound(t, points[candidates])
         near = candidates[bound < nearest_distance[candidates] * (1.0 + BOUND_SLACK)]  # the others cannot be closer
-        np.minimum.at(nearest_distance, near, locate(frames, t, points[near]).distance)
+        np.minimum.at(nearest_distance, near, located.locate(t, points[near]).distance)
     limit = nearest_distance * (1.0 + TIE) + tolerance
     for t in active_ids:
         candidates = allowed(t)
-        candidates = candidates[distance_lower_bound(frames, t, points[candidates]) <= limit[candidates]]
-        distance = locate(frames, t, points[candidates]).distance
+        candidates = candidates[located.bound(t, points[candidates]) <= limit[candidates]]
+        distance = located.locate(t, points[candidates]).distance
         tied = distance <= limit[candidates]
         if tied.any():
             raised[t] = max(raised[t], float(distance[tied].max()) * factor + tolerance)

@@ -37,10 +37,16 @@ def kernel_layouts(head) -> list:
 def test_fast_path_equals_the_numpy_reference_on_the_sample_faces(sample):
     binding = binding_store.load(set_up(sample))
     for mode in MODES:
+        # the saved binding's float32 local coordinates rebuild the rest shape to within 1e-5 mm; the fast path
+        # starts from the rest shape itself, so it may differ from the reference by that much more
+        rest_offset = np.abs(reference(binding, binding.control_rest, mode) - binding.rest_vertices)
+        assert rest_offset.max() < 1e-8
         for dtype in (np.float64, np.float32):
             for control in motions(binding).values():
                 exact = reference(binding, control, mode)
-                assert_matches(evaluate(binding, control, mode, out=np.empty(exact.shape, dtype)), exact)
+                fast = evaluate(binding, control, mode, out=np.empty(exact.shape, dtype))
+                error = assert_matches(fast, exact, rest_offset)
+                assert error < 1e-8 or dtype == np.float32  # 1e-5 mm (float32: its own rounding, ~1e-8 m)
 
 
 @needs_kernel
