@@ -96,17 +96,18 @@ class FpReader:
     """Face-local positions of chosen FP empties, read each frame in three `foreach_get` calls.
 
     The FP collection's objects are read together (session ids, locations, world matrices); the row of each
-    wanted FP is cached and found again when the collection's objects change. A location is taken as the
-    face-local position when the world matrix agrees with `face.matrix_world @ location` (a plain child, the
-    usual case); any other empty (a constraint, another parent, a delta transform, a world matrix not yet
-    evaluated) goes through `local_positions`, one by one, as before.
+    wanted FP is cached and found again when the collection's objects change. The locations are taken as the
+    face-local positions when every world matrix agrees with `face.matrix_world @ location` (plain children,
+    the usual case; one product for all of them); otherwise the empties that disagree (a constraint, another
+    parent, a delta transform, a world matrix not yet evaluated) go through `local_positions`, one by one.
     """
 
     def __init__(self, fp_ids: list[str]):
         self.fp_ids = fp_ids
-        self._uids: np.ndarray | None = None
+        self._uids: bytes | None = None
         self._rows: np.ndarray | None = None
-        self._buffers: tuple[np.ndarray, ...] = ()  # uids, locations, world matrices: reused while n holds
+        # uids, locations, world matrices, [location 1] rows in float64: reused while the object count holds
+        self._buffers: tuple[np.ndarray, ...] = ()
 
     def _find_rows(self, face: bpy.types.Object, objects, uids: np.ndarray) -> None:
         empties = fp_empties(face)
@@ -115,7 +116,7 @@ class FpReader:
             raise LookupError(f"feature point empties missing: {', '.join(missing)}")
         row_of = {ob.session_uid: row for row, ob in enumerate(objects)}
         self._rows = np.array([row_of[empties[fp_id].session_uid] for fp_id in self.fp_ids], dtype=np.intp)
-        self._uids = uids.copy()
+        self._uids = uids.tobytes()
 
     def read(self, face: bpy.types.Object) -> np.ndarray:
         """(M, 3) float64 positions in `fp_ids` order; LookupError when an FP empty is missing."""
@@ -125,26 +126,27 @@ class FpReader:
         objects = coll.all_objects
         n = len(objects)
         if not self._buffers or len(self._buffers[0]) != n:
+            homogeneous = np.ones((n, 4))
             self._buffers = (np.empty(n, np.int64), np.empty((n, 3), np.float32), np.empty((n, 4, 4), np.float32))
-        uids, location, world = self._buffers
+            self._buffers += (homogeneous,)
+        uids, location, world, homogeneous = self._buffers
         objects.foreach_get("session_uid", uids)
-        if self._uids is None or not np.array_equal(uids, self._uids):
+        if self._uids is None or uids.tobytes() != self._uids:
             self._find_rows(face, objects, uids)
         objects.foreach_get("location", location.reshape(-1))
         objects.foreach_get("matrix_world", world.reshape(-1))
-        local = location.take(self._rows, axis=0).astype(np.float64)
-        translation = world[:, 3, :3].take(self._rows, axis=0).astype(np.float64)  # column-major: row 3
+        homogeneous[:, :3] = location
         face_world = np.array(face.matrix_world, dtype=np.float64)
-        expected = local @ face_world[:3, :3].T
-        expected += face_world[:3, 3]
-        # float32 matrices: agreement to ~16 ulps of the largest term
-        scale = np.abs(local).sum(axis=1)
-        scale += 1.0 + np.abs(face_world[:3, 3]).sum()
-        expected -= translation
-        other = np.flatnonzero(np.abs(expected).max(axis=1) > 1e-6 * scale)
-        if len(other):
-            obs = {k: objects[int(self._rows[k])] for k in other}
-            local[other] = np.array(list(local_positions(face, obs).values()))
+        error = homogeneous @ face_world[:3].T  # where each empty would be as a plain child of the face
+        error -= world[:, 3, :3]  # column-major: the translation is row 3
+        # float32 matrices: agreement to ~16 ulps of the largest term (one bound for all: the largest location)
+        scale = 1.0 + float(np.abs(face_world[:3, 3]).sum()) + float(np.abs(location).max(initial=0.0)) * 3.0
+        local = homogeneous[self._rows, :3]
+        if np.abs(error).max(initial=0.0) <= 1e-6 * scale:
+            return local
+        other = np.flatnonzero(np.abs(error[self._rows]).max(axis=1) > 1e-6 * scale)
+        obs = {k: objects[int(self._rows[k])] for k in other}
+        local[other] = np.array(list(local_positions(face, obs).values()))
         return local
 
 

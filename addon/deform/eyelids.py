@@ -17,6 +17,7 @@ real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_c
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -204,9 +205,14 @@ def lid_turns(rig: EyelidRig, fp_positions: np.ndarray) -> np.ndarray:
     return np.stack([-down, rise], axis=1)
 
 
+@functools.lru_cache(maxsize=16)
+def _mid_lid_rows(control_ids: tuple[str, ...]) -> list[int]:
+    return [k for k, fp_id in enumerate(control_ids) if fp_id in MID_LID_FPS]
+
+
 def hold_lids(control_ids, points: np.ndarray, control_rest: np.ndarray) -> np.ndarray:
     """The control points (M, 3) with the mid-lid FPs (3.1-3.4) at rest: their motion is the lids' turn."""
-    lids = [k for k, fp_id in enumerate(control_ids) if fp_id in MID_LID_FPS]
+    lids = _mid_lid_rows(tuple(control_ids))  # played every frame with the same ids
     if not lids:
         return points
     held = np.array(points, copy=True)
