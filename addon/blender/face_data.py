@@ -144,9 +144,10 @@ class FpReader:
         local = homogeneous[self._rows, :3]
         if np.abs(error).max(initial=0.0) <= 1e-6 * scale:
             return local
-        other = np.flatnonzero(np.abs(error[self._rows]).max(axis=1) > 1e-6 * scale)
-        obs = {k: objects[int(self._rows[k])] for k in other}
-        local[other] = np.array(list(local_positions(face, obs).values()))
+        other = np.flatnonzero(np.abs(error[self._rows]).max(axis=1) > 1e-6 * scale)  # (an object not read may differ)
+        if len(other):
+            obs = {k: objects[int(self._rows[k])] for k in other}
+            local[other] = np.array(list(local_positions(face, obs).values()))
         return local
 
 

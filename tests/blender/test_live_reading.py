@@ -56,6 +56,19 @@ def test_an_empty_with_a_constraint_or_an_offset_parent_inverse_is_read_in_face_
     assert abs(got[ids.index("8.3"), 2] - face_z) < 1e-6
 
 
+def test_an_object_not_read_that_disagrees_with_its_location_changes_nothing():
+    """Only some of the collection's empties are read; another one off its plain-child place (a constraint) takes
+    the slow check but changes none of the positions read."""
+    head = set_up_sample()
+    ids = [i for i in _control_ids(head) if i != "8.3"]
+    reader = face_data.FpReader(ids)
+    corner = face_data.fp_empties(head)["8.3"]
+    corner.constraints.new("LIMIT_LOCATION").use_min_z = True
+    corner.constraints[0].min_z = 10.0
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(reader.read(head), _reference(head, ids))
+
+
 def test_a_replaced_empty_is_found_again_and_a_deleted_one_is_named():
     head = set_up_sample()
     ids = _control_ids(head)
