@@ -32,7 +32,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = tuple(
     ROOT / "native" / name
-    for name in ("planar_bones_kernel.c", "planar_bones_range.h", "lip_guard.h", "nearest_sources.h", "bind_regions.h")
+    for name in (
+        "planar_bones_kernel.c",
+        "planar_bones_range.h",
+        "lip_guard.h",
+        "nearest_sources.h",
+        "bind_regions.h",
+        "lid_weights.h",
+    )
 )
 WHEELS = ROOT / "wheels"
 PACKAGE = "mpeg4_face_kernel"

@@ -55,7 +55,8 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     if not np.all(np.isfinite(radii) & (radii > 0)):
         return None
     upper, lower = 1.0 - masks["lower_eyelid"], 1.0 - masks["upper_eyelid"]
-    return bind_eyelids(binding.rest_vertices, upper, lower, neutral, centres, radii)
+    triangles = face_data.mesh_fans(face.data)[0]  # the weights are made so that no face turns over
+    return bind_eyelids(binding.rest_vertices, upper, lower, neutral, centres, radii, triangles=triangles)
 
 
 def _rig(face, binding: Binding) -> EyelidRig | None:

@@ -13,6 +13,14 @@ follows smoothly. Turning keeps each vertex's distance to the centre: the lid st
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
 real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle).
+
+No face turns over (not in the paper, which has no lids' turn): given the mesh's faces, `bind_eyelids` makes the
+weights such that each lid alone, turning anywhere within its range (`TURN_RANGE`), keeps every face's normal
+(`lid_fold_rates`) at least 1 - `FOLD_SHARE` of the way it faced at rest, and `lid_turns` keeps the turns within
+those ranges. Hand-made lid groups fall from 1 to 0 across a single face near the lid, which a turn of 0.1 rad
+folds on the sample head; the weights of the skin around the lids (above the upper lid's crease, at the corners,
+the lids' inner rims) are moved, by as little as projections onto those limits move them (`fold_free_weights`);
+the lids' own weights (group weight >= `MEMBER`) stay as bound, so the lids still meet along the whole eye.
 """
 
 from __future__ import annotations
@@ -25,6 +33,7 @@ import numpy as np
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import meet_at_closure
 from ..mpeg4.feature_points import fp_index
+from . import fused
 
 # Share of the eyeball's pitch the lids follow: the upper lid tracks vertical gaze closely, the lower lid
 # less (no paper of ours gives numbers; these are the usual animation values).
@@ -36,6 +45,17 @@ _TURN_ROWS = np.array([[fp_index(up), fp_index(low), fp_index(pupil)] for up, lo
 MID_LID_FPS = frozenset(fp_id for eye in EYE_FPS for fp_id in eye[:2])
 PROFILE_BINS = 24  # bins along the eye in which the opening is measured
 REACH_RADII = (1.5, 2.0)  # the lids' turn fades out between these multiples of the eyeball radius from its centre
+# Turns (rad, + up) each lid's weights are made fold-free for, beyond closing the eye's opening at rest: the upper
+# lid rises at most 0.3 (the levator's 2-3 mm and part of an upward gaze) and falls through the opening and 0.25
+# more (a closed eye looking down); the lower lid the other way round. `lid_turns` keeps the turns inside.
+TURN_BEYOND_CLOSURE = 0.25
+TURN_OPENING = 0.3
+FOLD_SHARE = 0.4  # of a face's normal that one lid's turn may take: the two lids together leave 0.2 at least
+MEMBER = 0.99  # a vertex at least this much of a lid (its group weight) is the lid: its weight is kept as bound
+# `fold_free_weights`: at most SWEEPS over-relaxed sweeps, until no face misses a limit by more than TOLERANCE (of
+# its normal's share per radian). At 4k and 17k vertices the sample head's lids converge in about 50 and 200; at
+# 68k 400 sweeps leave a few hundred faces short (the share they keep is what the live-folds table measures).
+SWEEPS, OMEGA, TOLERANCE = 400, 1.9, 1e-3
 
 
 def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.ndarray:
@@ -120,6 +140,7 @@ class EyelidRig:
     centres: np.ndarray  # (2, 3) eye centres, face frame
     rest_angles: np.ndarray  # (2, 3) rest elevation of the upper mid-lid FP, lower mid-lid FP, pupil
     axes: np.ndarray  # (3, 3) face frame in mesh coordinates
+    turn_range: np.ndarray | None = None  # (2, 2, 2) [eye][upper, lower][least, most] turn; None: not limited
 
 
 def bind_eyelids(
@@ -130,12 +151,14 @@ def bind_eyelids(
     centres: np.ndarray,
     radii: np.ndarray,
     axes: np.ndarray = BLENDER_FACE_AXES,
+    triangles: np.ndarray | None = None,
 ) -> EyelidRig | None:
     """Rig the lids of a rest face; None when an eye's lid FPs are missing.
 
     `rest` (N, 3) mesh positions; `upper_lid`/`lower_lid` (N,) membership weights in [0, 1] (1 on the lid);
     `neutral` (84, 3) rest FP positions (NaN where missing); `centres` (2, 3) and `radii` (2,) the left and
-    right eyeballs, all in mesh coordinates.
+    right eyeballs, all in mesh coordinates. With the mesh's `triangles` (T, 3), the weights are made so that
+    no face turns over (`fold_free_weights`) and the turns are kept within `TURN_RANGE` of closure.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -175,19 +198,153 @@ def bind_eyelids(
         else:  # no opening traced on the mesh: a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
-    moved = (up_weight > 0.0) | (low_weight > 0.0)
-    keep, eye, fade = keep[moved], eye[moved], fade[moved]
-    up_weight, low_weight = up_weight[moved], low_weight[moved]
+    weights = np.stack([up_weight * fade, low_weight * fade], axis=1)
+    turn_range = None
+    if triangles is not None:
+        turn_range = _turn_range(rest_angles)
+        # the skin just inside the eyeball's sphere (the lids' inner rims, hidden by the eyeball) may turn too:
+        # held still, it would fold the faces it shares with the lids' edges, whatever the weights outside
+        within = np.flatnonzero((near < REACH_RADII[1]) & in_front)
+        extra = np.setdiff1d(within, keep)
+        member = np.concatenate([np.stack([up, low], axis=1) >= MEMBER, np.zeros((len(extra), 2), bool)])
+        keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
+        weights = np.concatenate([weights, np.zeros((len(extra), 2))])
+        weights = fold_free_weights(face, keep, eye, weights, member, centres, np.asarray(triangles), turn_range)
+    moved = (weights > 0.0).any(axis=1)
+    keep, eye, weights = keep[moved], eye[moved], weights[moved]
     return EyelidRig(
         vertices=keep,
         eye=eye,
-        upper=up_weight * fade,
-        lower=low_weight * fade,
+        upper=weights[:, 0],
+        lower=weights[:, 1],
         local=face[keep] - centres[eye],
         centres=centres,
         rest_angles=rest_angles,
         axes=axes,
+        turn_range=turn_range,
     )
+
+
+def _turn_range(rest_angles: np.ndarray) -> np.ndarray:
+    """(2, 2, 2) [eye][upper, lower][least, most] turns: through the opening and `TURN_BEYOND_CLOSURE` more
+    toward the other lid, `TURN_OPENING` away from it."""
+    closure = np.nan_to_num(rest_angles[:, 0] - rest_angles[:, 1], nan=0.0).clip(0.0) + TURN_BEYOND_CLOSURE
+    return np.stack(
+        [
+            np.stack([-closure, np.full(2, TURN_OPENING)], axis=1),
+            np.stack([np.full(2, -TURN_OPENING), closure], axis=1),
+        ],
+        axis=1,
+    )
+
+
+def lid_fold_rates(chart: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T, 3) per face g: a lid turn θ with weights w at the face's corners keeps 1 + θ g · w of its normal.
+
+    `chart` (N, 3) the points' (x, r, φ) about the eye's x axis: a turn about that axis adds θ w to φ and
+    changes nothing else, so the face's normal in the chart, N + θ N', is linear in θ (a cross product of two
+    edges, each linear in θ, whose θ² term is the cross product of two vectors along φ: zero). Its agreement
+    with the rest normal is measured with the chart's metric at the face, diag(r², r², 1) (the normal of the
+    face in space, up to the face's size), and divided by the same at rest, N·N = c0, so that 1 + θ g · w is
+    the share of its normal the face keeps: 0 when it stands on edge, below 0 when it has turned over.
+    """
+    q = chart[triangles]
+    e2, e3 = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
+    normal = np.cross(e2, e3)
+    r2 = q[:, :, 1].mean(axis=1) ** 2
+    c0 = r2 * (normal[:, 0] ** 2 + normal[:, 1] ** 2) + normal[:, 2] ** 2
+    # N' = e2 × (0, 0, Δw3) + (0, 0, Δw2) × e3, Δw_k = w_k − w_1: r²(N_x N'_x + N_r N'_r) is p Δw2 + q Δw3
+    p = np.divide(r2 * (normal[:, 1] * e3[:, 0] - normal[:, 0] * e3[:, 1]), c0, out=np.zeros_like(c0), where=c0 > 0)
+    q_ = np.divide(r2 * (normal[:, 0] * e2[:, 1] - normal[:, 1] * e2[:, 0]), c0, out=np.zeros_like(c0), where=c0 > 0)
+    return np.stack([-(p + q_), p, q_], axis=1)
+
+
+def color_classes(triangles: np.ndarray, n: int) -> list[np.ndarray]:
+    """The faces in classes no two of whose faces share a vertex, so a class is projected at once (in any
+    order, with the same result): each round takes the faces whose fixed pseudo-random priority beats every
+    other remaining face at each of their corners (Luby's rounds)."""
+    remaining = np.arange(len(triangles))
+    priority = (remaining.astype(np.uint64) * np.uint64(2654435761)) % np.uint64(2**32)  # a bijection: no ties
+    priority = priority.astype(np.int64)
+    classes = []
+    while len(remaining):
+        best = np.full(n, -1, np.int64)
+        np.maximum.at(best, triangles[remaining].ravel(), np.repeat(priority[remaining], 3))
+        wins = (best[triangles[remaining]] == priority[remaining, None]).all(axis=1)
+        classes.append(remaining[wins])
+        remaining = remaining[~wins]
+    return classes
+
+
+def fold_free_weights(
+    face: np.ndarray,
+    vertices: np.ndarray,
+    eye: np.ndarray,
+    weights: np.ndarray,
+    fixed: np.ndarray,
+    centres: np.ndarray,
+    triangles: np.ndarray,
+    turn_range: np.ndarray,
+) -> np.ndarray:
+    """(K, 2) upper and lower lid weights of `vertices` (K,) (of eyes `eye`), moved so that on every face of
+    `triangles` (T, 3, indexing `face` (N, 3), face-frame points) each lid turning alone within `turn_range`
+    (`_turn_range`) keeps at least 1 - `FOLD_SHARE` of the face's normal (`lid_fold_rates`).
+
+    Weights where `fixed` (K, 2) stay (the lids themselves: they set where the lids meet), the points not in
+    `vertices` stay at 0, and
+    each face's two limits are met in turn by the smallest change of its corners' free weights (a projection),
+    over-relaxed by `OMEGA`, the faces in `color_classes` order, weights kept in [0, 1], for up to `SWEEPS` sweeps
+    or until no face misses a limit by more than `TOLERANCE`. By the compiled kernel where it is available
+    (`fused.fold_free_sweeps`: the same steps in the same order), else numpy.
+    """
+    n = len(face)
+    inside = np.zeros(n, bool)
+    inside[vertices] = True
+    faces = triangles[inside[triangles].any(axis=1)]
+    eye_of = np.zeros(n, np.intp)
+    eye_of[vertices] = eye
+    first = np.where(inside[faces[:, 0]], faces[:, 0], np.where(inside[faces[:, 1]], faces[:, 1], faces[:, 2]))
+    face_eye = eye_of[first]
+    g = np.empty((len(faces), 3))
+    for e in (0, 1):
+        on = face_eye == e
+        d = face - centres[e]
+        chart = np.stack([d[:, 0], np.hypot(d[:, 1], d[:, 2]), np.arctan2(d[:, 1], d[:, 2])], axis=1)
+        g[on] = lid_fold_rates(chart, faces[on])
+    # 1 + θ a ≥ 1 − FOLD_SHARE for θ in [least, most]: a ≥ −FOLD_SHARE / most, a ≤ FOLD_SHARE / −least
+    limits = turn_range[face_eye]  # (F, 2 lids, 2)
+    lower = -FOLD_SHARE / limits[:, :, 1]
+    upper = FOLD_SHARE / -limits[:, :, 0]
+    w = np.zeros((n, 2))
+    w[vertices] = weights
+    free = np.zeros((n, 2), bool)
+    free[vertices] = ~np.asarray(fixed, bool)
+    gf = g[:, :, None] * free[faces]  # (F, 3, 2): a face's rate on its free corners' weights
+    norm = (gf * gf).sum(axis=1)  # (F, 2)
+    classes = color_classes(faces, n)
+    arrays = (faces, g, gf, norm, lower, upper)
+    if fused.fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE) is None:
+        fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE)
+    return w[vertices]
+
+
+def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega, tolerance) -> int:
+    """`fold_free_weights`' sweeps in numpy, in place on `w` (N, 2); returns how many were made."""
+    made = 0
+    for made in range(1, sweeps + 1):  # noqa: B007 (the count is the result)
+        worst = 0.0
+        for members in classes:
+            corners = faces[members]
+            now = w[corners]  # (C, 3, 2)
+            rate = g[members]
+            a = rate[:, 0, None] * now[:, 0] + rate[:, 1, None] * now[:, 1] + rate[:, 2, None] * now[:, 2]
+            miss = np.clip(a, lower[members], upper[members]) - a
+            worst = max(worst, float(np.abs(miss).max(initial=0.0)))
+            step = np.divide(miss, norm[members], out=np.zeros_like(miss), where=norm[members] > 0.0)
+            w[corners] = np.clip(now + omega * gf[members] * step[:, None, :], 0.0, 1.0)
+        if worst <= tolerance:
+            break
+    return made
 
 
 def lid_turns(rig: EyelidRig, fp_positions: np.ndarray) -> np.ndarray:
@@ -202,7 +359,10 @@ def lid_turns(rig: EyelidRig, fp_positions: np.ndarray) -> np.ndarray:
     up = delta[:, 0] + UPPER_FOLLOWS_PITCH * delta[:, 2]
     low = delta[:, 1] + LOWER_FOLLOWS_PITCH * delta[:, 2]
     down, rise = meet_at_closure(-up, low, rig.rest_angles[:, 0] - rig.rest_angles[:, 1])
-    return np.stack([-down, rise], axis=1)
+    turns = np.stack([-down, rise], axis=1)
+    if rig.turn_range is not None:  # the turns the weights are fold-free for
+        turns = np.clip(turns, rig.turn_range[:, :, 0], rig.turn_range[:, :, 1])
+    return turns
 
 
 @functools.lru_cache(maxsize=16)

@@ -47,7 +47,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 8  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 9  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -71,6 +71,7 @@ NEAREST_TIES = 8  # room for this many ties with the k-th nearest per vertex; mo
 BIND_FRAME = 48  # doubles per triangle in `bind_frames` (BIND_FRAME in native/bind_regions.h)
 _LOCATE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 7]
 _COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *[_POINTER] * 6]
+_FOLD_FREE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int32, ctypes.c_double, ctypes.c_double]
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,6 +163,8 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_distance_bound.restype = None
         library.pbk_collect.argtypes = _COLLECT_ARGUMENTS
         library.pbk_collect.restype = ctypes.c_int64
+        library.pbk_fold_free_sweeps.argtypes = _FOLD_FREE_ARGUMENTS
+        library.pbk_fold_free_sweeps.restype = ctypes.c_int32
     except (OSError, AttributeError):
         return None
     return library
@@ -659,3 +662,27 @@ class Collector:
         result = {name: out[name][:count].copy() for name in self.FIELDS}
         result["vertex"] = result["vertex"].astype(np.intp)
         return result
+
+
+def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega, tolerance) -> int | None:
+    """`eyelids.fold_free_sweeps` by the kernel, in place on ``w`` (N, 2, C-contiguous float64); the sweeps made,
+    or None (``w`` untouched) where the kernel is unavailable."""
+    kernel = _kernel() if available() else None
+    n_faces = len(faces)
+    if kernel is None or w.dtype != np.float64 or w.ndim != 2 or w.shape[1] != 2 or not w.flags.c_contiguous:
+        return None
+    members = np.ascontiguousarray(np.concatenate(classes) if classes else np.zeros(0), dtype=np.int64)
+    faces = np.ascontiguousarray(faces, dtype=np.int32)
+    shapes = ((g, (n_faces, 3)), (gf, (n_faces, 3, 2)), (norm, (n_faces, 2)), (lower, (n_faces, 2)))
+    shapes += ((upper, (n_faces, 2)),)
+    if not (
+        faces.shape == (n_faces, 3)
+        and all(np.shape(a) == shape for a, shape in shapes)
+        and np.array_equal(np.sort(members), np.arange(n_faces))
+        and (n_faces == 0 or (faces.min() >= 0 and faces.max() < len(w)))
+    ):
+        return None
+    arrays = [np.ascontiguousarray(a, dtype=np.float64) for a, _shape in shapes]
+    class_start = np.ascontiguousarray(np.cumsum([0] + [len(c) for c in classes]), dtype=np.int64)
+    pointers = (a.ctypes.data for a in (class_start, members, faces, *arrays, w))
+    return int(kernel.pbk_fold_free_sweeps(len(classes), *pointers, sweeps, omega, tolerance))

@@ -1,6 +1,6 @@
 """Faces the live add-on turns over while playing .fap streams on the sample head: the whole per-frame path.
 
-    .venv/bin/python -m scripts.bench.live_folds [STREAM.fap ...] [--no-lip-guard]
+    .venv/bin/python -m scripts.bench.live_folds [STREAM.fap ...] [--no-lip-guard] [--level 0|1|2]
 
 Unlike `evaluate_folds` (the deformer alone), this plays each stream as a user does: Set Up Face, Import FAP
 Stream with the default options, then every frame of the scene through `scene.frame_set`, the handler's
@@ -24,9 +24,9 @@ from addon.deform.folds import count_inverted
 from scripts.bench import bench, evaluate_folds
 
 
-def play(path: Path, lip_guard: bool) -> list[int]:
-    """Faces turned over in each frame of the stream `path`, played on the sample head."""
-    head, _ = bench.set_up_sample(0)
+def play(path: Path, lip_guard: bool, level: int = 0) -> list[int]:
+    """Faces turned over in each frame of the stream `path`, played on the sample head (subdivided `level` times)."""
+    head, _ = bench.set_up_sample(level)
     bench._operator(bpy.ops.mpeg4.import_fap, filepath=str(path), start_frame=1)
     head.mpeg4_face.keep_lips_apart = lip_guard
     scene, mesh = bpy.context.scene, head.data
@@ -46,12 +46,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("streams", nargs="*", type=Path, help="the .fap files (default: demo and interop)")
     parser.add_argument("--no-lip-guard", action="store_true", help="play with Keep Lips Apart off")
+    parser.add_argument("--level", type=int, default=0, choices=[0, 1, 2], help="subdivide the sample head first")
     args = parser.parse_args(argv)
     addon.register()
     print("| stream | frames | most faces turned over in a frame | frames with any |")
     print("|---|---:|---:|---:|")
     for path in args.streams or evaluate_folds.default_streams():
-        counts = play(path, lip_guard=not args.no_lip_guard)
+        counts = play(path, lip_guard=not args.no_lip_guard, level=args.level)
         name = path.name if path.parent.parent != evaluate_folds.INTEROP else f"{path.parent.name}/{path.name}"
         print(f"| {name} | {len(counts)} | {max(counts)} | {sum(1 for c in counts if c)} |")
     return 0

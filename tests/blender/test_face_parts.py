@@ -182,6 +182,18 @@ def test_a_blink_closes_the_lid_in_playback_and_gaze_moves_the_lids():
     assert positions(head.data)[mid, 2] < rest[mid, 2] - 0.001
 
 
+@pytest.mark.parametrize("stream", ["demo.fap", "philippedax_vreng/eyes.fap", "philippedax_vreng/jag.fap"])
+def test_streams_that_folded_the_lids_play_with_no_face_turned_over(stream):
+    """The lids' weights are made fold-free at set-up: the demo's blink turned 4 faces over at the eye corners,
+    VREng's eyes.fap and jag.fap raising the upper lid 26 and 24 faces above it, before."""
+    from scripts.bench import evaluate_folds, live_folds
+
+    path = DEMO_FAP if stream == "demo.fap" else evaluate_folds.INTEROP / stream
+    if not path.is_file():
+        pytest.skip(f"{path} is not here")
+    assert max(live_folds.play(path, lip_guard=True)) == 0
+
+
 def _one_fap_stream(path, number, value):
     mask = ["0"] * 68
     mask[number - 1] = "1"

@@ -47,7 +47,9 @@ def core_result(head, stream_path, frame_index):
     guard_lips(bind_lip_guard(rest, rest_control, tuple(ids), triangles, upper, lower), out, driving)
     centres = fap_io.eye_pivots(head)
     radii = np.linalg.norm(neutral[[fp_index("3.5"), fp_index("3.6")]] - centres, axis=1)
-    rig = bind_eyelids(rest, 1 - masks["lower_eyelid"], 1 - masks["upper_eyelid"], neutral, centres, radii)
+    rig = bind_eyelids(
+        rest, 1 - masks["lower_eyelid"], 1 - masks["upper_eyelid"], neutral, centres, radii, triangles=triangles
+    )
     apply_eyelids(rig, out, points)
     return out
 
