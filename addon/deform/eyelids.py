@@ -49,7 +49,7 @@ REACH_RADII = (1.5, 2.0)  # the lids' turn fades out between these multiples of 
 # lid rises at most 0.3 (the levator's 2-3 mm and part of an upward gaze) and falls through the opening and 0.25
 # more (a closed eye looking down); the lower lid the other way round. `lid_turns` keeps the turns inside.
 TURN_BEYOND_CLOSURE = 0.25
-TURN_OPENING = 0.3
+TURN_OPENING = 0.15
 FOLD_SHARE = 0.4  # of a face's normal that one lid's turn may take: the two lids together leave 0.2 at least
 MEMBER = 0.99  # a vertex at least this much of a lid (its group weight) is the lid: its weight is kept as bound
 # `fold_free_weights`: at most SWEEPS over-relaxed sweeps, until no face misses a limit by more than TOLERANCE (of
