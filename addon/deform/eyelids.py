@@ -15,7 +15,7 @@ The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_
 real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle).
 
 No face turns over (not in the paper, which has no lids' turn): given the mesh's faces, `bind_eyelids` makes the
-weights such that each lid alone, turning anywhere within its range (`TURN_RANGE`), keeps every face's normal
+weights such that each lid alone, turning anywhere within its range (`_turn_range`), keeps every face's normal
 (`lid_fold_rates`) at least 1 - `FOLD_SHARE` of the way it faced at rest, and `lid_turns` keeps the turns within
 those ranges. Hand-made lid groups fall from 1 to 0 across a single face near the lid, which a turn of 0.1 rad
 folds on the sample head; the weights of the skin around the lids (above the upper lid's crease, at the corners,
@@ -45,9 +45,10 @@ _TURN_ROWS = np.array([[fp_index(up), fp_index(low), fp_index(pupil)] for up, lo
 MID_LID_FPS = frozenset(fp_id for eye in EYE_FPS for fp_id in eye[:2])
 PROFILE_BINS = 24  # bins along the eye in which the opening is measured
 REACH_RADII = (1.5, 2.0)  # the lids' turn fades out between these multiples of the eyeball radius from its centre
-# Turns (rad, + up) each lid's weights are made fold-free for, beyond closing the eye's opening at rest: the upper
-# lid rises at most 0.3 (the levator's 2-3 mm and part of an upward gaze) and falls through the opening and 0.25
-# more (a closed eye looking down); the lower lid the other way round. `lid_turns` keeps the turns inside.
+# Turns (rad, + up) each lid's weights are made fold-free for: the upper lid rises at most TURN_OPENING (the
+# levator's 2 mm and a little of an upward gaze: the wider this, the more skin above the lid must turn with it)
+# and falls through the eye's opening at rest and TURN_BEYOND_CLOSURE more (a closed eye looking down); the lower
+# lid the other way round. `lid_turns` keeps the turns inside.
 TURN_BEYOND_CLOSURE = 0.25
 TURN_OPENING = 0.15
 FOLD_SHARE = 0.4  # of a face's normal that one lid's turn may take: the two lids together leave 0.2 at least
@@ -158,7 +159,8 @@ def bind_eyelids(
     `rest` (N, 3) mesh positions; `upper_lid`/`lower_lid` (N,) membership weights in [0, 1] (1 on the lid);
     `neutral` (84, 3) rest FP positions (NaN where missing); `centres` (2, 3) and `radii` (2,) the left and
     right eyeballs, all in mesh coordinates. With the mesh's `triangles` (T, 3), the weights are made so that
-    no face turns over (`fold_free_weights`) and the turns are kept within `TURN_RANGE` of closure.
+    no face turns over (`fold_free_weights`) and the turns are kept within the range that holds for
+    (`_turn_range`).
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -291,8 +293,8 @@ def fold_free_weights(
     (`_turn_range`) keeps at least 1 - `FOLD_SHARE` of the face's normal (`lid_fold_rates`).
 
     Weights where `fixed` (K, 2) stay (the lids themselves: they set where the lids meet), the points not in
-    `vertices` stay at 0, and
-    each face's two limits are met in turn by the smallest change of its corners' free weights (a projection),
+    `vertices` stay at 0, and each face's two limits are met in turn by the smallest change of its corners' free
+    weights (a projection),
     over-relaxed by `OMEGA`, the faces in `color_classes` order, weights kept in [0, 1], for up to `SWEEPS` sweeps
     or until no face misses a limit by more than `TOLERANCE`. By the compiled kernel where it is available
     (`fused.fold_free_sweeps`: the same steps in the same order), else numpy.

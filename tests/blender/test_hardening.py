@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import binding_store, face_data, fp_empties, live, rest_shape
+from addon.blender import binding_store, eyelid_rig, face_data, fp_empties, live, rest_shape
 from addon.blender.menus import MPEG4_FH_fap
 from addon.mpeg4.fap_file import read_fap
 
@@ -409,6 +409,8 @@ def test_what_a_rebind_does_not_change_is_not_made_again_on_the_main_thread(monk
     monkeypatch.setattr(binding_store, "REBIND_DELAY", 0.0)
     guard, old_key = live._states[head.session_uid].lip_guard, binding_store.stored_key(head)
     assert guard is not None
+    lids = eyelid_rig._rigs[head.session_uid][1]
+    assert lids is not None
     head.mpeg4_face.radius_fraction = 1.5
     deadline = time.monotonic() + 30
     while binding_store.busy(head) and time.monotonic() < deadline:
@@ -420,6 +422,7 @@ def test_what_a_rebind_does_not_change_is_not_made_again_on_the_main_thread(monk
     state = live._states[head.session_uid]
     assert state.key == binding_store.stored_key(head) != old_key
     assert state.lip_guard is guard
+    assert eyelid_rig._rigs[head.session_uid][1] is lids  # the lids' fold-free weights were not made again
     head.mpeg4_face.keep_lips_apart = False
     head.mpeg4_face.keep_lips_apart = True
     assert live._states[head.session_uid].lip_guard is guard  # switched off and on: the same inputs
