@@ -20,7 +20,9 @@ weights such that each lid alone, turning anywhere within its range (`_turn_rang
 those ranges. Hand-made lid groups fall from 1 to 0 across a single face near the lid, which a turn of 0.1 rad
 folds on the sample head; the weights of the skin around the lids (above the upper lid's crease, at the corners,
 the lids' inner rims) are moved, by as little as projections onto those limits move them (`fold_free_weights`);
-the lids' own weights (group weight >= `MEMBER`) stay as bound, so the lids still meet along the whole eye.
+the lids' own weights (group weight >= `MEMBER`) stay as bound, so the lids still meet along the whole eye. Turns
+toward closure and away from it get weights of their own (`EyelidRig.opening`): the skin above the upper lid must
+turn with a rising lid, not with a blink (where the sculpted expressions leave it still).
 """
 
 from __future__ import annotations
@@ -53,10 +55,13 @@ TURN_BEYOND_CLOSURE = 0.25
 TURN_OPENING = 0.15
 FOLD_SHARE = 0.4  # of a face's normal that one lid's turn may take: the two lids together leave 0.2 at least
 MEMBER = 0.99  # a vertex at least this much of a lid (its group weight) is the lid: its weight is kept as bound
-# `fold_free_weights`: at most SWEEPS over-relaxed sweeps, until no face misses a limit by more than TOLERANCE (of
-# its normal's share per radian). At 4k and 17k vertices the sample head's lids converge in about 50 and 200; at
-# 68k 400 sweeps leave a few hundred faces short (the share they keep is what the live-folds table measures).
-SWEEPS, OMEGA, TOLERANCE = 400, 1.9, 1e-3
+# `fold_free_weights`: at most SWEEPS sweeps, until no face misses a limit by more than TOLERANCE (of its normal's
+# share per radian); each projection's step times OMEGA. On the sample head at 4k vertices the lids' weights meet
+# every limit; at 17k and 68k the sweeps stop short, some faces missing their limit (the live-folds table at those
+# sizes shows what that leaves): more sweeps cost set-up time at 68k (0.1 s per 100 for both solves). Over-relaxing
+# (OMEGA 1.9) converged faster at 4k but, stopped short at 68k, left rougher weights and more folds (the demo 15
+# faces in a frame against 1).
+SWEEPS, OMEGA, TOLERANCE = 200, 1.0, 1e-3
 
 
 def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.ndarray:
@@ -142,6 +147,9 @@ class EyelidRig:
     rest_angles: np.ndarray  # (2, 3) rest elevation of the upper mid-lid FP, lower mid-lid FP, pupil
     axes: np.ndarray  # (3, 3) face frame in mesh coordinates
     turn_range: np.ndarray | None = None  # (2, 2, 2) [eye][upper, lower][least, most] turn; None: not limited
+    # (K, 2) the upper and lower lid's weights for turns away from closure (the upper lid up, the lower down), where
+    # `upper` and `lower` are for turns toward it; None: `upper` and `lower` for both
+    opening: np.ndarray | None = None
 
 
 def bind_eyelids(
@@ -201,7 +209,7 @@ def bind_eyelids(
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
     weights = np.stack([up_weight * fade, low_weight * fade], axis=1)
-    turn_range = None
+    turn_range = opening = None
     if triangles is not None:
         turn_range = _turn_range(rest_angles)
         # the skin just inside the eyeball's sphere (the lids' inner rims, hidden by the eyeball) may turn too:
@@ -211,8 +219,12 @@ def bind_eyelids(
         member = np.concatenate([np.stack([up, low], axis=1) >= MEMBER, np.zeros((len(extra), 2), bool)])
         keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
         weights = np.concatenate([weights, np.zeros((len(extra), 2))])
-        weights = fold_free_weights(face, keep, eye, weights, member, centres, np.asarray(triangles), turn_range)
+        arguments = (face, keep, eye, weights, member, centres, np.asarray(triangles), turn_range)
+        weights, opening = fold_free_weights(*arguments)
     moved = (weights > 0.0).any(axis=1)
+    if opening is not None:
+        moved |= (opening > 0.0).any(axis=1)
+        opening = opening[moved]
     keep, eye, weights = keep[moved], eye[moved], weights[moved]
     return EyelidRig(
         vertices=keep,
@@ -224,6 +236,7 @@ def bind_eyelids(
         rest_angles=rest_angles,
         axes=axes,
         turn_range=turn_range,
+        opening=opening,
     )
 
 
@@ -288,16 +301,16 @@ def fold_free_weights(
     triangles: np.ndarray,
     turn_range: np.ndarray,
 ) -> np.ndarray:
-    """(K, 2) upper and lower lid weights of `vertices` (K,) (of eyes `eye`), moved so that on every face of
-    `triangles` (T, 3, indexing `face` (N, 3), face-frame points) each lid turning alone within `turn_range`
-    (`_turn_range`) keeps at least 1 - `FOLD_SHARE` of the face's normal (`lid_fold_rates`).
+    """((K, 2), (K, 2)): the upper and lower lid weights of `vertices` (K,) (of eyes `eye`) for turns toward
+    closure and for turns away from it, each moved so that on every face of `triangles` (T, 3, indexing `face`
+    (N, 3), face-frame points) each lid turning alone within `turn_range` (`_turn_range`) keeps at least
+    1 - `FOLD_SHARE` of the face's normal (`lid_fold_rates`).
 
     Weights where `fixed` (K, 2) stay (the lids themselves: they set where the lids meet), the points not in
     `vertices` stay at 0, and each face's two limits are met in turn by the smallest change of its corners' free
-    weights (a projection),
-    over-relaxed by `OMEGA`, the faces in `color_classes` order, weights kept in [0, 1], for up to `SWEEPS` sweeps
-    or until no face misses a limit by more than `TOLERANCE`. By the compiled kernel where it is available
-    (`fused.fold_free_sweeps`: the same steps in the same order), else numpy.
+    weights (a projection, its step times `OMEGA`), the faces in `color_classes` order, weights kept in [0, 1], for
+    up to `SWEEPS` sweeps or until no face misses a limit by more than `TOLERANCE`. By the compiled kernel where it
+    is available (`fused.fold_free_sweeps`: the same steps in the same order), else numpy.
     """
     n = len(face)
     inside = np.zeros(n, bool)
@@ -313,21 +326,31 @@ def fold_free_weights(
         d = face - centres[e]
         chart = np.stack([d[:, 0], np.hypot(d[:, 1], d[:, 2]), np.arctan2(d[:, 1], d[:, 2])], axis=1)
         g[on] = lid_fold_rates(chart, faces[on])
-    # 1 + θ a ≥ 1 − FOLD_SHARE for θ in [least, most]: a ≥ −FOLD_SHARE / most, a ≤ FOLD_SHARE / −least
+    # 1 + θ a ≥ 1 − FOLD_SHARE for θ in [least, most]: a ≥ −FOLD_SHARE / most for the turns up, a ≤ FOLD_SHARE /
+    # −least for the turns down. Toward closure (the upper lid down, the lower up) and away from it the lids get
+    # weights of their own, so that what turns with a rising lid (the skin above it) need not follow a blink.
     limits = turn_range[face_eye]  # (F, 2 lids, 2)
-    lower = -FOLD_SHARE / limits[:, :, 1]
-    upper = FOLD_SHARE / -limits[:, :, 0]
-    w = np.zeros((n, 2))
-    w[vertices] = weights
+    rising, falling = -FOLD_SHARE / limits[:, :, 1], FOLD_SHARE / -limits[:, :, 0]
     free = np.zeros((n, 2), bool)
     free[vertices] = ~np.asarray(fixed, bool)
     gf = g[:, :, None] * free[faces]  # (F, 3, 2): a face's rate on its free corners' weights
     norm = (gf * gf).sum(axis=1)  # (F, 2)
     classes = color_classes(faces, n)
-    arrays = (faces, g, gf, norm, lower, upper)
-    if fused.fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE) is None:
-        fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE)
-    return w[vertices]
+    out = []
+    for upper_lid_up in (False, True):  # toward closure, then away from it
+        lower = np.full((len(faces), 2), -np.inf)
+        upper = np.full((len(faces), 2), np.inf)
+        if upper_lid_up:
+            lower[:, 0], upper[:, 1] = rising[:, 0], falling[:, 1]
+        else:
+            upper[:, 0], lower[:, 1] = falling[:, 0], rising[:, 1]
+        w = np.zeros((n, 2))
+        w[vertices] = weights
+        arrays = (faces, g, gf, norm, lower, upper)
+        if fused.fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE) is None:
+            fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE)
+        out.append(w[vertices])
+    return out[0], out[1]
 
 
 def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega, tolerance) -> int:
@@ -387,7 +410,13 @@ def apply_eyelids(rig: EyelidRig, out: np.ndarray, fp_positions: np.ndarray) -> 
     turns = lid_turns(rig, fp_positions)
     if not turns.any():  # lids at rest and the gaze level: every vertex would turn by exactly 0
         return
-    angle = rig.upper * turns[rig.eye, 0] + rig.lower * turns[rig.eye, 1]
+    turn = turns[rig.eye]  # (K, 2) each vertex's eye's upper and lower lid turn
+    if rig.opening is None:
+        angle = rig.upper * turn[:, 0] + rig.lower * turn[:, 1]
+    else:  # the weights for a turn toward closure or away from it (the same at 0: the turn is continuous)
+        upper = np.where(turn[:, 0] > 0.0, rig.opening[:, 0], rig.upper)
+        lower = np.where(turn[:, 1] < 0.0, rig.opening[:, 1], rig.lower)
+        angle = upper * turn[:, 0] + lower * turn[:, 1]
     # the turn about the face x axis moves only y and z: add (turned - local) straight along the y and z axes,
     # without building the turned copy; c - 1 as -2 sin^2(angle / 2) keeps small turns exact
     c1, s = -2.0 * np.sin(0.5 * angle) ** 2, np.sin(angle)

@@ -197,3 +197,19 @@ def test_progress_is_a_bar_on_a_terminal_and_a_few_lines_in_a_log():
         "\r[1/1] a.fap [##################......]  75 % video\033[K"
         "\r\033[K"
     )
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="sends itself SIGINT")
+def test_ctrl_c_while_a_child_starts_is_acted_on_once_it_is_recorded():
+    """A press inside `sigint_held` (around starting a child and recording it) does not interrupt it halfway; it
+    raises KeyboardInterrupt as soon as the block is over, so the child is stopped with the others."""
+    from scripts.convert import sigint_held
+
+    recorded = []
+    with pytest.raises(KeyboardInterrupt):
+        with sigint_held():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the handler runs here: it only notes the press
+            recorded.append("child")
+    assert recorded == ["child"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
