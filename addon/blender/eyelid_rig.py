@@ -27,17 +27,16 @@ _at_rest: dict[int, np.ndarray] = {}  # the watched FPs' rest positions the rig 
 _made: dict[int, tuple] = {}  # (the inputs, the rig) by face: a rebind that changes none of them keeps the rig
 
 
-def forget(face=None) -> None:
-    if face is None:
-        _rigs.clear()
-        _last.clear()
-        _at_rest.clear()
-        _made.clear()
-    else:
-        _rigs.pop(face.session_uid, None)
-        _last.pop(face.session_uid, None)
-        _at_rest.pop(face.session_uid, None)
-        _made.pop(face.session_uid, None)
+def forget(face=None, keep_made: bool = False) -> None:
+    """Drop the rigs (all faces, or one). `keep_made`: keep the last rig made for each face, which is taken again
+    only for equal inputs (an undo, a setting's rebind, Deform switched off and on: 0.23 s at 68k vertices)."""
+    faces = list(_rigs.keys() | _last.keys() | _at_rest.keys() | _made.keys()) if face is None else [face.session_uid]
+    for uid in faces:
+        _rigs.pop(uid, None)
+        _last.pop(uid, None)
+        _at_rest.pop(uid, None)
+        if not keep_made:
+            _made.pop(uid, None)
 
 
 def _make_rig(face, binding: Binding) -> EyelidRig | None:

@@ -76,9 +76,11 @@ def forget(face: bpy.types.Object | None = None) -> None:
         _scenes.clear()  # it holds objects: after undo or loading they are gone
         binding_store.forget()
         elastic_rig.forget()
+        eyelid_rig.forget(keep_made=True)
     else:
         _states.pop(face.session_uid, None)
         elastic_rig.forget(face)
+        eyelid_rig.forget(face, keep_made=True)
         if face.type == "MESH":
             binding_store.forget(face)
 
@@ -476,6 +478,7 @@ def on_depsgraph_update(scene, depsgraph):
 @bpy.app.handlers.persistent
 def on_load_post(*_args):
     forget()
+    eyelid_rig.forget()  # another file: nothing of the last one's rigs is wanted again
 
 
 @bpy.app.handlers.persistent

@@ -426,6 +426,11 @@ def test_what_a_rebind_does_not_change_is_not_made_again_on_the_main_thread(monk
     head.mpeg4_face.keep_lips_apart = False
     head.mpeg4_face.keep_lips_apart = True
     assert live._states[head.session_uid].lip_guard is guard  # switched off and on: the same inputs
+    live.forget()  # as an undo does: the same inputs, the same weights
+    assert live.apply_face(head, force=True)
+    assert eyelid_rig._rigs[head.session_uid][1] is lids
+    live.on_load_post()  # another file: nothing kept
+    assert not eyelid_rig._made and not eyelid_rig._rigs
 
 
 def test_the_binding_reloads_bit_identical_and_is_not_on_the_mesh(tmp_path):
