@@ -55,13 +55,15 @@ TURN_BEYOND_CLOSURE = 0.25
 TURN_OPENING = 0.15
 FOLD_SHARE = 0.4  # of a face's normal that one lid's turn may take: the two lids together leave 0.2 at least
 MEMBER = 0.99  # a vertex at least this much of a lid (its group weight) is the lid: its weight is kept as bound
-# `fold_free_weights`: at most SWEEPS sweeps, until no face misses a limit by more than TOLERANCE (of its normal's
-# share per radian); each projection's step times OMEGA. On the sample head at 4k vertices the lids' weights meet
-# every limit; at 17k and 68k the sweeps stop short, some faces missing their limit (the live-folds table at those
-# sizes shows what that leaves): more sweeps cost set-up time at 68k (0.1 s per 100 for both solves). Over-relaxing
-# (OMEGA 1.9) converged faster at 4k but, stopped short at 68k, left rougher weights and more folds (the demo 15
-# faces in a frame against 1).
-SWEEPS, OMEGA, TOLERANCE = 200, 1.0, 1e-3
+# `fold_free_weights`: at most SWEEPS sweeps (NUMPY_SWEEPS without the kernel: its sweeps pass over the faces
+# already within their limits, numpy's cannot), until no face misses a limit by more than TOLERANCE (of its
+# normal's share per radian); each projection's step times OMEGA. On the sample head at 4k vertices the lids'
+# weights meet every limit within a few dozen sweeps; at 17k and 68k the sweeps stop short, some faces missing
+# their limit (the live-folds table at those sizes shows what that leaves): both solves take 0.2 s at 68k with the
+# kernel, 1.6 s without.
+# Over-relaxing (OMEGA 1.9) converged faster at 4k but, stopped short at 68k, left rougher weights and more folds
+# (the demo 15 faces in a frame against 1).
+SWEEPS, NUMPY_SWEEPS, OMEGA, TOLERANCE = 1000, 200, 1.0, 1e-3
 
 
 def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.ndarray:
@@ -309,8 +311,8 @@ def fold_free_weights(
     Weights where `fixed` (K, 2) stay (the lids themselves: they set where the lids meet), the points not in
     `vertices` stay at 0, and each face's two limits are met in turn by the smallest change of its corners' free
     weights (a projection, its step times `OMEGA`), the faces in `color_classes` order, weights kept in [0, 1], for
-    up to `SWEEPS` sweeps or until no face misses a limit by more than `TOLERANCE`. By the compiled kernel where it
-    is available (`fused.fold_free_sweeps`: the same steps in the same order), else numpy.
+    up to `SWEEPS` (`NUMPY_SWEEPS`) sweeps or until no face misses a limit by more than `TOLERANCE`. By the compiled
+    kernel where it is available (`fused.fold_free_sweeps`: the same steps in the same order), else numpy.
     """
     n = len(face)
     inside = np.zeros(n, bool)
@@ -348,7 +350,7 @@ def fold_free_weights(
         w[vertices] = weights
         arrays = (faces, g, gf, norm, lower, upper)
         if fused.fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE) is None:
-            fold_free_sweeps(classes, *arrays, w, SWEEPS, OMEGA, TOLERANCE)
+            fold_free_sweeps(classes, *arrays, w, NUMPY_SWEEPS, OMEGA, TOLERANCE)
         out.append(w[vertices])
     return out[0], out[1]
 
