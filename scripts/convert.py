@@ -688,21 +688,6 @@ def child_command(face_file: Path, stream: Path, args) -> tuple[list[str], Path 
     return [sys.executable, str(script), *options], None
 
 
-@contextlib.contextmanager
-def sigint_held():
-    """Ctrl+C noted during the block and acted on after it: a press while a child process starts would otherwise
-    interrupt `Popen` after the fork, or before the child is recorded, and leave that child running unseen. (A
-    handler, not a blocked signal mask, which the child would inherit through exec; handlers it does not.)"""
-    pressed = []
-    previous = signal.signal(signal.SIGINT, lambda *_: pressed.append(True))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if pressed and callable(previous):
-        previous(signal.SIGINT, None)  # Python's own handler raises KeyboardInterrupt
-
-
 class Child:
     """One stream converting in a process of its own; its output goes to temporary files (no pipes to drain)."""
 
@@ -769,7 +754,9 @@ def convert_in_processes(face_file: Path, args, progress: Progress) -> int:
         while reported < len(streams):
             while waiting and len(running) < args.jobs:
                 i = waiting.pop(0)
-                with sigint_held():  # started and recorded, or neither: the finally below stops what it records
+                # a press while a child starts (after the fork, before it is recorded) would leave it running
+                # unseen: noted here, it is acted on once the child is recorded, and the finally below stops it
+                with CTRL_C.held():
                     running[i] = Child(streams[i].resolve(), *child_command(face_file, streams[i].resolve(), args))
             for i, child in list(running.items()):
                 outcomes[i] = child.outcome()

@@ -121,7 +121,7 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
     """The lip guard for the face's rest shape and the control points that move what it guards (the lips'
     skin, the seam between them); (None, None) when it is off or the face lacks inner-lip FPs or lip masks
     (nothing then keeps the lips' skin apart but the FPs' order)."""
-    control_ids = state.reader.fp_ids[: state.n_control]
+    control_ids = state.control_ids
     if not face.mpeg4_face.keep_lips_apart or not LIP_FPS <= set(control_ids):
         return None, None
     masks = binding_store.set_up_masks(face)

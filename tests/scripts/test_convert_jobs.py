@@ -201,13 +201,13 @@ def test_progress_is_a_bar_on_a_terminal_and_a_few_lines_in_a_log():
 
 @pytest.mark.skipif(sys.platform == "win32", reason="sends itself SIGINT")
 def test_ctrl_c_while_a_child_starts_is_acted_on_once_it_is_recorded():
-    """A press inside `sigint_held` (around starting a child and recording it) does not interrupt it halfway; it
+    """A press inside `CTRL_C.held()` (around starting a child and recording it) does not interrupt it halfway; it
     raises KeyboardInterrupt as soon as the block is over, so the child is stopped with the others."""
-    from scripts.convert import sigint_held
+    from scripts.convert import CTRL_C
 
     recorded = []
     with pytest.raises(KeyboardInterrupt):
-        with sigint_held():
+        with CTRL_C.held():
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(0.05)  # the handler runs here: it only notes the press
             recorded.append("child")
