@@ -38,7 +38,7 @@ __asm__(".symver pthread_create, pthread_create@GLIBC_2.2.5");
 __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 #endif
 
-#define PBK_ABI_VERSION 9
+#define PBK_ABI_VERSION 10
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
 #define PARALLEL_WORK 150000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */
@@ -524,6 +524,7 @@ PBK_EXPORT int pbk_evaluate_groups_f64(int64_t n_vertices, int64_t n_triangles, 
 #include "nearest_sources.h"
 #include "bind_regions.h"
 #include "lid_weights.h"
+#include "unfold.h"
 
 /* rest_bases (T, 7, 3) for the grouped and plain entry points: each triangle's basis V0, V1, V2, n, b0, b1, b2
  * (regions.deformation_basis) at the rest control points, made once per layout by this same code. */

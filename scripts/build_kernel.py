@@ -39,6 +39,7 @@ SOURCES = tuple(
         "nearest_sources.h",
         "bind_regions.h",
         "lid_weights.h",
+        "unfold.h",
     )
 )
 WHEELS = ROOT / "wheels"

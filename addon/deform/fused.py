@@ -47,7 +47,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 9  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 10  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -72,6 +72,8 @@ BIND_FRAME = 48  # doubles per triangle in `bind_frames` (BIND_FRAME in native/b
 _LOCATE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 7]
 _COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *[_POINTER] * 6]
 _FOLD_FREE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int32, ctypes.c_double, ctypes.c_double]
+_UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 8, ctypes.c_int32, ctypes.c_double]
+_UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_int32, _POINTER, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,6 +167,8 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_collect.restype = ctypes.c_int64
         library.pbk_fold_free_sweeps.argtypes = _FOLD_FREE_ARGUMENTS
         library.pbk_fold_free_sweeps.restype = ctypes.c_int32
+        library.pbk_unfold.argtypes = _UNFOLD_ARGUMENTS
+        library.pbk_unfold.restype = ctypes.c_int
     except (OSError, AttributeError):
         return None
     return library
@@ -686,3 +690,29 @@ def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega
     class_start = np.ascontiguousarray(np.cumsum([0] + [len(c) for c in classes]), dtype=np.int64)
     pointers = (a.ctypes.data for a in (class_start, members, faces, *arrays, w))
     return int(kernel.pbk_fold_free_sweeps(len(classes), *pointers, sweeps, omega, tolerance))
+
+
+def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every: int, stall_checks: int):
+    """`unfold.unfold` by the kernel, in place on ``positions`` ((N, 3) C-contiguous float32 of the `unfold.SkinMesh`
+    ``mesh``): (moved vertices, steps, triangles left), or None (``positions`` untouched) where the kernel is
+    unavailable or the positions are not float32."""
+    kernel = _kernel() if available() else None
+    if (
+        kernel is None
+        or positions.dtype != np.float32
+        or positions.shape != mesh.rest.shape
+        or not positions.flags.c_contiguous
+        or not positions.flags.writeable
+    ):
+        return None
+    moved = np.empty(len(positions), np.int32)
+    result = np.zeros(3, np.int64)
+    arrays = (mesh.rest, mesh.triangles, mesh.rest_normals, mesh.neighbour_start, mesh.neighbours)
+    arrays += (mesh.corner_start, mesh.corner_triangles, positions)
+    status = kernel.pbk_unfold(
+        len(positions), len(mesh.triangles), *(a.ctypes.data for a in arrays),
+        max_steps, step, check_every, stall_checks, moved.ctypes.data, result.ctypes.data,
+    )  # fmt: skip
+    if status != 0:
+        return None
+    return moved[: result[0]].copy(), int(result[1]), int(result[2])

@@ -1,0 +1,176 @@
+"""Unfold Skin: a check after every deformation that smooths out faces turned over against the rest pose.
+
+No deformer here is fold-free by construction. Planar Bones interpolates each control triangle's corners
+(eq. 1), so where a feature point passes the line of two others the control triangle, and the skin it carries,
+turns over (the lip corner rising past the nose wing and the cheek point in a full smile); where the control
+mesh ends, the fade to rest (`planar_bones`, ``fade_below``) can be steeper than the skin's faces are wide
+(under the chin with the jaw open); at 17k and 68k vertices the eyelids' fold-free weights stop short of their
+limits in places. The Planar Bones paper does not treat fold-overs. This pass repairs them in the output:
+
+1. find the turned-over faces: the triangles of the faces' fans whose deformed normal points against the rest
+   one (`folds.inverted_faces`' test; a triangle of zero area at rest never counts);
+2. smooth the displacement u = deformed − rest over the vertices of those triangles and the ``rings`` rings
+   of edges around them, the rest of the mesh held: ``CHECK_EVERY`` Jacobi steps
+   u_i ← u_i + λ (mean of u over i's neighbours − u_i), λ = ``STEP`` (a membrane: where the displacement is
+   smooth, or linear in the rest positions on a regular mesh, a step changes nothing);
+3. look again; stop once no triangle is turned over, after ``MAX_STEPS`` steps, or when nothing improves. When
+   the count has not fallen for ``STALL_CHECKS`` looks the region widens by one ring: a control triangle that
+   turned over carries a fold several faces wide, which a one-ring membrane cannot open.
+
+Only vertices near a fold move, by as little as opens it: the membrane is looked at after every
+``CHECK_EVERY`` steps, not run to convergence. A frame without folds is left exactly as it was. The result
+depends on that frame's positions alone (no state between frames), so a render farm's frames agree with the
+viewport's.
+
+`unfold` is the reference; `fused.unfold` runs the same steps in the same order in the compiled kernel (equal
+to it bit for bit, `tests/core/test_unfold.py`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import fused
+from .inputs import DeformError, check_points
+
+STEP = 0.5  # λ of a Jacobi step: half way to the neighbours' mean (the damped Jacobi of a membrane)
+CHECK_EVERY = 5  # steps between looks at the folds
+STALL_CHECKS = 4  # looks without fewer folds before the region widens by a ring
+MAX_STEPS = 2000  # at most this many steps a frame (a frame it cannot open keeps what is left)
+
+
+@dataclass(frozen=True, eq=False)
+class SkinMesh:
+    """What `unfold` needs of a mesh, made once from its rest pose (`prepare`)."""
+
+    rest: np.ndarray  # (N, 3) float64
+    triangles: np.ndarray  # (K, 3) int32: the faces' fans
+    rest_normals: np.ndarray  # (K, 3) float64: (b − a) × (c − a) at rest, unnormalised
+    neighbour_start: np.ndarray  # (N + 1,) int32: vertex i's neighbours are neighbours[start[i]:start[i + 1]]
+    neighbours: np.ndarray  # (E,) int32, ascending within each vertex
+    padded: np.ndarray  # (N, D) int32: the neighbours padded with N (a row of zeros), for the numpy sums
+    corner_start: np.ndarray  # (N + 1,) int32: the triangles at vertex i are corner_triangles[start[i]:start[i + 1]]
+    corner_triangles: np.ndarray  # (3K,) int32
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.rest)
+
+
+def prepare(rest: np.ndarray, triangles: np.ndarray) -> SkinMesh:
+    """A `SkinMesh` for (N, 3) rest positions and (K, 3) triangles (a mesh's fans, `folds.fan_triangles`)."""
+    rest = check_points(rest, "rest")
+    n = len(rest)
+    triangles = np.asarray(triangles).reshape(-1, 3)
+    if triangles.size and (triangles.min() < 0 or triangles.max() >= n):
+        raise DeformError(f"triangle indices must lie in [0, {n})")
+    triangles = triangles.astype(np.int32)
+    a, b, c = (rest[triangles[:, k]] for k in range(3))
+    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]).astype(np.int64)
+    edges = np.unique(np.concatenate([edges, edges[:, ::-1]]), axis=0)  # sorted by vertex, then neighbour
+    edges = edges[edges[:, 0] != edges[:, 1]]
+    start = np.searchsorted(edges[:, 0], np.arange(n + 1)).astype(np.int32)
+    degree = np.diff(start)
+    padded = np.full((n, max(int(degree.max(initial=0)), 1)), n, np.int32)
+    column = np.arange(len(edges)) - np.repeat(start[:-1], degree)
+    padded[edges[:, 0], column] = edges[:, 1]
+    corners = triangles.reshape(-1).astype(np.int64)
+    order = np.argsort(corners, kind="stable")
+    return SkinMesh(
+        rest=rest,
+        triangles=triangles,
+        rest_normals=np.cross(b - a, c - a),
+        neighbour_start=start,
+        neighbours=edges[:, 1].astype(np.int32),
+        padded=padded,
+        corner_start=np.searchsorted(corners[order], np.arange(n + 1)).astype(np.int32),
+        corner_triangles=(order // 3).astype(np.int32),
+    )
+
+
+def turned_over(mesh: SkinMesh, points: np.ndarray) -> np.ndarray:
+    """(K,) True for the triangles whose normal at (N, 3) float64 `points` points against the rest one."""
+    t = mesh.triangles
+    a, b, c = points[t[:, 0]], points[t[:, 1]], points[t[:, 2]]
+    u, v = b - a, c - a
+    n = mesh.rest_normals
+    # the dot product with the rest normal of (b − a) × (c − a), written out in the kernel's order
+    dot = (u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]) * n[:, 0]
+    dot += (u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]) * n[:, 1]
+    dot += (u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]) * n[:, 2]
+    return dot < 0.0
+
+
+def _grow(mesh: SkinMesh, region: np.ndarray) -> np.ndarray:
+    """`region` (N,) bool and every neighbour of its vertices."""
+    grown = region.copy()
+    inside = np.flatnonzero(region)
+    start, stop = mesh.neighbour_start[inside], mesh.neighbour_start[inside + 1]
+    take = np.repeat(stop - start, stop - start)
+    if take.size:
+        offsets = np.arange(take.size) - np.repeat(np.cumsum(stop - start) - (stop - start), stop - start)
+        grown[mesh.neighbours[np.repeat(start, stop - start) + offsets]] = True
+    return grown
+
+
+@dataclass(frozen=True)
+class Unfolded:
+    """What one `unfold` did."""
+
+    moved: np.ndarray  # (V,) int32: the vertices it may have moved, ascending
+    steps: int  # Jacobi steps made
+    left: int  # triangles still turned over (0: the frame is fold-free)
+
+
+def unfold(mesh: SkinMesh, positions: np.ndarray, max_steps: int = MAX_STEPS) -> Unfolded:
+    """Open the folds of the (N, 3) deformed `positions` (float32 or float64), in place."""
+    if positions.shape != mesh.rest.shape:
+        raise DeformError(f"positions have shape {positions.shape}, the mesh {mesh.rest.shape}")
+    points = positions.astype(np.float64)
+    bad = turned_over(mesh, points)
+    count = int(np.count_nonzero(bad))
+    if count == 0:
+        return Unfolded(np.zeros(0, np.int32), 0, 0)
+    n = mesh.n_vertices
+    rest = mesh.rest
+    degree = np.diff(mesh.neighbour_start).astype(np.float64)
+    moved = np.zeros(n, bool)
+    displacement = np.zeros((n + 1, 3))  # the padding's row n stays 0
+    rings, steps, best, stall = 1, 0, count, 0
+    while count and steps < max_steps:
+        region = np.zeros(n, bool)
+        region[mesh.triangles[bad].reshape(-1)] = True
+        for _ in range(rings):
+            region = _grow(mesh, region)
+        region &= degree > 0
+        moved |= region
+        inside = np.flatnonzero(region)
+        padded, inside_degree = mesh.padded[inside], degree[inside]
+        for _ in range(min(CHECK_EVERY, max_steps - steps)):
+            displacement[:n] = points - rest
+            total = displacement[padded[:, 0]].copy()
+            for column in range(1, padded.shape[1]):
+                total += displacement[padded[:, column]]
+            points[inside] += STEP * (total / inside_degree[:, None] - displacement[inside])
+            steps += 1
+        bad = turned_over(mesh, points)
+        count = int(np.count_nonzero(bad))
+        if count < best:
+            best, stall = count, 0
+        else:
+            stall += 1
+            if stall >= STALL_CHECKS:
+                rings, stall = rings + 1, 0
+    where = np.flatnonzero(moved).astype(np.int32)
+    positions[where] = points[where]
+    return Unfolded(where, steps, count)
+
+
+def open_folds(mesh: SkinMesh, positions: np.ndarray, max_steps: int = MAX_STEPS) -> Unfolded:
+    """`unfold` by the compiled kernel where it runs (float32 positions), else by the numpy reference."""
+    done = fused.unfold(mesh, positions, max_steps, STEP, CHECK_EVERY, STALL_CHECKS)
+    if done is None:
+        return unfold(mesh, positions, max_steps)
+    return Unfolded(*done)

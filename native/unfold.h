@@ -1,0 +1,119 @@
+/* unfold.unfold in C, included by planar_bones_kernel.c: the look for turned-over triangles after every frame,
+ * and where it finds some, the membrane steps that open them (unfold.py explains both). The same steps in the
+ * same order as the numpy, so the same result bit for bit: a Jacobi step does not depend on the order of the
+ * vertices, and each sum over a vertex's neighbours runs in the numpy's order. The numpy looks at every triangle
+ * each time; here only the triangles at a vertex of the region are looked at again, which gives the same
+ * count, since every turned-over triangle has its corners in the region and nothing else moved. */
+
+/* (b - a) x (c - a) . normal < 0, written out in the numpy's order */
+static inline int unfold_turned_at(const double *a, const double *b, const double *c, const double *normal) {
+    double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
+    double v0 = c[0] - a[0], v1 = c[1] - a[1], v2 = c[2] - a[2];
+    double dot = (u1 * v2 - u2 * v1) * normal[0];
+    dot += (u2 * v0 - u0 * v2) * normal[1];
+    dot += (u0 * v1 - u1 * v0) * normal[2];
+    return dot < 0.0;
+}
+
+static inline int unfold_turned(const double *p, const int32_t *tri, const double *normal) {
+    return unfold_turned_at(p + 3 * (int64_t)tri[0], p + 3 * (int64_t)tri[1], p + 3 * (int64_t)tri[2], normal);
+}
+
+static inline int unfold_turned_f32(const float *p, const int32_t *tri, const double *normal) {
+    double corner[3][3];
+    for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k) corner[j][k] = p[3 * (int64_t)tri[j] + k];
+    return unfold_turned_at(corner[0], corner[1], corner[2], normal);
+}
+
+/* positions (n x 3 float32) in place. moved (n) receives the vertices it may have moved, ascending, and
+ * result[0] their count, result[1] the steps made, result[2] the triangles left turned over. Returns 0, or -1
+ * when memory ran out (positions untouched). */
+PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_t *triangles,
+                          const double *rest_normals, const int32_t *neighbour_start, const int32_t *neighbours,
+                          const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
+                          int32_t max_steps, double step, int32_t check_every, int32_t stall_checks, int32_t *moved,
+                          int64_t *result) {
+    result[0] = result[1] = result[2] = 0;
+    int64_t count = 0;
+    for (int64_t t = 0; t < k; ++t) count += unfold_turned_f32(positions, triangles + 3 * t, rest_normals + 3 * t);
+    if (count == 0) return 0;
+    double *p = malloc((size_t)n * 3 * sizeof *p), *next = malloc((size_t)n * 3 * sizeof *next);
+    int32_t *bad = malloc((size_t)k * sizeof *bad), *list = malloc((size_t)n * sizeof *list);
+    int64_t *region = calloc((size_t)n, sizeof *region), *seen = calloc((size_t)k, sizeof *seen);
+    unsigned char *was_moved = calloc((size_t)n, 1);
+    if (!p || !next || !bad || !list || !region || !seen || !was_moved) {
+        free(p), free(next), free(bad), free(list), free(region), free(seen), free(was_moved);
+        return -1;
+    }
+    for (int64_t i = 0; i < 3 * n; ++i) p[i] = positions[i];
+    int64_t n_bad = 0;
+    for (int64_t t = 0; t < k; ++t)
+        if (unfold_turned(p, triangles + 3 * t, rest_normals + 3 * t)) bad[n_bad++] = (int32_t)t;
+    int64_t rings = 1, steps = 0, best = count, stall = 0, stamp = 0;
+    while (count && steps < max_steps) {
+        /* the region: the bad triangles' corners, then `rings` rings of neighbours (stamp marks membership) */
+        ++stamp;
+        int64_t size = 0;
+        for (int64_t b = 0; b < n_bad; ++b)
+            for (int c = 0; c < 3; ++c) {
+                int32_t v = triangles[3 * (int64_t)bad[b] + c];
+                if (region[v] != stamp) region[v] = stamp, list[size++] = v;
+            }
+        for (int64_t r = 0, from = 0; r < rings; ++r) {
+            int64_t to = size;
+            for (int64_t m = from; m < to; ++m)
+                for (int32_t e = neighbour_start[list[m]]; e < neighbour_start[list[m] + 1]; ++e)
+                    if (region[neighbours[e]] != stamp) region[neighbours[e]] = stamp, list[size++] = neighbours[e];
+            from = to;
+        }
+        int64_t kept = 0; /* the numpy drops vertices without neighbours (in no triangle: none of a bad one's) */
+        for (int64_t m = 0; m < size; ++m)
+            if (neighbour_start[list[m] + 1] > neighbour_start[list[m]]) list[kept++] = list[m], was_moved[list[m]] = 1;
+        size = kept;
+        int64_t batch = max_steps - steps < check_every ? max_steps - steps : check_every;
+        for (int64_t s = 0; s < batch; ++s, ++steps) {
+            for (int64_t m = 0; m < size; ++m) {
+                int32_t v = list[m];
+                int32_t first = neighbour_start[v], last = neighbour_start[v + 1];
+                double total[3];
+                const int64_t head = 3 * (int64_t)neighbours[first];
+                for (int c = 0; c < 3; ++c) total[c] = p[head + c] - rest[head + c];
+                for (int32_t e = first + 1; e < last; ++e)
+                    for (int c = 0; c < 3; ++c)
+                        total[c] += p[3 * (int64_t)neighbours[e] + c] - rest[3 * (int64_t)neighbours[e] + c];
+                double degree = (double)(last - first);
+                for (int c = 0; c < 3; ++c) {
+                    double own = p[3 * (int64_t)v + c] - rest[3 * (int64_t)v + c];
+                    next[3 * m + c] = p[3 * (int64_t)v + c] + step * (total[c] / degree - own);
+                }
+            }
+            for (int64_t m = 0; m < size; ++m)
+                for (int c = 0; c < 3; ++c) p[3 * (int64_t)list[m] + c] = next[3 * m + c];
+        }
+        /* look again at the triangles of the region's vertices */
+        n_bad = 0;
+        for (int64_t m = 0; m < size; ++m)
+            for (int32_t e = corner_start[list[m]]; e < corner_start[list[m] + 1]; ++e) {
+                int32_t t = corner_triangles[e];
+                if (seen[t] == stamp) continue;
+                seen[t] = stamp;
+                if (unfold_turned(p, triangles + 3 * (int64_t)t, rest_normals + 3 * (int64_t)t)) bad[n_bad++] = t;
+            }
+        count = n_bad;
+        if (count < best) {
+            best = count, stall = 0;
+        } else if (++stall >= stall_checks) {
+            ++rings, stall = 0;
+        }
+    }
+    int64_t n_moved = 0;
+    for (int64_t v = 0; v < n; ++v)
+        if (was_moved[v]) {
+            moved[n_moved++] = (int32_t)v;
+            for (int c = 0; c < 3; ++c) positions[3 * v + c] = (float)p[3 * v + c];
+        }
+    result[0] = n_moved, result[1] = steps, result[2] = count;
+    free(p), free(next), free(bad), free(list), free(region), free(seen), free(was_moved);
+    return 0;
+}

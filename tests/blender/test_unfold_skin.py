@@ -1,0 +1,97 @@
+"""Unfold Skin in the live effect: a full smile that turns the skin over at the lip corners plays with no face
+turned over; off gives Planar Bones' own output; the frames after a repaired one are what a fresh evaluation
+gives (nothing of the repair is left behind by the frame-to-frame playback)."""
+
+import bpy
+import numpy as np
+import pytest
+
+from addon.blender import face_data, live, rest_shape
+from addon.deform.folds import count_inverted
+
+from .helpers import positions
+from .test_hardening import unset_sample
+
+# the lip corners up and back as in MakeHuman's mouth-corner-puller at 1.5 times its size (head-local metres)
+SMILE = {"8.3": (0.0073, 0.0044, 0.0156), "8.4": (-0.0073, 0.0044, 0.0156)}
+
+
+def _set_up():
+    head = unset_sample()
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    empties = face_data.fp_empties(head)
+    rest = {fp_id: np.array(ob.location) for fp_id, ob in empties.items()}
+    return head, empties, rest
+
+
+def _pose(empties, rest, offsets, scale=1.0):
+    for fp_id, ob in empties.items():
+        ob.location = rest[fp_id] + scale * np.asarray(offsets.get(fp_id, (0.0, 0.0, 0.0)))
+    bpy.context.view_layer.update()
+
+
+def _folds(head):
+    fans = face_data.mesh_fans(head.data)
+    rest = rest_shape.stored_rest(head.data).astype(np.float64)
+    return count_inverted(rest, positions(head.data).astype(np.float64), *fans)
+
+
+def _fresh(head):
+    """The face as a state made afresh evaluates it (no playback history)."""
+    live.forget(head)
+    live.apply_face(head, force=True)
+    return positions(head.data).copy()
+
+
+def test_a_full_smile_turns_no_face_over_with_unfold_skin_and_some_without():
+    head, empties, rest = _set_up()
+    head.mpeg4_face.unfold_skin = False
+    _pose(empties, rest, SMILE)
+    raw = positions(head.data).copy()
+    assert _folds(head) > 0  # Planar Bones alone: the lip corner passes the nose wing-cheek line
+    head.mpeg4_face.unfold_skin = True
+    repaired = positions(head.data).copy()
+    assert _folds(head) == 0
+    moved = np.linalg.norm(repaired - raw, axis=1) > 0
+    assert 0 < moved.sum() < 0.2 * len(raw)  # only the skin around the folds
+    skin = rest_shape.stored_rest(head.data)
+    far = np.min([np.linalg.norm(skin - rest[fp_id], axis=1) for fp_id in SMILE], axis=0) > 0.04
+    assert not np.any(moved & far)
+    head.mpeg4_face.unfold_skin = False
+    np.testing.assert_array_equal(positions(head.data), raw)  # off: Planar Bones' output again
+
+
+def test_frames_after_a_repaired_one_equal_a_fresh_evaluation():
+    head, empties, rest = _set_up()
+    for scale in (1.0, 0.4, 1.0, 0.0, 0.7):  # folding, not folding, folding, rest, in between
+        _pose(empties, rest, SMILE, scale)
+        played = positions(head.data).copy()
+        np.testing.assert_array_equal(played, _fresh(head))
+        assert _folds(head) == 0
+
+
+def test_the_setting_is_undone_with_the_file():
+    head, empties, rest = _set_up()
+    _pose(empties, rest, SMILE)
+    bpy.ops.ed.undo_push(message="smile")
+    head.mpeg4_face.unfold_skin = False
+    bpy.ops.ed.undo_push(message="unfold off")
+    name = head.name
+    assert _folds(head) > 0
+    bpy.ops.ed.undo()
+    head = bpy.data.objects[name]
+    assert head.mpeg4_face.unfold_skin
+    live.apply_face(head, force=True)
+    assert _folds(head) == 0
+
+
+@pytest.mark.parametrize("stream", ["thuhcsi_Crystal.TTVS/interpolation_emot.fap"])
+def test_the_stream_that_still_folded_plays_with_no_face_turned_over(stream):
+    """interpolation_emot.fap turned 5 faces over at the sample head's outer eye corners before Unfold Skin."""
+    from scripts.bench import evaluate_folds, live_folds
+
+    path = evaluate_folds.INTEROP / stream
+    if not path.is_file():
+        pytest.skip(f"{path} is not here")
+    assert max(live_folds.play(path, lip_guard=True, unfold_skin=False)) > 0
+    assert max(live_folds.play(path, lip_guard=True)) == 0

@@ -1,0 +1,136 @@
+"""Unfold Skin (`unfold`): a flat grid with one vertex pushed past its neighbours, so that faces turn over."""
+
+import numpy as np
+import pytest
+
+from addon.deform import fused, unfold
+from addon.deform.folds import inverted_faces
+from addon.deform.inputs import DeformError
+
+SIZE = 21  # vertices a side; spacing 1 mm
+
+
+def grid(size: int = SIZE) -> tuple[np.ndarray, np.ndarray]:
+    """A flat square grid in the z = 0 plane (metres) and its triangles, wound to face +z; the cells' diagonals
+    turn the other way in the right half, so that the mesh is its own mirror image in x."""
+    x, y = np.meshgrid(np.arange(size) * 1e-3, np.arange(size) * 1e-3, indexing="ij")
+    points = np.stack([x.ravel(), y.ravel(), np.zeros(size * size)], axis=1)
+    triangles = []
+    for i in range(size - 1):
+        for j in range(size - 1):
+            a, b, c, d = size * i + j, size * (i + 1) + j, size * (i + 1) + j + 1, size * i + j + 1
+            triangles += [[a, b, c], [a, c, d]] if 2 * i < size - 1 else [[a, b, d], [b, c, d]]
+    return points, np.array(triangles)
+
+
+def centre(size: int = SIZE) -> int:
+    return (size // 2) * size + size // 2
+
+
+def pushed(points: np.ndarray, shift: tuple[float, float, float], where: int | None = None) -> np.ndarray:
+    """`points` with one vertex (the centre by default) moved by `shift` (metres)."""
+    out = points.copy()
+    out[centre() if where is None else where] += shift
+    return out
+
+
+def test_a_pushed_vertex_folds_faces_and_unfold_opens_all_of_them():
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0))  # 2.5 spacings: past its right-hand neighbour
+    assert inverted_faces(rest, folded, triangles).sum() >= 2
+    positions = folded.copy()
+    done = unfold.unfold(mesh, positions)
+    assert done.left == 0 and done.steps > 0
+    assert not inverted_faces(rest, positions, triangles).any()
+    # only vertices near the fold moved, and every one that did is listed
+    changed = np.flatnonzero(np.any(positions != folded, axis=1))
+    assert set(changed) <= set(done.moved)
+    distance = np.linalg.norm(rest[done.moved] - rest[centre()], axis=1)
+    assert distance.max() <= 6e-3
+    still = np.setdiff1d(np.arange(len(rest)), done.moved)
+    assert np.array_equal(positions[still], folded[still])
+
+
+def test_a_frame_without_folds_is_left_exactly_as_it_was():
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    angle = 0.7
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    for posed in (rest, rest @ rotation.T + (0.01, -0.02, 0.005), pushed(rest, (0.4e-3, 0.0, 3e-3))):
+        positions = posed.astype(np.float32)
+        before = positions.copy()
+        done = unfold.open_folds(mesh, positions)
+        assert done.steps == 0 and done.left == 0 and len(done.moved) == 0
+        assert np.array_equal(positions, before)
+
+
+def test_motion_along_the_normal_never_counts_as_a_fold():
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    positions = pushed(rest, (0.0, 0.0, 20e-3))  # a 20 mm spike: steep, but no face shows its back
+    assert unfold.unfold(mesh, positions).steps == 0
+
+
+def test_the_mirrored_fold_opens_to_the_mirrored_result():
+    rest, triangles = grid()
+    mirror = np.array([-1.0, 1.0, 1.0])
+    # the grid mirrored in x is the grid again, with vertex (i, j) at (SIZE - 1 - i, j)
+    i, j = np.divmod(np.arange(len(rest)), SIZE)
+    image = (SIZE - 1 - i) * SIZE + j
+    mirrored_rest = rest * mirror + ((SIZE - 1) * 1e-3, 0, 0)
+    assert np.allclose(mirrored_rest[image], rest)
+    mesh = unfold.prepare(rest, triangles)
+    folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0))
+    left = folded.copy()
+    unfold.unfold(mesh, left)
+    right = (folded * mirror + ((SIZE - 1) * 1e-3, 0, 0))[image]  # the fold mirrored, in the grid's vertex order
+    unfold.unfold(mesh, right)
+    back = (right * mirror + ((SIZE - 1) * 1e-3, 0, 0))[image]
+    assert np.abs(back - left).max() < 1e-12
+
+
+def test_a_fold_wider_than_a_ring_widens_the_region():
+    rest, triangles = grid(31)
+    mesh = unfold.prepare(rest, triangles)
+    folded = rest.copy()
+    column = 15 * 31 + np.arange(31)  # a whole column pushed 3.5 spacings sideways: a crease across the grid
+    folded[column, 0] += 3.5e-3
+    assert inverted_faces(rest, folded, triangles).sum() >= 60
+    positions = folded.copy()
+    done = unfold.unfold(mesh, positions)
+    assert done.left == 0
+    assert not inverted_faces(rest, positions, triangles).any()
+
+
+def test_max_steps_bounds_the_work_and_reports_what_is_left():
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    positions = rest.copy()
+    positions[(SIZE // 2) * SIZE + np.arange(SIZE), 0] += 8.5e-3  # a deep crease across the grid
+    done = unfold.unfold(mesh, positions, max_steps=1)
+    assert done.steps == 1 and done.left > 0
+    assert done.left == inverted_faces(rest, positions, triangles).sum()
+
+
+@pytest.mark.skipif(not fused.available(), reason="compiled kernel not installed")
+@pytest.mark.parametrize("shift", [(2.5e-3, 0.4e-3, 0.0), (6e-3, -1e-3, 1e-3), (-3e-3, 3e-3, 0.0)])
+def test_the_kernel_gives_the_numpy_result_bit_for_bit(shift):
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    folded = pushed(rest, shift).astype(np.float32)
+    reference, compiled = folded.copy(), folded.copy()
+    expected = unfold.unfold(mesh, reference)
+    got = fused.unfold(mesh, compiled, unfold.MAX_STEPS, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS)
+    assert got is not None
+    assert np.array_equal(got[0], expected.moved) and got[1:] == (expected.steps, expected.left)
+    assert np.array_equal(compiled, reference)
+
+
+def test_bad_input_is_a_deform_error():
+    rest, triangles = grid(3)
+    with pytest.raises(DeformError):
+        unfold.prepare(rest, triangles + 100)
+    mesh = unfold.prepare(rest, triangles)
+    with pytest.raises(DeformError):
+        unfold.unfold(mesh, np.zeros((4, 3)))
