@@ -14,6 +14,7 @@ a handler never raises.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 from dataclasses import dataclass
@@ -57,7 +58,9 @@ class _State:
     guard_made: tuple | None = None  # (its inputs, the guard): a rebind keeps it when they did not change
     lip_skin_groups: np.ndarray | None = None  # the playback's groups of what the lip guard may move
     fps: np.ndarray | None = None  # (84, 3) the last read FPs in FP_IDS order (`_fp_array`)
-    skin_made: tuple | None = None  # (rest, polygon sizes, corners, the `unfold.SkinMesh`): kept while they hold
+    skin: unfold.SkinMesh | None = None  # Unfold Skin's view of the face, once per state (`_skin_mesh`)
+    look_made: tuple | None = None  # (playback, skin, `unfold.Look`) at the playback's groups (`_look`)
+    unfolded: bool = False  # `out` holds a frame that Unfold Skin left with no face turned over
 
     @functools.cached_property
     def control_ids(self) -> tuple[str, ...]:
@@ -66,6 +69,11 @@ class _State:
 
 
 _states: dict[int, _State] = {}
+# Unfold Skin's view of each face (by session_uid): (rest, polygon sizes, corners, the `unfold.SkinMesh`, [its look
+# at the last playback layout's groups]). Made once (0.06 s at 68k vertices) and kept while those hold, across a
+# rebind, an undo and a bake (which start a new state), so that a bake's memory does not grow by it; dropped when
+# another file loads.
+_skins: dict[int, tuple] = {}
 _editing: set[int] = set()  # faces paused in Edit Mode, by session_uid
 _busy = False
 
@@ -112,7 +120,6 @@ def _state(face) -> _State:
     state = _State(key, binding, reader, len(ids), rows, out, mesh.shape_keys is not None)
     earlier = _states.get(face.session_uid)
     state.guard_made = None if earlier is None else earlier.guard_made  # a setting's rebind leaves the lips as they are
-    state.skin_made = None if earlier is None else earlier.skin_made
     _states[face.session_uid] = state
     return state
 
@@ -149,22 +156,46 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
 
 
 def _skin_mesh(face, state: _State) -> unfold.SkinMesh:
-    """Unfold Skin's view of the face's rest shape and faces, made once (0.1 s at 68k vertices) and kept while
-    the rest shape and the polygons' corners are the same."""
+    """Unfold Skin's view of the face's rest shape and faces: made once for a state, and kept for the next state
+    (a setting's rebind) while the rest shape and the polygons' corners are the same."""
+    if state.skin is not None:
+        return state.skin
     mesh = face.data
     sizes = np.empty(len(mesh.polygons), dtype=np.int64)
     mesh.polygons.foreach_get("loop_total", sizes)
     corners = np.empty(len(mesh.loops), dtype=np.int64)
     mesh.loops.foreach_get("vertex_index", corners)
     rest = state.binding.rest_vertices
-    made = state.skin_made
-    if made is not None and all(
+    made = _skins.get(face.session_uid)
+    if made is None or not all(
         a.shape == b.shape and np.array_equal(a, b) for a, b in zip(made[:3], (rest, sizes, corners), strict=True)
     ):
-        return made[3]
-    skin = unfold.prepare(rest, fan_triangles(sizes, corners)[0])
-    state.skin_made = rest, sizes, corners, skin
-    return skin
+        made = _skins[face.session_uid] = (
+            rest,
+            sizes,
+            corners,
+            unfold.prepare(rest, fan_triangles(sizes, corners)[0]),
+            [None],
+        )
+    state.skin = made[3]
+    return state.skin
+
+
+def _look(state: _State, skin: unfold.SkinMesh) -> unfold.Look:
+    """Unfold Skin's look at the groups the playback wrote (made again when its layout or the skin changes)."""
+    made, playback = state.look_made, state.playback
+    if made is None or made[0] is not playback or made[1] is not skin:
+        layout = playback.layout
+        slot = next((entry[4] for entry in _skins.values() if entry[3] is skin), [None])
+        look = slot[0]  # the look at the last layout's groups, kept while the grouping is the same
+        if (
+            look is None
+            or len(look.written) != len(layout.group_mask)
+            or not np.array_equal(look.grouping, layout.vertex_group)
+        ):
+            look = slot[0] = unfold.group_look(skin, layout.vertex_group, len(layout.group_mask))
+        state.look_made = made = playback, skin, dataclasses.replace(look, written=playback.written)
+    return made[2]
 
 
 def _guard_arrays(guard: LipGuard) -> fused.GuardArrays:
@@ -310,6 +341,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             state.playback = None  # the guarded vertices changed: start again
         if state.playback is None or state.mode != mode:
             _start_playback(face, state, mode)
+        written = None  # the playback's groups written this frame, where only they changed in `out`
         if np.array_equal(driving, state.binding.control_rest):
             state.out[...] = state.binding.rest_vertices  # the neutral face exactly, not up to rounding
             if state.playback is not None:
@@ -318,6 +350,8 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             if state.playback is None or not state.playback.evaluate(driving):
                 evaluate(state.binding, driving, mode=mode, out=state.out)
                 state.playback = None  # out was written whole: a new evaluator next frame
+            else:
+                written = state.playback.written
             lips = state.lip_points
             if state.lip_guard is not None and not np.array_equal(driving[lips], state.binding.control_rest[lips]):
                 # the lips press on each other, never pass
@@ -326,11 +360,20 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                     moved = guard_lips(state.lip_guard, state.out, driving)
                 if moved and state.playback is not None:
                     state.playback.changed(state.lip_skin_groups)  # the next frame writes them afresh
+                    if written is not None:
+                        written[state.lip_skin_groups] = 1
         eyelid_rig.apply(face, state.binding, state.out, fps)  # lids turn over the eyeballs (no V, no crossing)
         if settings.unfold_skin:  # no face shows its back
-            moved = unfold.open_folds(_skin_mesh(face, state), state.out).moved
-            if len(moved) and state.playback is not None:
-                state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh
+            skin = _skin_mesh(face, state)
+            # after a frame left with no face turned over, only the skin written since can have turned (the lids'
+            # are among the playback's rewritten groups): a look there is enough (0.1 ms of a whole look at 17k)
+            look = _look(state, skin) if written is not None and state.unfolded else None
+            done = unfold.open_folds(skin, state.out, look)
+            if len(done.moved) and state.playback is not None:
+                state.playback.changed(state.playback.groups_of(done.moved))  # the next frame writes them afresh
+            state.unfolded = done.left == 0
+        else:
+            state.unfolded = False
         rest_shape.write_positions(face.data, state.out)
         state.last, state.mode = points, mode
         _show_control(settings.control_object, state)
@@ -504,6 +547,7 @@ def on_depsgraph_update(scene, depsgraph):
 @bpy.app.handlers.persistent
 def on_load_post(*_args):
     forget()
+    _skins.clear()
     eyelid_rig.forget()  # another file: nothing of the last one's rigs is wanted again
 
 

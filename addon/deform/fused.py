@@ -169,6 +169,8 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_fold_free_sweeps.restype = ctypes.c_int32
         library.pbk_unfold.argtypes = _UNFOLD_ARGUMENTS
         library.pbk_unfold.restype = ctypes.c_int
+        library.pbk_any_turned.argtypes = [ctypes.c_int64, *[_POINTER] * 6]
+        library.pbk_any_turned.restype = ctypes.c_int32
     except (OSError, AttributeError):
         return None
     return library
@@ -382,6 +384,8 @@ class Playback:
         )
         self._at = out.ctypes.data
         self._rewritten = self.groups_of(np.zeros(0, np.intp) if rewritten is None else rewritten)
+        self._before = np.empty_like(self._fresh)
+        self.written = np.zeros(len(self._fresh), dtype=np.uint8)  # 1: the last evaluation wrote the group's vertices
 
     def groups_of(self, vertices: np.ndarray) -> np.ndarray:
         """The groups of these vertices, for `changed`."""
@@ -406,12 +410,17 @@ class Playback:
         function = kernel.pbk_evaluate_groups_f32 if layout.dtype == np.float32 else kernel.pbk_evaluate_groups_f64
         threads = max(1, min(thread_count(layout) if threads is None else threads, MAX_THREADS))
         self._fresh[self._rewritten] = 0
+        np.copyto(self._before, self._fresh)
         status = function(
             layout.n_vertices, len(layout.triangles), control.ctypes.data, *self._arguments, threads, self._at
         )
         if status != 0:
             self.changed()
-        return status == 0
+            self.written.fill(1)
+            return False
+        # a group was summed (fresh 0 after) or given back its rest (fresh 0 before, 1 after); the rest are unchanged
+        np.logical_or(self._before == 0, self._fresh == 0, out=self.written, casting="unsafe")
+        return True
 
 
 @dataclass(frozen=True, eq=False)
@@ -716,3 +725,13 @@ def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every
     if status != 0:
         return None
     return moved[: result[0]].copy(), int(result[1]), int(result[2])
+
+
+def any_turned(look, positions: np.ndarray) -> bool | None:
+    """`unfold.Look.any_turned` by the kernel, or None where it is unavailable or the positions are not float32."""
+    kernel = _kernel() if available() else None
+    if kernel is None or positions.dtype != np.float32 or positions.shape != look.mesh.rest.shape:
+        return None
+    if not positions.flags.c_contiguous:
+        return None
+    return bool(kernel.pbk_any_turned(len(look.class_start) - 1, *look.arguments, positions.ctypes.data))

@@ -28,6 +28,7 @@ to it bit for bit, `tests/core/test_unfold.py`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,7 +70,8 @@ def prepare(rest: np.ndarray, triangles: np.ndarray) -> SkinMesh:
     triangles = triangles.astype(np.int32)
     a, b, c = (rest[triangles[:, k]] for k in range(3))
     edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]).astype(np.int64)
-    edges = np.unique(np.concatenate([edges, edges[:, ::-1]]), axis=0)  # sorted by vertex, then neighbour
+    keys = np.unique(np.concatenate([edges[:, 0] * n + edges[:, 1], edges[:, 1] * n + edges[:, 0]]))
+    edges = np.stack(np.divmod(keys, max(n, 1)), axis=1)  # sorted by vertex, then neighbour
     edges = edges[edges[:, 0] != edges[:, 1]]
     start = np.searchsorted(edges[:, 0], np.arange(n + 1)).astype(np.int32)
     degree = np.diff(start)
@@ -92,10 +94,13 @@ def prepare(rest: np.ndarray, triangles: np.ndarray) -> SkinMesh:
 
 def turned_over(mesh: SkinMesh, points: np.ndarray) -> np.ndarray:
     """(K,) True for the triangles whose normal at (N, 3) float64 `points` points against the rest one."""
-    t = mesh.triangles
+    return _turned(mesh.triangles, mesh.rest_normals, points)
+
+
+def _turned(t: np.ndarray, n: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """`turned_over` for the triangles `t` with rest normals `n`."""
     a, b, c = points[t[:, 0]], points[t[:, 1]], points[t[:, 2]]
     u, v = b - a, c - a
-    n = mesh.rest_normals
     # the dot product with the rest normal of (b − a) × (c − a), written out in the kernel's order
     dot = (u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1]) * n[:, 0]
     dot += (u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2]) * n[:, 1]
@@ -168,8 +173,72 @@ def unfold(mesh: SkinMesh, positions: np.ndarray, max_steps: int = MAX_STEPS) ->
     return Unfolded(where, steps, count)
 
 
-def open_folds(mesh: SkinMesh, positions: np.ndarray, max_steps: int = MAX_STEPS) -> Unfolded:
-    """`unfold` by the compiled kernel where it runs (float32 positions), else by the numpy reference."""
+@dataclass(frozen=True, eq=False)
+class Look:
+    """Where a frame can have turned a triangle over, when the frame before ended with none turned over: at the
+    vertices written since. ``written`` (G,) flags the groups of vertices written (the caller sets it each frame).
+    The triangles are sorted into classes by the distinct groups of their corners, each looked at when one of its
+    groups was written, its triangles' corners and rest normals read in one stream."""
+
+    mesh: SkinMesh
+    grouping: np.ndarray  # (N,) each vertex's group
+    written: np.ndarray  # (G,) uint8, C-contiguous
+    class_groups: np.ndarray  # (C, 3) int32: a class's groups, the last repeated where it has fewer than 3
+    class_start: np.ndarray  # (C + 1,) int32: class c is rows class_start[c]:class_start[c + 1] of the two below
+    corners: np.ndarray  # (K, 3) int32: the triangles, class after class
+    rest_normals: np.ndarray  # (K, 3) float64: their rest normals
+
+    @functools.cached_property
+    def arguments(self) -> tuple[int, ...]:
+        """The kernel's pointers to the arrays (alive as long as the look)."""
+        arrays = (self.written, self.class_groups, self.class_start, self.corners, self.rest_normals)
+        return tuple(a.ctypes.data for a in arrays)
+
+    def any_turned(self, positions: np.ndarray) -> bool:
+        """True when a triangle at a written group is turned over at the (N, 3) `positions`."""
+        found = fused.any_turned(self, positions)
+        if found is None:
+            active = self.written[self.class_groups].any(axis=1)
+            rows = np.repeat(active, np.diff(self.class_start))
+            found = bool(_turned(self.corners[rows], self.rest_normals[rows], positions.astype(np.float64)).any())
+        return found
+
+
+def group_look(mesh: SkinMesh, vertex_group: np.ndarray, n_groups: int, written: np.ndarray | None = None) -> Look:
+    """A `Look` for vertices grouped by (N,) `vertex_group` (values below `n_groups`) whose (G,) uint8 `written` flags
+    the caller sets (a new array, nothing written, by default)."""
+    vertex_group = np.asarray(vertex_group, dtype=np.int64)
+    if vertex_group.shape != (mesh.n_vertices,) or (len(vertex_group) and vertex_group.max() >= n_groups):
+        raise DeformError("vertex_group must give each vertex a group below n_groups")
+    groups = np.sort(vertex_group[mesh.triangles], axis=1)
+    groups[:, 1] = np.where(groups[:, 1] == groups[:, 0], groups[:, 2], groups[:, 1])  # distinct first, then repeats
+    keys, inverse = np.unique((groups[:, 0] * n_groups + groups[:, 1]) * n_groups + groups[:, 2], return_inverse=True)
+    sort = np.argsort(inverse, kind="stable")
+    return Look(
+        mesh=mesh,
+        grouping=vertex_group,
+        written=np.zeros(n_groups, np.uint8) if written is None else _flags(written, n_groups),
+        class_groups=np.stack([keys // n_groups**2, keys // n_groups % n_groups, keys % n_groups], axis=1).astype(
+            np.int32
+        ),
+        class_start=np.searchsorted(inverse[sort], np.arange(len(keys) + 1)).astype(np.int32),
+        corners=np.ascontiguousarray(mesh.triangles[sort]),
+        rest_normals=np.ascontiguousarray(mesh.rest_normals[sort]),
+    )
+
+
+def _flags(written: np.ndarray, n_groups: int) -> np.ndarray:
+    if written.dtype != np.uint8 or written.shape != (n_groups,) or not written.flags.c_contiguous:
+        raise DeformError(f"written must be a C-contiguous uint8 array of {n_groups} flags")
+    return written
+
+
+def open_folds(mesh: SkinMesh, positions: np.ndarray, look: Look | None = None, max_steps: int = MAX_STEPS) -> Unfolded:
+    """`unfold` by the compiled kernel where it runs (float32 positions), else by the numpy reference. With a
+    `look`, whose caller vouches that the positions outside its written groups are those of a frame that ended with
+    no triangle turned over, only the triangles there are looked at first (the result is the same)."""
+    if look is not None and not look.any_turned(positions):
+        return Unfolded(np.zeros(0, np.int32), 0, 0)
     done = fused.unfold(mesh, positions, max_steps, STEP, CHECK_EVERY, STALL_CHECKS)
     if done is None:
         return unfold(mesh, positions, max_steps)

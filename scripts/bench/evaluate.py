@@ -37,7 +37,8 @@ control mesh jittered by 1e-6 m); its positions are read back from the evaluated
 
 `add_on` is the add-on as a user plays it (`AddOnMethod`): Set Up Face on the sample head, the FP empties moved
 by the target's FP motion, the face read back; Planar Bones bound as for `planar_bones`, then the eyelids' turn
-over the eyeballs (`addon/deform/eyelids.py`) and Keep Lips Apart. It runs last, as its set-up changes the scene.
+over the eyeballs (`addon/deform/eyelids.py`), Keep Lips Apart and Unfold Skin (`addon/deform/unfold.py`). It runs
+last, as its set-up changes the scene.
 
 `elastic_bones` is the Elastic Bones engine (`addon.elastic`, trained parameters) driven by the same FP
 motion (`scripts/bench/elastic_bones.py`; training and its figures: `scripts/bench/train_elastic.py`).
@@ -208,8 +209,8 @@ class SurfaceDeformMethod:
 
 class AddOnMethod:
     """The add-on as a user plays it, with the `METHODS` interface: Set Up Face on the sample head (Planar Bones
-    as `planar_bones` binds it, then the eyelids' turn over the eyeballs and Keep Lips Apart, face settings at
-    their defaults), the control FPs' empties moved by the target's FP motion, the face read back."""
+    as `planar_bones` binds it, then the eyelids' turn over the eyeballs, Keep Lips Apart and Unfold Skin, face
+    settings at their defaults), the control FPs' empties moved by the target's FP motion, the face read back."""
 
     def __init__(self, face: SampleFace):
         import addon

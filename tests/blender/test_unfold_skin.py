@@ -62,12 +62,18 @@ def test_a_full_smile_turns_no_face_over_with_unfold_skin_and_some_without():
 
 
 def test_frames_after_a_repaired_one_equal_a_fresh_evaluation():
+    """Played one after another (the playback writes only the groups that moved, and Unfold Skin then looks only
+    there), each frame is what a state made afresh gives (a whole look)."""
     head, empties, rest = _set_up()
-    for scale in (1.0, 0.4, 1.0, 0.0, 0.7):  # folding, not folding, folding, rest, in between
+    scales = (1.0, 0.4, 1.0, 1.2, 0.0, 0.7, 0.9)  # folding, not folding, folding, rest, in between
+    played = []
+    for scale in scales:
         _pose(empties, rest, SMILE, scale)
-        played = positions(head.data).copy()
-        np.testing.assert_array_equal(played, _fresh(head))
+        played.append(positions(head.data).copy())
         assert _folds(head) == 0
+    for scale, frame in zip(scales, played, strict=True):
+        _pose(empties, rest, SMILE, scale)
+        np.testing.assert_array_equal(frame, _fresh(head))
 
 
 def test_the_setting_is_undone_with_the_file():

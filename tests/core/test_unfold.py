@@ -134,3 +134,44 @@ def test_bad_input_is_a_deform_error():
     mesh = unfold.prepare(rest, triangles)
     with pytest.raises(DeformError):
         unfold.unfold(mesh, np.zeros((4, 3)))
+
+
+@pytest.mark.parametrize("kernel", [False, True])
+def test_a_look_at_the_written_groups_finds_what_a_whole_look_finds(kernel, monkeypatch):
+    if kernel and not fused.available():
+        pytest.skip("compiled kernel not installed")
+    if not kernel:
+        monkeypatch.setattr(fused, "any_turned", lambda look, positions: None)
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    column = np.arange(len(rest)) // SIZE
+    look = unfold.group_look(mesh, column, SIZE)  # a group per column of the grid
+    folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0)).astype(np.float32)  # folds faces at the centre's column and the next
+    look.written[:] = 0
+    assert not look.any_turned(folded)  # the folds are where nothing was written
+    look.written[SIZE // 2 + 1] = 1
+    assert look.any_turned(folded)
+    positions = folded.copy()
+    done = unfold.open_folds(mesh, positions, look)
+    reference = folded.copy()
+    expected = unfold.unfold(mesh, reference)
+    assert np.array_equal(done.moved, expected.moved) and np.array_equal(positions, reference)
+    look.written[:] = 0
+    positions = folded.copy()
+    assert unfold.open_folds(mesh, positions, look).steps == 0 and np.array_equal(positions, folded)
+
+
+def test_the_look_sorts_every_triangle_once_into_the_class_of_its_corners_groups():
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    vertex_group = np.random.default_rng(3).integers(0, 7, len(rest))
+    look = unfold.group_look(mesh, vertex_group, 7)
+    rows = {tuple(t): k for k, t in enumerate(map(tuple, triangles))}
+    seen = []
+    for c in range(len(look.class_groups)):
+        for t in look.corners[look.class_start[c] : look.class_start[c + 1]]:
+            k = rows[tuple(t)]
+            seen.append(k)
+            assert set(look.class_groups[c]) == set(vertex_group[t])
+            assert np.array_equal(look.rest_normals[len(seen) - 1], mesh.rest_normals[k])
+    assert sorted(seen) == list(range(len(triangles)))
