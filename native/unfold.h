@@ -118,15 +118,15 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
     return 0;
 }
 
-/* The look alone, at the triangles of the classes that have a written group (unfold.Look): class c's triangles are
- * rows class_start[c] .. class_start[c + 1] of corners and rest_normals (sorted by class, so read in one stream),
- * its groups class_groups[3c .. 3c + 2] (the distinct groups of their corners, the last repeated). 1 as soon as one
- * is turned over, else 0. */
-PBK_EXPORT int32_t pbk_any_turned(int64_t n_classes, const uint8_t *written, const int32_t *class_groups,
+/* The look alone, at the triangles of the classes that have a group flagged off its rest (unfold.Look): class c's
+ * triangles are rows class_start[c] .. class_start[c + 1] of corners and rest_normals (sorted by class, so read in
+ * one stream), its groups class_groups[3c .. 3c + 2] (the distinct groups of their corners, the last repeated).
+ * 1 as soon as one is turned over, else 0. */
+PBK_EXPORT int32_t pbk_any_turned(int64_t n_classes, const uint8_t *off_rest, const int32_t *class_groups,
                                   const int32_t *class_start, const int32_t *corners, const double *rest_normals,
                                   const float *positions) {
     for (int64_t c = 0; c < n_classes; ++c) {
-        if (!(written[class_groups[3 * c]] | written[class_groups[3 * c + 1]] | written[class_groups[3 * c + 2]]))
+        if (!(off_rest[class_groups[3 * c]] | off_rest[class_groups[3 * c + 1]] | off_rest[class_groups[3 * c + 2]]))
             continue;
         for (int64_t t = class_start[c]; t < class_start[c + 1]; ++t)
             if (unfold_turned_f32(positions, corners + 3 * t, rest_normals + 3 * t)) return 1;

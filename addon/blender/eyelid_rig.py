@@ -90,15 +90,19 @@ def still(face, binding: Binding, fps: np.ndarray) -> bool:
     return _rig(face, binding) is None or (last is not None and np.array_equal(watched, last, equal_nan=True))
 
 
-def apply(face, binding: Binding, out: np.ndarray, fps: np.ndarray) -> None:
-    """Turn the lids of the deformed positions `out` (N, 3) by the FPs `fps` (84, 3; NaN where absent), in place."""
+def apply(face, binding: Binding, out: np.ndarray, fps: np.ndarray) -> bool:
+    """Turn the lids of the deformed positions `out` (N, 3) by the FPs `fps` (84, 3; NaN where absent), in place;
+    False when they are at rest and `out` was left as it was."""
     rig = _rig(face, binding)
-    if rig is not None:
-        watched = fps[_WATCHED_ROWS]
-        # at rest the lids turn by exactly 0 (most frames of speech): skip working that out
-        if not np.array_equal(watched, _at_rest.get(face.session_uid)):
-            apply_eyelids(rig, out, fps)
-        _last[face.session_uid] = watched
+    if rig is None:
+        return False
+    watched = fps[_WATCHED_ROWS]
+    _last[face.session_uid] = watched
+    # at rest the lids turn by exactly 0 (most frames of speech): skip working that out
+    if np.array_equal(watched, _at_rest.get(face.session_uid)):
+        return False
+    apply_eyelids(rig, out, fps)
+    return True
 
 
 def turned_vertices(face, binding: Binding) -> np.ndarray | None:

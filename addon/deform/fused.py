@@ -384,8 +384,13 @@ class Playback:
         )
         self._at = out.ctypes.data
         self._rewritten = self.groups_of(np.zeros(0, np.intp) if rewritten is None else rewritten)
-        self._before = np.empty_like(self._fresh)
-        self.written = np.zeros(len(self._fresh), dtype=np.uint8)  # 1: the last evaluation wrote the group's vertices
+        # 1 where the last evaluation summed the group (a triangle of it not at rest): all others hold their rest
+        self.off_rest = np.ones(len(self._fresh), dtype=np.uint8)
+
+    @property
+    def rewritten(self) -> np.ndarray:
+        """The groups of the ``rewritten`` vertices."""
+        return self._rewritten
 
     def groups_of(self, vertices: np.ndarray) -> np.ndarray:
         """The groups of these vertices, for `changed`."""
@@ -410,16 +415,14 @@ class Playback:
         function = kernel.pbk_evaluate_groups_f32 if layout.dtype == np.float32 else kernel.pbk_evaluate_groups_f64
         threads = max(1, min(thread_count(layout) if threads is None else threads, MAX_THREADS))
         self._fresh[self._rewritten] = 0
-        np.copyto(self._before, self._fresh)
         status = function(
             layout.n_vertices, len(layout.triangles), control.ctypes.data, *self._arguments, threads, self._at
         )
         if status != 0:
             self.changed()
-            self.written.fill(1)
+            self.off_rest.fill(1)
             return False
-        # a group was summed (fresh 0 after) or given back its rest (fresh 0 before, 1 after); the rest are unchanged
-        np.logical_or(self._before == 0, self._fresh == 0, out=self.written, casting="unsafe")
+        np.equal(self._fresh, 0, out=self.off_rest, casting="unsafe")  # fresh: the group holds its rest
         return True
 
 

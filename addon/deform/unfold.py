@@ -175,14 +175,15 @@ def unfold(mesh: SkinMesh, positions: np.ndarray, max_steps: int = MAX_STEPS) ->
 
 @dataclass(frozen=True, eq=False)
 class Look:
-    """Where a frame can have turned a triangle over, when the frame before ended with none turned over: at the
-    vertices written since. ``written`` (G,) flags the groups of vertices written (the caller sets it each frame).
-    The triangles are sorted into classes by the distinct groups of their corners, each looked at when one of its
-    groups was written, its triangles' corners and rest normals read in one stream."""
+    """Where a frame can have turned a triangle over: at rest none is, so only a triangle with a corner off its rest
+    can be. ``off_rest`` (G,) flags the groups of vertices that may be off their rest (the caller sets it each
+    frame; every vertex of an unflagged group must be exactly at its rest). The triangles are sorted into classes by
+    the distinct groups of their corners, each looked at when one of its groups is flagged, its triangles' corners
+    and rest normals read in one stream."""
 
     mesh: SkinMesh
     grouping: np.ndarray  # (N,) each vertex's group
-    written: np.ndarray  # (G,) uint8, C-contiguous
+    off_rest: np.ndarray  # (G,) uint8, C-contiguous
     class_groups: np.ndarray  # (C, 3) int32: a class's groups, the last repeated where it has fewer than 3
     class_start: np.ndarray  # (C + 1,) int32: class c is rows class_start[c]:class_start[c + 1] of the two below
     corners: np.ndarray  # (K, 3) int32: the triangles, class after class
@@ -191,22 +192,22 @@ class Look:
     @functools.cached_property
     def arguments(self) -> tuple[int, ...]:
         """The kernel's pointers to the arrays (alive as long as the look)."""
-        arrays = (self.written, self.class_groups, self.class_start, self.corners, self.rest_normals)
+        arrays = (self.off_rest, self.class_groups, self.class_start, self.corners, self.rest_normals)
         return tuple(a.ctypes.data for a in arrays)
 
     def any_turned(self, positions: np.ndarray) -> bool:
-        """True when a triangle at a written group is turned over at the (N, 3) `positions`."""
+        """True when a triangle at a flagged group is turned over at the (N, 3) `positions`."""
         found = fused.any_turned(self, positions)
         if found is None:
-            active = self.written[self.class_groups].any(axis=1)
+            active = self.off_rest[self.class_groups].any(axis=1)
             rows = np.repeat(active, np.diff(self.class_start))
             found = bool(_turned(self.corners[rows], self.rest_normals[rows], positions.astype(np.float64)).any())
         return found
 
 
-def group_look(mesh: SkinMesh, vertex_group: np.ndarray, n_groups: int, written: np.ndarray | None = None) -> Look:
-    """A `Look` for vertices grouped by (N,) `vertex_group` (values below `n_groups`) whose (G,) uint8 `written` flags
-    the caller sets (a new array, nothing written, by default)."""
+def group_look(mesh: SkinMesh, vertex_group: np.ndarray, n_groups: int, off_rest: np.ndarray | None = None) -> Look:
+    """A `Look` for vertices grouped by (N,) `vertex_group` (values below `n_groups`) whose (G,) uint8 `off_rest`
+    flags the caller sets (a new array, no group flagged, by default)."""
     vertex_group = np.asarray(vertex_group, dtype=np.int64)
     if vertex_group.shape != (mesh.n_vertices,) or (len(vertex_group) and vertex_group.max() >= n_groups):
         raise DeformError("vertex_group must give each vertex a group below n_groups")
@@ -217,7 +218,7 @@ def group_look(mesh: SkinMesh, vertex_group: np.ndarray, n_groups: int, written:
     return Look(
         mesh=mesh,
         grouping=vertex_group,
-        written=np.zeros(n_groups, np.uint8) if written is None else _flags(written, n_groups),
+        off_rest=np.zeros(n_groups, np.uint8) if off_rest is None else _flags(off_rest, n_groups),
         class_groups=np.stack([keys // n_groups**2, keys // n_groups % n_groups, keys % n_groups], axis=1).astype(
             np.int32
         ),
@@ -227,16 +228,16 @@ def group_look(mesh: SkinMesh, vertex_group: np.ndarray, n_groups: int, written:
     )
 
 
-def _flags(written: np.ndarray, n_groups: int) -> np.ndarray:
-    if written.dtype != np.uint8 or written.shape != (n_groups,) or not written.flags.c_contiguous:
-        raise DeformError(f"written must be a C-contiguous uint8 array of {n_groups} flags")
-    return written
+def _flags(off_rest: np.ndarray, n_groups: int) -> np.ndarray:
+    if off_rest.dtype != np.uint8 or off_rest.shape != (n_groups,) or not off_rest.flags.c_contiguous:
+        raise DeformError(f"off_rest must be a C-contiguous uint8 array of {n_groups} flags")
+    return off_rest
 
 
 def open_folds(mesh: SkinMesh, positions: np.ndarray, look: Look | None = None, max_steps: int = MAX_STEPS) -> Unfolded:
     """`unfold` by the compiled kernel where it runs (float32 positions), else by the numpy reference. With a
-    `look`, whose caller vouches that the positions outside its written groups are those of a frame that ended with
-    no triangle turned over, only the triangles there are looked at first (the result is the same)."""
+    `look`, whose caller vouches that every vertex outside its flagged groups is at its rest, only the triangles
+    there are looked at first (the result is the same)."""
     if look is not None and not look.any_turned(positions):
         return Unfolded(np.zeros(0, np.int32), 0, 0)
     done = fused.unfold(mesh, positions, max_steps, STEP, CHECK_EVERY, STALL_CHECKS)

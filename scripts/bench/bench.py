@@ -1,6 +1,7 @@
 """End to end: a played frame of the add-on against Blender's Surface Deform, as a user waits for it.
 
     .venv/bin/python -m scripts.bench.bench [--levels 0 1 2] [--frames 100] [--stream FILE.fap] [--json OUT]
+        [--no-unfold]
 
 For each size (the sample head, and its Catmull-Clark subdivisions at levels 1 and 2, applied), in one
 process:
@@ -131,8 +132,9 @@ def _read(ob, depsgraph, out: np.ndarray) -> None:
     ob.evaluated_get(depsgraph).data.attributes["position"].data.foreach_get("vector", out)
 
 
-def measure(level: int, frames: int, stream: Path) -> dict:
+def measure(level: int, frames: int, stream: Path, unfold_skin: bool = True) -> dict:
     head, bind_s = prepare(level, stream)
+    head.mpeg4_face.unfold_skin = unfold_skin
     scene = bpy.context.scene
     depsgraph = scene.view_layers[0].depsgraph
     peer_scene_, peer = peer_scene(head)
@@ -212,13 +214,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--stream", type=Path, default=DEMO, help="the .fap stream both sides play")
     parser.add_argument("--json", type=Path, help="also write the figures as JSON")
+    parser.add_argument("--no-unfold", action="store_true", help="play with Unfold Skin off")
     args = parser.parse_args(argv)
     if args.frames < 1:
         parser.error("--frames must be at least 1")
     addon.register()
     with tempfile.TemporaryDirectory() as folder:
         stream = without_head_turns(args.stream, Path(folder))
-        sizes = [measure(level, args.frames, stream) for level in args.levels]
+        sizes = [measure(level, args.frames, stream, not args.no_unfold) for level in args.levels]
     print(table(sizes, args.frames, args.stream))
     if args.json:
         args.json.write_text(json.dumps({"sizes": sizes}, indent=2) + "\n")

@@ -101,3 +101,66 @@ def test_the_stream_that_still_folded_plays_with_no_face_turned_over(stream):
         pytest.skip(f"{path} is not here")
     assert max(live_folds.play(path, lip_guard=True, unfold_skin=False)) > 0
     assert max(live_folds.play(path, lip_guard=True)) == 0
+
+
+def test_the_narrow_look_finds_a_fold_whenever_a_whole_look_does(monkeypatch):
+    """After a fold-free frame Unfold Skin looks only at the groups the playback wrote, less the lids' groups where
+    the lids held still: over smiles, blinks, rest and jumps between them, that look finds a fold exactly when a
+    look at every face does."""
+    from addon.deform import unfold
+
+    head, empties, rest = _set_up()
+    original = unfold.open_folds
+    verdicts = []
+
+    def checked(mesh, positions, look=None, **kwargs):
+        whole = bool(unfold.turned_over(mesh, positions.astype(np.float64)).any())
+        if look is not None:
+            verdicts.append((look.any_turned(positions), whole))
+        return original(mesh, positions, look, **kwargs)
+
+    monkeypatch.setattr(unfold, "open_folds", checked)
+    lid_drop = rest["3.1"][2] - rest["3.3"][2]
+    # (smile, blink, skin around the eye squeezed: 3.9 up and 3.13 down by 6 mm times this, which folds faces of
+    # the lids' groups with the lids still)
+    frames = [(0.0, 0.0, 0.0), (0.5, 0.0, 0.0), (1.0, 0.0, 0.0), (1.0, 0.0, 0.0), (1.2, 0.0, 0.0), (0.3, 0.0, 0.0),
+              (1.0, 0.5, 0.0), (1.0, 1.0, 0.0), (1.0, 1.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 0.0), (1.3, 0.0, 0.0),
+              (1.3, 0.0, 0.0), (0.6, 0.0, 0.0), (0.0, 0.0, 0.0), (1.1, 0.2, 0.0), (0.2, 0.0, 0.0), (0.0, 0.0, 0.5),
+              (0.0, 0.0, 1.0), (0.0, 0.0, 1.0), (0.0, 0.0, 0.3), (0.5, 0.0, 1.5), (0.0, 0.5, 1.0)]  # fmt: skip
+    for smile, blink, squeeze in frames:
+        offsets = {fp_id: np.asarray(v) * smile for fp_id, v in SMILE.items()}
+        offsets["3.1"] = (0.0, 0.0, -blink * lid_drop)
+        offsets["3.9"], offsets["3.13"] = (0.0, 0.0, 0.006 * squeeze), (0.0, 0.0, -0.006 * squeeze)
+        _pose(empties, rest, offsets)
+    assert verdicts and all(narrow == whole for narrow, whole in verdicts)
+    assert any(whole for _, whole in verdicts) and not all(whole for _, whole in verdicts)
+
+
+def test_a_fold_the_lids_make_on_skin_the_deformer_left_at_rest_is_found(monkeypatch):
+    """The lids turn skin after the playback, which may have left it at rest (a gaze alone moves no control point):
+    the narrow look must see it. A stand-in for the turn pushes one of the lids' vertices 6 mm sideways, which turns
+    faces over. (The lip guard's skin is flagged the same way when the guard moves it; there the playback has always
+    summed it too, as the guard runs only when a lip's control point moved.)"""
+    from addon.blender import eyelid_rig
+
+    head, empties, rest = _set_up()
+    pose = {"2.1": (0.0, 0.0, -0.001)}
+    _pose(empties, rest, pose)  # a frame through the playback, the eyes at rest
+    state = live._states[head.session_uid]
+    vertex = int(eyelid_rig.turned_vertices(head, state.binding)[0])
+    playback = state.playback
+    assert playback.off_rest[playback.layout.vertex_group[vertex]] == 0
+    real = eyelid_rig.apply
+
+    def stand_in(face, binding, out, fps):
+        real(face, binding, out, fps)
+        out[vertex, 0] += 0.006
+        return True
+
+    monkeypatch.setattr(eyelid_rig, "apply", stand_in)
+    head.mpeg4_face.unfold_skin = False
+    _pose(empties, rest, pose, 2.0)
+    assert _folds(head) > 0
+    head.mpeg4_face.unfold_skin = True
+    _pose(empties, rest, pose, 3.0)
+    assert _folds(head) == 0

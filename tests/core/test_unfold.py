@@ -137,7 +137,7 @@ def test_bad_input_is_a_deform_error():
 
 
 @pytest.mark.parametrize("kernel", [False, True])
-def test_a_look_at_the_written_groups_finds_what_a_whole_look_finds(kernel, monkeypatch):
+def test_a_look_at_the_flagged_groups_finds_what_a_whole_look_finds(kernel, monkeypatch):
     if kernel and not fused.available():
         pytest.skip("compiled kernel not installed")
     if not kernel:
@@ -147,16 +147,16 @@ def test_a_look_at_the_written_groups_finds_what_a_whole_look_finds(kernel, monk
     column = np.arange(len(rest)) // SIZE
     look = unfold.group_look(mesh, column, SIZE)  # a group per column of the grid
     folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0)).astype(np.float32)  # folds faces at the centre's column and the next
-    look.written[:] = 0
+    look.off_rest[:] = 0
     assert not look.any_turned(folded)  # the folds are where nothing was written
-    look.written[SIZE // 2 + 1] = 1
+    look.off_rest[SIZE // 2 + 1] = 1
     assert look.any_turned(folded)
     positions = folded.copy()
     done = unfold.open_folds(mesh, positions, look)
     reference = folded.copy()
     expected = unfold.unfold(mesh, reference)
     assert np.array_equal(done.moved, expected.moved) and np.array_equal(positions, reference)
-    look.written[:] = 0
+    look.off_rest[:] = 0
     positions = folded.copy()
     assert unfold.open_folds(mesh, positions, look).steps == 0 and np.array_equal(positions, folded)
 
