@@ -73,9 +73,10 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
     unfold_skin: BoolProperty(
         name="Unfold Skin",
         description="After every frame, smooth the skin's motion where a face turned over against the rest pose "
-        "(where a feature point passed its neighbours, as the lip corner in a full smile), so that no face shows "
-        "its back. The check costs about 0.03 ms a frame at 4k vertices; a frame with folds takes about 1 ms more. "
-        "Off: the deformation exactly as the Planar Bones paper gives it",
+        "(where a feature point passed its neighbours, as the lip corner in a very wide smile), so that no face "
+        "shows its back; there the point's own skin may then lag it by a few millimetres. The check costs about "
+        "0.03 ms a frame, a frame with folds up to about 1 ms more. Off: the deformation exactly as the Planar "
+        "Bones paper gives it",
         default=True,
         update=_reapply,
     )

@@ -23,7 +23,7 @@ from mathutils import Euler, Vector
 
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.docs.closeups import closeup_camera, open_sample
+from scripts.docs.closeups import closeup_camera, open_sample, save_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 300
@@ -58,6 +58,7 @@ def paint_folds(head, rest: np.ndarray) -> int:
     colours = np.where(np.repeat(turned, sizes)[:, None], RED, (0.8, 0.8, 0.8, 1.0)).astype(np.float32)
     attribute.data.foreach_set("color", colours.reshape(-1))
     mesh.color_attributes.active_color = attribute
+    mesh.color_attributes.render_color_index = mesh.color_attributes.find(name)
     return int(turned.sum())
 
 
@@ -75,7 +76,6 @@ def main(argv=None) -> int:
     controls = [empties[fp_id] for fp_id in sample.fp_ids]
     at_rest = [ob.location.copy() for ob in controls]
     rest = convert._addon("blender.rest_shape").stored_rest(head.data).astype(np.float64)
-    scene.display.shading.color_type = "VERTEX"
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for unfold_skin in (False, True):
@@ -89,6 +89,7 @@ def main(argv=None) -> int:
                 count = paint_folds(head, rest)
                 print(f"{name} x{scale}, Unfold Skin {'on' if unfold_skin else 'off'}: {count} faces turned over")
                 camera = closeup_camera(scene, head, TILE, ortho)
+                scene.display.shading.color_type = "VERTEX"
                 centre = Vector(bpy.data.objects[f"FP {target}"].matrix_world.translation)
                 distance = 0.4
                 direction = Euler((math.radians(pitch), 0.0, math.radians(yaw))).to_matrix() @ Vector((0, -1, 0))
@@ -96,8 +97,7 @@ def main(argv=None) -> int:
                 camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
                 tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
             rows.append(np.concatenate(tiles, axis=1))
-    convert.save_png(np.concatenate(rows[::-1], axis=0), args.out)  # image rows go bottom-up: first row on top
-    print(args.out)
+    save_rows(rows, args.out)
     return 0
 
 
