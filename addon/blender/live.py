@@ -169,6 +169,9 @@ def _skin_mesh(face, state: _State) -> unfold.SkinMesh:
     if made is None or not all(
         a.shape == b.shape and np.array_equal(a, b) for a, b in zip(made[:3], (rest, sizes, corners), strict=True)
     ):
+        alive = {ob.session_uid for ob in bpy.data.objects if ob.type == "MESH"}
+        for gone in [uid for uid in _skins if uid not in alive]:  # faces deleted, or replaced by an undo
+            del _skins[gone]
         made = _skins[face.session_uid] = (
             rest,
             sizes,

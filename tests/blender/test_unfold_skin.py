@@ -164,3 +164,19 @@ def test_a_fold_the_lids_make_on_skin_the_deformer_left_at_rest_is_found(monkeyp
     head.mpeg4_face.unfold_skin = True
     _pose(empties, rest, pose, 3.0)
     assert _folds(head) == 0
+
+
+def test_the_skins_kept_for_unfolding_are_those_of_faces_still_in_the_file():
+    head, empties, rest = _set_up()
+    _pose(empties, rest, SMILE)
+    assert set(live._skins) == {head.session_uid}
+    copy = head.copy()
+    copy.data = head.data.copy()
+    bpy.context.scene.collection.objects.link(copy)
+    live._skins[copy.session_uid] = live._skins[head.session_uid]  # as if the copy had played too
+    bpy.data.objects.remove(copy)
+    live.forget(head)
+    kept = live._skins[head.session_uid]
+    live._skins[head.session_uid] = (kept[0] + 1.0, *kept[1:])  # made for another rest shape: made again
+    live.apply_face(head, force=True)
+    assert set(live._skins) == {head.session_uid} and live._skins[head.session_uid][3] is not None
