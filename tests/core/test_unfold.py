@@ -175,3 +175,22 @@ def test_the_look_sorts_every_triangle_once_into_the_class_of_its_corners_groups
             assert set(look.class_groups[c]) == set(vertex_group[t])
             assert np.array_equal(look.rest_normals[len(seen) - 1], mesh.rest_normals[k])
     assert sorted(seen) == list(range(len(triangles)))
+
+
+def test_polygons_of_any_size_and_a_loose_vertex_are_taken():
+    """A fan of a pentagon and a quad, a vertex in no face (it never moves), a fold in the pentagon opened."""
+    from addon.deform.folds import fan_triangles
+
+    rest = np.array([[0, 0, 0], [2, 0, 0], [3, 1.5, 0], [1, 3, 0], [-1, 1.5, 0], [4, -1, 0], [5, 1, 0], [9, 9, 0]])
+    rest = rest * 1e-3
+    triangles, _owner = fan_triangles(np.array([5, 4]), np.array([0, 1, 2, 3, 4, 1, 5, 6, 2]))
+    mesh = unfold.prepare(rest, triangles)
+    assert np.diff(mesh.neighbour_start)[7] == 0  # the loose vertex has no neighbours
+    folded = rest.copy()
+    folded[3] = (1e-3, -1e-3, 0.0)  # the pentagon's top corner pulled below its base
+    folded[7] += (5e-3, 0.0, 0.0)  # the loose vertex moved: not a fold, and left as it is
+    assert unfold.turned_over(mesh, folded).any()
+    positions = folded.copy()
+    done = unfold.unfold(mesh, positions)
+    assert done.left == 0 and not unfold.turned_over(mesh, positions).any()
+    assert 7 not in done.moved and np.array_equal(positions[7], folded[7])
