@@ -26,15 +26,32 @@ static inline int unfold_turned_f32(const float *p, const int32_t *tri, const do
     return unfold_turned_at(corner[0], corner[1], corner[2], normal);
 }
 
+/* turned over, or within margin x n.n of it, at float positions (the least share's test, unfold._least_share) */
+static inline int unfold_nearly_turned_f32(const float *p, const int32_t *tri, const double *normal, double margin) {
+    double a[3], b[3], c[3];
+    for (int k = 0; k < 3; ++k) {
+        a[k] = p[3 * (int64_t)tri[0] + k];
+        b[k] = p[3 * (int64_t)tri[1] + k];
+        c[k] = p[3 * (int64_t)tri[2] + k];
+    }
+    double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
+    double v0 = c[0] - a[0], v1 = c[1] - a[1], v2 = c[2] - a[2];
+    double dot = (u1 * v2 - u2 * v1) * normal[0];
+    dot += (u2 * v0 - u0 * v2) * normal[1];
+    dot += (u0 * v1 - u1 * v0) * normal[2];
+    return dot < margin * (normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
+}
+
 /* positions (n x 3 float32) in place. moved (n) receives the vertices it may have moved, ascending, and
- * result[0] their count, result[1] the steps made, result[2] the triangles left turned over. Returns 0, or -1
- * when memory ran out (positions untouched). */
+ * result[0] their count, result[1] the steps made, result[2] the triangles left turned over; share[0] the share
+ * of the membrane's change kept. Returns 0, or -1 when memory ran out (positions untouched). */
 PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_t *triangles,
                           const double *rest_normals, const int32_t *neighbour_start, const int32_t *neighbours,
                           const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
-                          int32_t max_steps, double step, int32_t check_every, int32_t stall_checks, int32_t *moved,
-                          int64_t *result) {
+                          int32_t max_steps, double step, int32_t check_every, int32_t stall_checks,
+                          int32_t bisections, double margin, int32_t *moved, int64_t *result, double *share) {
     result[0] = result[1] = result[2] = 0;
+    share[0] = 1.0;
     int64_t count = 0;
     for (int64_t t = 0; t < k; ++t) count += unfold_turned_f32(positions, triangles + 3 * t, rest_normals + 3 * t);
     if (count == 0) return 0;
@@ -109,9 +126,38 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
     }
     int64_t n_moved = 0;
     for (int64_t v = 0; v < n; ++v)
-        if (was_moved[v]) {
-            moved[n_moved++] = (int32_t)v;
-            for (int c = 0; c < 3; ++c) positions[3 * v + c] = (float)p[3 * v + c];
+        if (was_moved[v]) moved[n_moved++] = (int32_t)v;
+    double high = 1.0;
+    if (count == 0) { /* the least share of the change that leaves no triangle at a moved vertex (nearly) turned */
+        ++stamp;
+        int64_t n_at = 0;
+        for (int64_t m = 0; m < n_moved; ++m)
+            for (int32_t e = corner_start[moved[m]]; e < corner_start[moved[m] + 1]; ++e)
+                if (seen[corner_triangles[e]] != stamp) seen[corner_triangles[e]] = stamp, bad[n_at++] = corner_triangles[e];
+        for (int64_t m = 0; m < n_moved; ++m) /* the deformed positions, before the change */
+            for (int c = 0; c < 3; ++c) next[3 * m + c] = positions[3 * (int64_t)moved[m] + c];
+        double low = 0.0;
+        for (int32_t i = 0; i < bisections; ++i) {
+            double half = 0.5 * (low + high);
+            for (int64_t m = 0; m < n_moved; ++m)
+                for (int c = 0; c < 3; ++c) {
+                    double before = next[3 * m + c];
+                    positions[3 * (int64_t)moved[m] + c] = (float)(before + half * (p[3 * (int64_t)moved[m] + c] - before));
+                }
+            int turned = 0;
+            for (int64_t b = 0; b < n_at && !turned; ++b)
+                turned = unfold_nearly_turned_f32(positions, triangles + 3 * (int64_t)bad[b], rest_normals + 3 * (int64_t)bad[b], margin);
+            if (turned)
+                low = half;
+            else
+                high = half;
+        }
+        share[0] = high;
+    }
+    for (int64_t m = 0; m < n_moved; ++m)
+        for (int c = 0; c < 3; ++c) {
+            int64_t at = 3 * (int64_t)moved[m] + c;
+            positions[at] = high == 1.0 ? (float)p[at] : (float)(next[3 * m + c] + high * (p[at] - next[3 * m + c]));
         }
     result[0] = n_moved, result[1] = steps, result[2] = count;
     free(p), free(next), free(bad), free(list), free(region), free(seen), free(was_moved);

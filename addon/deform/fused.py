@@ -73,7 +73,7 @@ _LOCATE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 7]
 _COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *[_POINTER] * 6]
 _FOLD_FREE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int32, ctypes.c_double, ctypes.c_double]
 _UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 8, ctypes.c_int32, ctypes.c_double]
-_UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_int32, _POINTER, _POINTER]
+_UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_double, _POINTER, _POINTER, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -704,10 +704,11 @@ def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega
     return int(kernel.pbk_fold_free_sweeps(len(classes), *pointers, sweeps, omega, tolerance))
 
 
-def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every: int, stall_checks: int):
+def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every: int, stall_checks: int,
+           bisections: int, margin: float):  # fmt: skip
     """`unfold.unfold` by the kernel, in place on ``positions`` ((N, 3) C-contiguous float32 of the `unfold.SkinMesh`
-    ``mesh``): (moved vertices, steps, triangles left), or None (``positions`` untouched) where the kernel is
-    unavailable or the positions are not float32."""
+    ``mesh``): (moved vertices, steps, triangles left, share kept), or None (``positions`` untouched) where the
+    kernel is unavailable or the positions are not float32."""
     kernel = _kernel() if available() else None
     if (
         kernel is None
@@ -719,15 +720,17 @@ def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every
         return None
     moved = np.empty(len(positions), np.int32)
     result = np.zeros(3, np.int64)
+    share = np.ones(1)
     arrays = (mesh.rest, mesh.triangles, mesh.rest_normals, mesh.neighbour_start, mesh.neighbours)
     arrays += (mesh.corner_start, mesh.corner_triangles, positions)
     status = kernel.pbk_unfold(
         len(positions), len(mesh.triangles), *(a.ctypes.data for a in arrays),
-        max_steps, step, check_every, stall_checks, moved.ctypes.data, result.ctypes.data,
+        max_steps, step, check_every, stall_checks, bisections, margin, moved.ctypes.data, result.ctypes.data,
+        share.ctypes.data,
     )  # fmt: skip
     if status != 0:
         return None
-    return moved[: result[0]].copy(), int(result[1]), int(result[2])
+    return moved[: result[0]].copy(), int(result[1]), int(result[2]), float(share[0])
 
 
 def any_turned(look, positions: np.ndarray) -> bool | None:

@@ -121,9 +121,12 @@ def test_the_kernel_gives_the_numpy_result_bit_for_bit(shift):
     folded = pushed(rest, shift).astype(np.float32)
     reference, compiled = folded.copy(), folded.copy()
     expected = unfold.unfold(mesh, reference)
-    got = fused.unfold(mesh, compiled, unfold.MAX_STEPS, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS)
+    got = fused.unfold(
+        mesh, compiled, unfold.MAX_STEPS, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, unfold.BISECTIONS,
+        unfold.MARGIN,
+    )  # fmt: skip
     assert got is not None
-    assert np.array_equal(got[0], expected.moved) and got[1:] == (expected.steps, expected.left)
+    assert np.array_equal(got[0], expected.moved) and got[1:] == (expected.steps, expected.left, expected.share)
     assert np.array_equal(compiled, reference)
 
 
@@ -194,3 +197,22 @@ def test_polygons_of_any_size_and_a_loose_vertex_are_taken():
     done = unfold.unfold(mesh, positions)
     assert done.left == 0 and not unfold.turned_over(mesh, positions).any()
     assert 7 not in done.moved and np.array_equal(positions[7], folded[7])
+
+
+def test_the_repair_grows_from_nothing_as_the_fold_does():
+    """Step 4: a vertex pushed ever further past its neighbour gets a repair that starts at ~0 where the first face
+    turns over and grows with the push (the membrane's whole change would jump to millimetres at once)."""
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    changes, shares = [], []
+    for push in np.linspace(0.3e-3, 1.2e-3, 19):
+        folded = pushed(rest, (push, 0.4e-3, 0.0))
+        positions = folded.copy()
+        done = unfold.unfold(mesh, positions)
+        assert done.left == 0 and not unfold.turned_over(mesh, positions).any()
+        changes.append(np.abs(positions - folded).max())
+        shares.append(done.share)
+    first = next(i for i, change in enumerate(changes) if change > 0)
+    assert first > 0 and changes[first] < 0.1e-3  # the first fold is opened by under a tenth of a spacing
+    assert all(b >= a - 1e-9 for a, b in zip(changes[first:], changes[first + 1 :], strict=False))
+    assert 0 < shares[first] < 0.2
