@@ -133,7 +133,8 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
         int64_t n_at = 0;
         for (int64_t m = 0; m < n_moved; ++m)
             for (int32_t e = corner_start[moved[m]]; e < corner_start[moved[m] + 1]; ++e)
-                if (seen[corner_triangles[e]] != stamp) seen[corner_triangles[e]] = stamp, bad[n_at++] = corner_triangles[e];
+                if (seen[corner_triangles[e]] != stamp)
+                    seen[corner_triangles[e]] = stamp, bad[n_at++] = corner_triangles[e];
         for (int64_t m = 0; m < n_moved; ++m) /* the deformed positions, before the change */
             for (int c = 0; c < 3; ++c) next[3 * m + c] = positions[3 * (int64_t)moved[m] + c];
         double low = 0.0;
@@ -142,11 +143,13 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
             for (int64_t m = 0; m < n_moved; ++m)
                 for (int c = 0; c < 3; ++c) {
                     double before = next[3 * m + c];
-                    positions[3 * (int64_t)moved[m] + c] = (float)(before + half * (p[3 * (int64_t)moved[m] + c] - before));
+                    int64_t at = 3 * (int64_t)moved[m] + c;
+                    positions[at] = (float)(before + half * (p[at] - before));
                 }
             int turned = 0;
             for (int64_t b = 0; b < n_at && !turned; ++b)
-                turned = unfold_nearly_turned_f32(positions, triangles + 3 * (int64_t)bad[b], rest_normals + 3 * (int64_t)bad[b], margin);
+                turned = unfold_nearly_turned_f32(positions, triangles + 3 * (int64_t)bad[b],
+                                                  rest_normals + 3 * (int64_t)bad[b], margin);
             if (turned)
                 low = half;
             else
