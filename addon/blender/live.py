@@ -159,11 +159,7 @@ def _skin_mesh(face, state: _State) -> unfold.SkinMesh:
     (a setting's rebind) while the rest shape and the polygons' corners are the same."""
     if state.skin is not None:
         return state.skin
-    mesh = face.data
-    sizes = np.empty(len(mesh.polygons), dtype=np.int64)
-    mesh.polygons.foreach_get("loop_total", sizes)
-    corners = np.empty(len(mesh.loops), dtype=np.int64)
-    mesh.loops.foreach_get("vertex_index", corners)
+    sizes, corners = face_data.mesh_corners(face.data)
     rest = state.binding.rest_vertices
     made = _skins.get(face.session_uid)
     if made is None or not all(

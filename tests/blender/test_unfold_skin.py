@@ -180,3 +180,15 @@ def test_the_skins_kept_for_unfolding_are_those_of_faces_still_in_the_file():
     live._skins[head.session_uid] = (kept[0] + 1.0, *kept[1:])  # made for another rest shape: made again
     live.apply_face(head, force=True)
     assert set(live._skins) == {head.session_uid} and live._skins[head.session_uid][3] is not None
+
+
+def test_the_corners_read_from_the_attribute_are_those_of_the_loops():
+    head, _empties, _rest = _set_up()
+    mesh = head.data
+    sizes, corners = face_data.mesh_corners(mesh)
+    loops = np.empty(len(mesh.loops), np.int64)
+    mesh.loops.foreach_get("vertex_index", loops)
+    totals = np.empty(len(mesh.polygons), np.int64)
+    mesh.polygons.foreach_get("loop_total", totals)
+    assert mesh.attributes.get(face_data.CORNER_VERT) is not None  # Blender 4.x and 5.x keep it
+    assert np.array_equal(corners, loops) and np.array_equal(sizes, totals)
