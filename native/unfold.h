@@ -5,41 +5,36 @@
  * each time; here only the triangles at a vertex of the region are looked at again, which gives the same
  * count, since every turned-over triangle has its corners in the region and nothing else moved. */
 
-/* (b - a) x (c - a) . normal < 0, written out in the numpy's order */
-static inline int unfold_turned_at(const double *a, const double *b, const double *c, const double *normal) {
+/* (b - a) x (c - a) . normal, written out in the numpy's order (unfold._dots) */
+static inline double unfold_dot_at(const double *a, const double *b, const double *c, const double *normal) {
     double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
     double v0 = c[0] - a[0], v1 = c[1] - a[1], v2 = c[2] - a[2];
     double dot = (u1 * v2 - u2 * v1) * normal[0];
     dot += (u2 * v0 - u0 * v2) * normal[1];
     dot += (u0 * v1 - u1 * v0) * normal[2];
-    return dot < 0.0;
+    return dot;
 }
 
-static inline int unfold_turned(const double *p, const int32_t *tri, const double *normal) {
-    return unfold_turned_at(p + 3 * (int64_t)tri[0], p + 3 * (int64_t)tri[1], p + 3 * (int64_t)tri[2], normal);
-}
-
-static inline int unfold_turned_f32(const float *p, const int32_t *tri, const double *normal) {
+/* the dot at a triangle of float positions, its corners taken to double */
+static inline double unfold_dot_f32(const float *p, const int32_t *tri, const double *normal) {
     double corner[3][3];
     for (int j = 0; j < 3; ++j)
         for (int k = 0; k < 3; ++k) corner[j][k] = p[3 * (int64_t)tri[j] + k];
-    return unfold_turned_at(corner[0], corner[1], corner[2], normal);
+    return unfold_dot_at(corner[0], corner[1], corner[2], normal);
+}
+
+static inline int unfold_turned(const double *p, const int32_t *tri, const double *normal) {
+    return unfold_dot_at(p + 3 * (int64_t)tri[0], p + 3 * (int64_t)tri[1], p + 3 * (int64_t)tri[2], normal) < 0.0;
+}
+
+static inline int unfold_turned_f32(const float *p, const int32_t *tri, const double *normal) {
+    return unfold_dot_f32(p, tri, normal) < 0.0;
 }
 
 /* turned over, or within margin x n.n of it, at float positions (the least share's test, unfold._least_share) */
 static inline int unfold_nearly_turned_f32(const float *p, const int32_t *tri, const double *normal, double margin) {
-    double a[3], b[3], c[3];
-    for (int k = 0; k < 3; ++k) {
-        a[k] = p[3 * (int64_t)tri[0] + k];
-        b[k] = p[3 * (int64_t)tri[1] + k];
-        c[k] = p[3 * (int64_t)tri[2] + k];
-    }
-    double u0 = b[0] - a[0], u1 = b[1] - a[1], u2 = b[2] - a[2];
-    double v0 = c[0] - a[0], v1 = c[1] - a[1], v2 = c[2] - a[2];
-    double dot = (u1 * v2 - u2 * v1) * normal[0];
-    dot += (u2 * v0 - u0 * v2) * normal[1];
-    dot += (u0 * v1 - u1 * v0) * normal[2];
-    return dot < margin * (normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]);
+    double rest = normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2];
+    return unfold_dot_f32(p, tri, normal) < margin * rest;
 }
 
 /* positions (n x 3 float32) in place. moved (n) receives the vertices it may have moved, ascending, and
