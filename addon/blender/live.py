@@ -179,15 +179,16 @@ def _skin_mesh(face, state: _State) -> unfold.SkinMesh:
     return state.skin
 
 
-def _look(state: _State, skin: unfold.SkinMesh) -> unfold.Look:
+def _look(face, state: _State, skin: unfold.SkinMesh) -> unfold.Look:
     """Unfold Skin's look at the groups the playback wrote (made again when its layout or the skin changes)."""
     made, playback = state.look_made, state.playback
     if made is None or made[0] is not playback or made[1] is not skin:
         layout = playback.layout
-        slot = next((entry[4] for entry in _skins.values() if entry[3] is skin), [None])
+        slot = _skins[face.session_uid][4]  # `_skin_mesh` made or kept this face's entry, with `skin`
         look = slot[0]  # the look at the last layout's groups, kept while the grouping is the same
         if (
             look is None
+            or look.mesh is not skin
             or len(look.off_rest) != len(layout.group_mask)
             or not np.array_equal(look.grouping, layout.vertex_group)
         ):
@@ -366,7 +367,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             skin = _skin_mesh(face, state)
             # at rest no face is turned over: only faces with a corner off its rest can be (0.1 ms of a look at
             # every face at 17k vertices, a third of that at the demo's moving skin)
-            look = None if off_rest is None else _look(state, skin)
+            look = None if off_rest is None else _look(face, state, skin)
             moved = unfold.open_folds(skin, state.out, look).moved
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh
