@@ -208,8 +208,7 @@ def _image_masks(face, image) -> dict[str, np.ndarray]:
         raise Mpeg4Error(f"the mask image {image.name!r} has no pixels (is its file missing?)")
     pixels = np.empty(width * height * image.channels, dtype=np.float32)
     image.pixels.foreach_get(pixels)
-    loop_vertex = np.empty(len(mesh.loops), dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", loop_vertex)
+    loop_vertex = face_data.mesh_corners(mesh)[1]
     loop_uv = np.empty(len(mesh.loops) * 2, dtype=np.float32)
     mesh.uv_layers.active.data.foreach_get("uv", loop_uv)
     uv = vertex_uvs(loop_vertex, loop_uv, len(mesh.vertices))

@@ -345,8 +345,7 @@ def apply_texture(face: bpy.types.Object, uvs: np.ndarray, image: bpy.types.Imag
     record: dict[str, object] = {"uv": UV_MAP_NAME, "uv_created": UV_MAP_NAME not in mesh.uv_layers}
     layer = mesh.uv_layers.get(UV_MAP_NAME) or mesh.uv_layers.new(name=UV_MAP_NAME, do_init=False)
     record["uv"] = layer.name
-    loop_vertex = np.empty(len(mesh.loops), dtype=np.int32)
-    mesh.loops.foreach_get("vertex_index", loop_vertex)
+    loop_vertex = face_data.mesh_corners(mesh)[1]
     layer.data.foreach_set("uv", np.ascontiguousarray(uvs[loop_vertex], dtype=np.float32).ravel())
     if image is not None:
         record.update(_image_into_material(face, image, layer.name))
