@@ -76,6 +76,8 @@ def main(argv=None) -> int:
     controls = [empties[fp_id] for fp_id in sample.fp_ids]
     at_rest = [ob.location.copy() for ob in controls]
     rest = convert._addon("blender.rest_shape").stored_rest(head.data).astype(np.float64)
+    camera = closeup_camera(scene, head, TILE, SHOTS[0][-1])
+    scene.display.shading.color_type = "VERTEX"
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for unfold_skin in (False, True):
@@ -88,8 +90,7 @@ def main(argv=None) -> int:
                 live.apply_face(head, force=True)
                 count = paint_folds(head, rest)
                 print(f"{name} x{scale}, Unfold Skin {'on' if unfold_skin else 'off'}: {count} faces turned over")
-                camera = closeup_camera(scene, head, TILE, ortho)
-                scene.display.shading.color_type = "VERTEX"
+                camera.data.ortho_scale = ortho
                 centre = Vector(bpy.data.objects[f"FP {target}"].matrix_world.translation)
                 distance = 0.4
                 direction = Euler((math.radians(pitch), 0.0, math.radians(yaw))).to_matrix() @ Vector((0, -1, 0))
