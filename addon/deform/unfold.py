@@ -59,13 +59,23 @@ class SkinMesh:
     rest_normals: np.ndarray  # (K, 3) float64: (b − a) × (c − a) at rest, unnormalised
     neighbour_start: np.ndarray  # (N + 1,) int32: vertex i's neighbours are neighbours[start[i]:start[i + 1]]
     neighbours: np.ndarray  # (E,) int32, ascending within each vertex
-    padded: np.ndarray  # (N, D) int32: the neighbours padded with N (a row of zeros), for the numpy sums
     corner_start: np.ndarray  # (N + 1,) int32: the triangles at vertex i are corner_triangles[start[i]:start[i + 1]]
     corner_triangles: np.ndarray  # (3K,) int32
 
     @property
     def n_vertices(self) -> int:
         return len(self.rest)
+
+    @functools.cached_property
+    def padded(self) -> np.ndarray:
+        """(N, D) int32: the neighbours padded with N (a row of zeros), for the numpy sums; made when the numpy
+        path first needs it (the kernel reads the neighbour lists)."""
+        n = self.n_vertices
+        degree = np.diff(self.neighbour_start)
+        padded = np.full((n, max(int(degree.max(initial=0)), 1)), n, np.int32)
+        column = np.arange(len(self.neighbours)) - np.repeat(self.neighbour_start[:-1], degree)
+        padded[np.repeat(np.arange(n), degree), column] = self.neighbours
+        return padded
 
 
 def prepare(rest: np.ndarray, triangles: np.ndarray) -> SkinMesh:
@@ -82,10 +92,6 @@ def prepare(rest: np.ndarray, triangles: np.ndarray) -> SkinMesh:
     edges = np.stack(np.divmod(keys, max(n, 1)), axis=1)  # sorted by vertex, then neighbour
     edges = edges[edges[:, 0] != edges[:, 1]]
     start = np.searchsorted(edges[:, 0], np.arange(n + 1)).astype(np.int32)
-    degree = np.diff(start)
-    padded = np.full((n, max(int(degree.max(initial=0)), 1)), n, np.int32)
-    column = np.arange(len(edges)) - np.repeat(start[:-1], degree)
-    padded[edges[:, 0], column] = edges[:, 1]
     corners = triangles.reshape(-1).astype(np.int64)
     order = np.argsort(corners, kind="stable")
     return SkinMesh(
@@ -94,7 +100,6 @@ def prepare(rest: np.ndarray, triangles: np.ndarray) -> SkinMesh:
         rest_normals=np.cross(b - a, c - a),
         neighbour_start=start,
         neighbours=edges[:, 1].astype(np.int32),
-        padded=padded,
         corner_start=np.searchsorted(corners[order], np.arange(n + 1)).astype(np.int32),
         corner_triangles=(order // 3).astype(np.int32),
     )
