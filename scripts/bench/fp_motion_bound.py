@@ -10,10 +10,11 @@ them can score on the development units (E as there: Σ‖deformed − sculpted�
    rest, so its E is exactly 1 whatever the method.
 2. An oracle fitted on the units themselves: each head vertex's offset as a weighted sum of the control FPs'
    offsets, d_v = Σ_f w_vf d_f, with weights w_vf fitted by ridge least squares over the units (x, y and z
-   rows; one weight matrix for all vertices, solved at once). Every deformer that is linear in the FP
-   offsets and moves a vertex along the FPs' own directions (Planar Bones for small motion, skinning with
-   translating bones, RBF, feature-point weighting) is one choice of w; the oracle is the best choice for
-   the data, so it is optimistic:
+   rows; one weight matrix for all vertices, solved at once). Every deformer that moves a vertex by a blend
+   of the FPs' offsets (RBF interpolation of each coordinate, feature-point weighting, skinning with bones that
+   only translate) is one choice of w; the oracle is the best choice for the data, so it is optimistic. Planar
+   Bones and Elastic Bones are not of this kind (their frames turn, so a vertex off a control triangle's plane
+   moves across the FPs' directions); the bound is a yardstick for them, not a limit:
    - *in-sample*: fitted on all units, scored on the same units (a floor for such deformers);
    - *leave-one-out*: fitted without the unit scored;
    - *leave-pair-out*: fitted without the unit and its left/right mirror twin (an unseen expression).

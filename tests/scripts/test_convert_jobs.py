@@ -120,7 +120,9 @@ def test_a_killed_child_is_its_streams_failed_line(tmp_path):
 
 @pytest.mark.skipif(not HAS_PROC or sys.platform == "win32", reason="finds the child processes through /proc")
 def test_ctrl_c_stops_every_child_and_leaves_no_outputs(tmp_path):
-    streams = [cut_stream(tmp_path / f"{name}.fap", frames=3) for name in ("a", "b")]
+    # long enough (the whole demo, a few seconds) to be still converting when Ctrl+C comes: 3-frame streams
+    # were sometimes done (0.1 s each) before the signal reached convert.py
+    streams = [cut_stream(tmp_path / f"{name}.fap", frames=413) for name in ("a", "b")]
     out = tmp_path / "out"
     parent = _start_convert("--face", FACE, *streams, "-o", out, "--jobs", "2", *TINY)
     children = _wait_for_children(parent, lambda found: len(found) == 2)
