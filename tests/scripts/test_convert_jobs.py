@@ -91,9 +91,22 @@ def _wait_for_children(parent: subprocess.Popen, wanted, timeout: float = 120) -
     raise AssertionError(f"convert.py did not start the processes looked for: {parent.communicate()}")
 
 
+def _as_from_a_terminal() -> None:
+    """In the child before it runs: SIGINT as a terminal leaves it. A shell that starts pytest in the background
+    (`&` without job control) starts it with SIGINT ignored, which its children inherit and Python then keeps."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_convert(*args) -> subprocess.Popen:
     command = [sys.executable, "-m", "scripts.convert", *map(str, args)]
-    return subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        command,
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_as_from_a_terminal if os.name == "posix" else None,
+    )
 
 
 @pytest.mark.skipif(not HAS_PROC, reason="finds the child processes through /proc")
@@ -120,9 +133,7 @@ def test_a_killed_child_is_its_streams_failed_line(tmp_path):
 
 @pytest.mark.skipif(not HAS_PROC or sys.platform == "win32", reason="finds the child processes through /proc")
 def test_ctrl_c_stops_every_child_and_leaves_no_outputs(tmp_path):
-    # long enough (the whole demo, a few seconds) to be still converting when Ctrl+C comes: 3-frame streams
-    # were sometimes done (0.1 s each) before the signal reached convert.py
-    streams = [cut_stream(tmp_path / f"{name}.fap", frames=413) for name in ("a", "b")]
+    streams = [cut_stream(tmp_path / f"{name}.fap", frames=3) for name in ("a", "b")]
     out = tmp_path / "out"
     parent = _start_convert("--face", FACE, *streams, "-o", out, "--jobs", "2", *TINY)
     children = _wait_for_children(parent, lambda found: len(found) == 2)
@@ -202,11 +213,13 @@ def test_progress_is_a_bar_on_a_terminal_and_a_few_lines_in_a_log():
 
 
 @pytest.mark.skipif(sys.platform == "win32", reason="sends itself SIGINT")
-def test_ctrl_c_while_a_child_starts_is_acted_on_once_it_is_recorded():
+def test_ctrl_c_while_a_child_starts_is_acted_on_once_it_is_recorded(request):
     """A press inside `CTRL_C.held()` (around starting a child and recording it) does not interrupt it halfway; it
     raises KeyboardInterrupt as soon as the block is over, so the child is stopped with the others."""
     from scripts.convert import CTRL_C
 
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)  # as Python sets it up from a terminal
+    request.addfinalizer(lambda: signal.signal(signal.SIGINT, before))
     recorded = []
     with pytest.raises(KeyboardInterrupt):
         with CTRL_C.held():

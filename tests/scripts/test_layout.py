@@ -41,7 +41,7 @@ def test_commands_name_scripts_that_exist():
     named = set()
     for path in texts:
         text = path.read_text("utf-8")
-        named |= {ROOT / m for m in re.findall(r"\bscripts/[\w/]+\.(?:py|sh)\b", text)}
+        named |= {ROOT / m for m in re.findall(r"(?<![\w/])scripts/[\w/]+\.(?:py|sh)\b", text)}
         named |= {ROOT / (m.replace(".", "/") + ".py") for m in re.findall(r"-m (scripts(?:\.\w+)+)", text)}
     assert named and not [str(p.relative_to(ROOT)) for p in sorted(named) if not p.is_file()]
 
