@@ -1,6 +1,9 @@
 """The FP-motion bound (`scripts/bench/fp_motion_bound.py`) on made-up units with known answers."""
 
 import numpy as np
+import pytest
+
+pytest.importorskip("bpy")  # the bench module reads the sample head through scripts.bench.evaluate
 
 from scripts.bench.fp_motion_bound import mirror_twin, predictions, scores
 
