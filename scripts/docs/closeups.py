@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import bpy
 import numpy as np
+from mathutils import Euler, Vector
 
 from scripts import convert
 
@@ -30,6 +32,14 @@ def closeup_camera(scene, face, tile: int, ortho_scale: float) -> bpy.types.Obje
     camera = scene.camera
     camera.data.ortho_scale = ortho_scale
     return camera
+
+
+def aim_camera(camera, centre: Vector, distance: float, yaw: float, pitch: float) -> None:
+    """Put `camera` `distance` metres from `centre`, looking at it level (no roll) from the front turned by `yaw`
+    about z and tilted by `pitch` (degrees; positive looks down on it)."""
+    turn = Euler((math.radians(pitch), 0.0, math.radians(yaw)), "XYZ")  # tilt, then turn about z
+    camera.location = centre + turn.to_matrix() @ Vector((0.0, -distance, 0.0))
+    camera.rotation_euler = Euler((math.pi / 2 + math.radians(pitch), 0.0, math.radians(yaw)), "XYZ")
 
 
 def save_rows(rows: list[np.ndarray], out: Path) -> None:

@@ -11,21 +11,20 @@ keeping the lip columns and corners in order, and `guard_lips` on the deformed h
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import tempfile
 from pathlib import Path
 
 import bpy
 import numpy as np
-from mathutils import Euler, Vector
+from mathutils import Vector
 
 from addon.deform.lips import guard_lips, lip_penetration
 from addon.mpeg4 import decode
 from addon.mpeg4.feature_points import FP_IDS, fp_index
 from scripts import convert
 from scripts.bench import evaluate, lip_crossing
-from scripts.docs.closeups import closeup_camera, open_sample, save_rows
+from scripts.docs.closeups import aim_camera, closeup_camera, open_sample, save_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 360
@@ -80,9 +79,7 @@ def main(argv=None) -> int:
         convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png")  # the first render shows rest
         for after in (False, True):
             for yaw, pitch in VIEWS:
-                turn = Euler((math.radians(pitch), 0.0, math.radians(yaw)), "XYZ")  # tilt, then turn about z
-                camera.location = mouth + turn.to_matrix() @ Vector((0.0, -distance, 0.0))
-                camera.rotation_euler = Euler((math.pi / 2 + math.radians(pitch), 0.0, math.radians(yaw)), "XYZ")
+                aim_camera(camera, mouth, distance, yaw, pitch)
                 tiles = []
                 for values in worst:
                     positions, depth = deformed(face, deformer, neutral, fapu, lips, values, after)

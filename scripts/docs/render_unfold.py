@@ -12,18 +12,17 @@ over are painted red. Workbench, 300 px tiles.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import tempfile
 from pathlib import Path
 
 import bpy
 import numpy as np
-from mathutils import Euler, Vector
+from mathutils import Vector
 
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.docs.closeups import closeup_camera, open_sample, save_rows
+from scripts.docs.closeups import aim_camera, closeup_camera, open_sample, save_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 300
@@ -91,11 +90,7 @@ def main(argv=None) -> int:
                 count = paint_folds(head, rest)
                 print(f"{name} x{scale}, Unfold Skin {'on' if unfold_skin else 'off'}: {count} faces turned over")
                 camera.data.ortho_scale = ortho
-                centre = Vector(bpy.data.objects[f"FP {target}"].matrix_world.translation)
-                distance = 0.4
-                direction = Euler((math.radians(pitch), 0.0, math.radians(yaw))).to_matrix() @ Vector((0, -1, 0))
-                camera.location = centre + distance * direction
-                camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
+                aim_camera(camera, bpy.data.objects[f"FP {target}"].matrix_world.translation, 0.4, yaw, pitch)
                 tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
             rows.append(np.concatenate(tiles, axis=1))
     save_rows(rows, args.out)
