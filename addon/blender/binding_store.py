@@ -44,6 +44,12 @@ _cache: dict[int, tuple[str, Binding]] = {}
 _mask_cache: dict[int, tuple[tuple, dict[str, np.ndarray]]] = {}
 
 
+def same_inputs(kept: tuple, inputs: tuple) -> bool:
+    """True when each array of `kept` equals its counterpart in `inputs` (shape and values): what was made from
+    them at the last binding (the lip guard, the lids' weights, Unfold Skin's view) can be taken again."""
+    return all(np.array_equal(a, b) for a, b in zip(kept, inputs, strict=True))
+
+
 def forget(face: bpy.types.Object | None = None) -> None:
     """Drop cached bindings (all, or one face's)."""
     if face is None:

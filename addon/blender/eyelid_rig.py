@@ -60,9 +60,7 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     triangles = face_data.mesh_fans(face.data)[0]  # the weights are made so that no face turns over
     inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, triangles)
     made = _made.get(face.session_uid)
-    if made is not None and all(
-        a.shape == b.shape and np.array_equal(a, b) for a, b in zip(made[0], inputs, strict=True)
-    ):
+    if made is not None and binding_store.same_inputs(made[0], inputs):
         return made[1]  # a setting's rebind: the lids' fold-free weights (0.2 s at 68k vertices) are as they were
     rig = bind_eyelids(*inputs[:6], triangles=triangles)
     _made[face.session_uid] = inputs, rig

@@ -142,9 +142,7 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
     triangles = face_data.mesh_fans(face.data)[0]
     inputs = (binding.rest_vertices, binding.control_rest, np.array(control_ids), triangles, upper, lower)
     made = state.guard_made
-    if made is not None and all(
-        a.shape == b.shape and np.array_equal(a, b) for a, b in zip(made[0], inputs, strict=True)
-    ):
+    if made is not None and binding_store.same_inputs(made[0], inputs):
         guard = made[1]  # 0.3 s at 68k vertices (the skin beside the lips, along the mesh): not again
     else:
         guard = bind_lip_guard(*inputs[:2], tuple(control_ids), *inputs[3:])
@@ -162,9 +160,7 @@ def _skin_mesh(face, state: _State) -> unfold.SkinMesh:
     sizes, corners = face_data.mesh_corners(face.data)
     rest = state.binding.rest_vertices
     made = _skins.get(face.session_uid)
-    if made is None or not all(
-        a.shape == b.shape and np.array_equal(a, b) for a, b in zip(made[:3], (rest, sizes, corners), strict=True)
-    ):
+    if made is None or not binding_store.same_inputs(made[:3], (rest, sizes, corners)):
         alive = {ob.session_uid for ob in bpy.data.objects if ob.type == "MESH"}
         for gone in [uid for uid in _skins if uid not in alive]:  # faces deleted, or replaced by an undo
             del _skins[gone]

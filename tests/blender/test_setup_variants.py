@@ -119,3 +119,13 @@ def test_a_mask_image_binds_like_the_vertex_groups_it_was_painted_from():
     chin.location.z -= 0.01
     bpy.context.view_layer.update()
     assert np.abs(positions(head.data) - rest_shape.stored_rest(head.data)).max() > 0.004
+
+
+def test_what_a_rebind_keeps_needs_equal_arrays_of_equal_shape():
+    rest = np.zeros((4, 3))
+    kept = (rest, np.arange(3), np.array(["2.2", "2.3"]))
+    assert binding_store.same_inputs(kept, (rest.copy(), np.arange(3), np.array(["2.2", "2.3"])))
+    assert not binding_store.same_inputs(kept, (np.zeros((5, 3)), np.arange(3), np.array(["2.2", "2.3"])))
+    assert not binding_store.same_inputs(kept, (rest, np.arange(3).reshape(1, 3), np.array(["2.2", "2.3"])))
+    assert not binding_store.same_inputs(kept, (rest, np.array([0, 1, 3]), np.array(["2.2", "2.3"])))
+    assert not binding_store.same_inputs(kept, (rest, np.arange(3), np.array(["2.2", "2.4"])))
