@@ -30,6 +30,15 @@ from . import fused
 MIN_PROJECTED_AREA = 1e-12  # m^2: a triangle seen edge-on from above has no height to give
 BOX_MARGIN = 2e-3  # m: the mouth box reaches this far above and below the outer lip contour
 EDGE_SLACK = 1e-9  # barycentric: a column this close to a triangle's edge goes through it
+# The lengths in metres here are for an adult's face; a face of another size (modelled in centimetres, or
+# scaled) has them in proportion to its mouth: its inner corners' distance (2.4 to 2.5) over this one.
+MOUTH_WIDTH = 0.05  # m
+
+
+def face_unit(corners: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> float:
+    """Mesh units per metre of an adult's face, from the (2, 3) inner mouth corners 2.4, 2.5 (mesh coordinates)."""
+    width = abs(float((np.asarray(corners[0], np.float64) - corners[1]) @ np.asarray(axes, np.float64)[0]))
+    return width / MOUTH_WIDTH if np.isfinite(width) and width > 0.0 else 1.0
 
 
 def mouth_sides(
@@ -51,7 +60,8 @@ def mouth_sides(
     fps = np.asarray(neutral, dtype=np.float64) @ np.asarray(axes).T
     half_width = 0.5 * abs(fps[fp_index("2.4"), 0] - fps[fp_index("2.5"), 0])
     mid_x = 0.5 * (fps[fp_index("2.4"), 0] + fps[fp_index("2.5"), 0])
-    top, bottom = fps[fp_index("8.1"), 1] + BOX_MARGIN, fps[fp_index("8.2"), 1] - BOX_MARGIN
+    margin = BOX_MARGIN * face_unit(np.asarray(neutral)[[fp_index("2.4"), fp_index("2.5")]], axes)
+    top, bottom = fps[fp_index("8.1"), 1] + margin, fps[fp_index("8.2"), 1] - margin
     back = min(fps[fp_index("2.4"), 2], fps[fp_index("2.5"), 2])  # the lips, not the mouth's inside behind them
     box = (np.abs(face[:, 0] - mid_x) <= half_width) & (face[:, 1] <= top) & (face[:, 1] >= bottom)
     box &= face[:, 2] >= back
@@ -148,7 +158,8 @@ class LipGuard:
     axes: np.ndarray  # (3, 3) the face frame (rows x, y up, z forward in mesh coordinates)
     reach: tuple[float, float]  # the widest triangle of the lower / upper lip across (face x) at rest
     width: float  # the seam's width at rest (face x, corner to corner)
-    shift: np.ndarray  # (V,) 0 on the upper lip, LOWER_SHIFT on the lower
+    shift: np.ndarray  # (V,) 0 on the upper lip, LOWER_SHIFT (x unit) on the lower
+    unit: float  # mesh units per metre of an adult's face (`face_unit`)
     skin: np.ndarray  # (V + C,) `vertices`, then the skin beside them (within CARRY_RADIUS) that follows
     sources: np.ndarray  # (CARRY_SOURCES, V + C) rows into `vertices`: whose push each of `skin` shares
     shares: np.ndarray  # (CARRY_SOURCES, V + C) how much (signed: along a guarded vertex's side, else face up)
@@ -212,7 +223,8 @@ def bind_lip_guard(
     nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
     members = [np.flatnonzero((side == s) & (nearest == k)) for s in (1.0, -1.0) for k in knots]
-    carry = _carry(rest, tris, vertices, side)
+    unit = face_unit(np.asarray(control_rest)[[rows["2.4"], rows["2.5"]]], axes)
+    carry = _carry(rest, tris, vertices, side, unit)
     guard = LipGuard(
         vertices=vertices,
         n_upper=n_upper,
@@ -225,7 +237,8 @@ def bind_lip_guard(
         axes=axes,
         reach=reach,
         width=float(knots_x[-1] - knots_x[0]),
-        shift=np.where(side > 0.0, 0.0, LOWER_SHIFT),
+        shift=np.where(side > 0.0, 0.0, LOWER_SHIFT * unit),
+        unit=unit,
         **carry,
         lift=tuple((3 * carry["skin"] + axis, float(axes[1, axis])) for axis in np.flatnonzero(axes[1])),
     )
@@ -263,7 +276,7 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
     return True
 
 
-def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: np.ndarray) -> dict:
+def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: np.ndarray, unit: float) -> dict:
     """The skin that follows the guard's push (`LipGuard.skin`, `sources`, `shares`).
 
     Each vertex within CARRY_RADIUS along the mesh's edges of the guarded `vertices` takes the average of
@@ -275,9 +288,10 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
     push, whichever is more."""
     rest = np.asarray(rest, dtype=np.float64)
     n = len(rest)
+    radius = CARRY_RADIUS * unit
     near = np.zeros(n, bool)  # no path along the edges as long as CARRY_RADIUS leaves the lips' box grown by it
     if len(vertices):
-        low, high = rest[vertices].min(axis=0) - CARRY_RADIUS, rest[vertices].max(axis=0) + CARRY_RADIUS
+        low, high = rest[vertices].min(axis=0) - radius, rest[vertices].max(axis=0) + radius
         near = np.all((rest >= low) & (rest <= high), axis=1)
     tris = triangles[near[triangles].all(axis=1)]
     pairs = np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]).astype(np.int64)
@@ -289,7 +303,7 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
         return np.searchsorted(begin[keep], np.arange(n + 1)), end[keep], length[keep]
 
     k = CARRY_SOURCES
-    beside = _nearest(graph(np.ones(len(key), bool)), vertices, k)
+    beside = _nearest(graph(np.ones(len(key), bool)), vertices, k, unit)
     skin = [vertices.tolist(), sorted(set(beside) - set(vertices.tolist()))]
     lists = [[] for _ in vertices]
     for lip in (1.0, -1.0):
@@ -298,7 +312,7 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
         on_lip[vertices[rows]] = True
         # along the lip's own edges: the nearest of its vertices are its neighbours on it (3x faster than
         # searching the skin beside it too, at 68k vertices)
-        own = _nearest(graph(on_lip[begin] & on_lip[end]), vertices[rows], k + 1)
+        own = _nearest(graph(on_lip[begin] & on_lip[end]), vertices[rows], k + 1, unit)
         for row, v in zip(rows.tolist(), vertices[rows].tolist(), strict=True):
             lists[row] = [(d, int(rows[r])) for d, r in own[v] if rows[r] != row]
     lists += [beside[v] for v in skin[1]]
@@ -307,9 +321,13 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
     for i, found in enumerate(lists):
         for j, (d, r) in enumerate(found):
             dist[i, j], sources[i, j] = d, r
-    t = np.clip(dist / CARRY_RADIUS, 0.0, 1.0)
+    t = np.clip(dist / radius, 0.0, 1.0)
     falloff = 1.0 - t * t * (3.0 - 2.0 * t)
-    shares = falloff / np.maximum(falloff.sum(axis=1, keepdims=True), 1e-300) * falloff.max(axis=1, keepdims=True)
+    shares = (
+        falloff
+        / np.maximum(falloff.sum(axis=1, keepdims=True), 1e-300)
+        * falloff.max(axis=1, keepdims=True, initial=0.0)
+    )
     shares *= side[sources] * np.concatenate([side, np.ones(len(skin[1]))])[:, None]
     return {
         "skin": np.array(skin[0] + skin[1], np.intp),
@@ -318,17 +336,18 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
     }
 
 
-def _nearest(graph: tuple[np.ndarray, np.ndarray, np.ndarray], sources: np.ndarray, k: int) -> dict[int, list]:
+def _nearest(graph: tuple[np.ndarray, np.ndarray, np.ndarray], sources: np.ndarray, k: int, unit: float) -> dict:
     """`_nearest_sources` by the compiled kernel where it is (the same lists; 10x faster), else by Python."""
-    found = fused.nearest_sources(*graph, sources, k, CARRY_RADIUS, TIE)
-    return _nearest_sources(tuple(a.tolist() for a in graph), sources, k) if found is None else found
+    found = fused.nearest_sources(*graph, sources, k, CARRY_RADIUS * unit, TIE * unit)
+    return _nearest_sources(tuple(a.tolist() for a in graph), sources, k, unit) if found is None else found
 
 
-def _nearest_sources(graph: tuple[list, list, list], sources: np.ndarray, k: int) -> dict[int, list]:
+def _nearest_sources(graph: tuple[list, list, list], sources: np.ndarray, k: int, unit: float) -> dict[int, list]:
     """{vertex: [(distance along the edges, row into `sources`), ...]}: up to `k` nearest of `sources`, nearest
     first, for every vertex within CARRY_RADIUS of one. Dijkstra from all sources at once, each vertex
     settled once per source until it has k: a source beaten k times at a vertex is beaten beyond it too."""
     starts, ends, length = graph
+    radius, tie = CARRY_RADIUS * unit, TIE * unit
     heap = [(0.0, v, row) for row, v in enumerate(sources.tolist())]
     heapq.heapify(heap)
     found: dict[int, list] = {}
@@ -342,17 +361,17 @@ def _nearest_sources(graph: tuple[list, list, list], sources: np.ndarray, k: int
             found[v], rows_at[v] = near, rows
         else:
             rows = rows_at[v]
-            if (len(near) >= k and d > near[k - 1][0] + TIE) or row in rows:
+            if (len(near) >= k and d > near[k - 1][0] + tie) or row in rows:
                 continue  # ties with the k-th are all kept: which of two mirror sources came first must not matter
         near.append((d, row))
         rows.append(row)
         for e in range(starts[v], starts[v + 1]):
             du = d + length[e]
-            if du > CARRY_RADIUS:
+            if du > radius:
                 continue
             u = ends[e]
             there = found.get(u)
-            if there is None or ((len(there) < k or du <= there[k - 1][0] + TIE) and row not in rows_at[u]):
+            if there is None or ((len(there) < k or du <= there[k - 1][0] + tie) and row not in rows_at[u]):
                 push(heap, (du, u, row))  # else it would be passed over
     return found
 
@@ -377,4 +396,4 @@ def _bound(guard: LipGuard, x: np.ndarray, knots_x: np.ndarray, knots_y: np.ndar
     heights = np.concatenate([ends[:1], 0.5 * (ends[1::2] + ends[2::2])])
     envelope = (np.array([[1.0], [-1.0]]) * heights).max(axis=0)
     # one lookup for both lips: the lower lip's grid and vertices moved far to the right (LOWER_SHIFT)
-    return np.interp(x + guard.shift, (grid + [[0.0], [LOWER_SHIFT]]).ravel(), envelope.ravel())
+    return np.interp(x + guard.shift, (grid + [[0.0], [LOWER_SHIFT * guard.unit]]).ravel(), envelope.ravel())

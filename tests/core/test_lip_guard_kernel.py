@@ -118,10 +118,10 @@ def test_the_kernel_finds_the_skin_beside_the_lips_as_python_does(mesh, monkeypa
     side = np.r_[np.ones(len(upper)), -np.ones(len(lower))]
     found, kernel = [], fused.nearest_sources
     monkeypatch.setattr(fused, "nearest_sources", lambda *args: found.append(kernel(*args)) or found[-1])
-    native = lips._carry(rest, triangles, vertices, side)
+    native = lips._carry(rest, triangles, vertices, side, 1.0)
     assert len(found) == 3 and all(f is not None for f in found)  # the kernel found them, ties and all
     monkeypatch.setattr(fused, "nearest_sources", lambda *args: None)
-    python = lips._carry(rest, triangles, vertices, side)
+    python = lips._carry(rest, triangles, vertices, side, 1.0)
     assert len(native["skin"]) > len(vertices)  # the skin beside was reached
     for name in ("skin", "sources", "shares"):
         np.testing.assert_array_equal(native[name], python[name])
@@ -137,7 +137,7 @@ def test_the_kernel_leaves_more_ties_than_it_has_room_for_to_python():
     length = np.full(len(ends), 1e-3)
     sources = np.arange(1, spokes + 1)
     assert fused.nearest_sources(starts, ends, length, sources, 1, lips.CARRY_RADIUS, lips.TIE) is None
-    found = lips._nearest((starts, ends, length), sources, 1)
+    found = lips._nearest((starts, ends, length), sources, 1, 1.0)
     assert sorted(row for _d, row in found[0]) == list(range(spokes))
     assert all(d == pytest.approx(1e-3) for d, _row in found[0])
     small = fused.nearest_sources(starts, ends, length, sources[:5], 1, lips.CARRY_RADIUS, lips.TIE)
