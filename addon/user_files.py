@@ -69,3 +69,28 @@ def _read(path, max_bytes: int) -> bytes:
     if len(data) > max_bytes:
         raise _Unreadable("too large", too_large=True)
     return data
+
+
+NAME_MAX = 255  # bytes of one path component on the file systems Blender runs on
+
+
+def file_problem(path) -> str | None:
+    """Why `path` is not a regular file that could be read (missing, a special file, a name too long), or None;
+    for a file that is opened later by another reader (an image, a sound), without opening it."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError) as exc:
+        return f"cannot read the file: {getattr(exc, 'strerror', None) or exc}"
+    return None if stat.S_ISREG(mode) else _not_regular(mode).problem
+
+
+def output_problem(path) -> str | None:
+    """Why a file could not be written at `path` whatever the folder holds (a name longer than NAME_MAX bytes,
+    a NUL character), or None."""
+    text = os.fspath(path)
+    if "\0" in text:
+        return "the path holds a NUL character"
+    long = next((part for part in text.split(os.sep) if len(part.encode("utf-8", "surrogateescape")) > NAME_MAX), None)
+    if long is not None:
+        return f"the name {long[:20]}... is longer than {NAME_MAX} bytes"
+    return None

@@ -27,17 +27,19 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from mathutils import Euler, Matrix, Quaternion, Vector
 
 from ..errors import Mpeg4Error
+from ..fitting import xface_fdp
 from ..fitting.calibration import fit_to_calibration_mesh
 from ..fitting.cylinder import on_outer_surface
 from ..fitting.dffd import DffdBinding, bind_dffd, deform_dffd
-from ..fitting.fdp_file import Fdp, read_fdp, write_fdp
+from ..fitting.fdp_file import Fdp, FdpFileError, parse_fdp, write_fdp
 from ..fitting.feature_point_set import COINCIDENT_FRACTION, coincident_groups, extent, fp_array
 from ..fitting.missing_points import CompletedFeaturePoints, complete_feature_points
 from ..fitting.texture import texture_coordinates
-from ..fitting.xface_fdp import XfaceFdp, read_xface_fdp
+from ..fitting.xface_fdp import XfaceFdp
 from ..geometry.face_axes import BLENDER_FACE_AXES
-from ..mpeg4.fapu import FapuError, compute_fapu
-from . import face_data, face_setup, fitting_store, followers, fp_empties, live, poll, rest_shape
+from ..mpeg4.fapu import Fapu, FapuError, check_plausible, compute_fapu
+from ..user_files import file_problem, read_regular_file
+from . import face_data, face_setup, fap_io, fitting_store, followers, fp_empties, live, poll, rest_shape
 from .fitting_store import FaceShape, PartPose
 from .reporting import Mpeg4Operator, Warn, progress
 
@@ -50,6 +52,7 @@ PART_FPS = {
     "lower_teeth": ("9.9", "9.11", "2.3", "2.8", "2.9", "2.1", "2.10"),
     "tongue": ("6.1", "6.2", "6.3", "6.4"),
 }
+FIT_SIZE_LIMIT = 100.0  # the given FPs' spread against the generic face's: beyond it, another unit, not a person
 FLAT_FRACTION = 1e-3  # FPs whose second spread is below this fraction of the first are too flat to turn a part
 
 
@@ -230,6 +233,7 @@ def plan_fit(context, face, given, calibration=None) -> FitPlan:
     generic, record = generic_face(face)
     if callable(given):
         given = given(face, generic)
+    _check_size(given, generic.fps)
     completion = complete_feature_points(generic.fps, given, AXES)  # checks the FPs before the long bind
     binding, key = dffd_binding(context, face, generic)
     vertices = deform_dffd(binding, completion.positions)
@@ -251,6 +255,25 @@ def plan_fit(context, face, given, calibration=None) -> FitPlan:
     if fitted.parts:
         notes.append(f"moved {', '.join(sorted(fitted.parts))} with the fit")
     return FitPlan(generic, record, binding, key, completion, fitted, notes)
+
+
+def _check_size(given: dict[str, np.ndarray], generic: dict[str, np.ndarray]) -> None:
+    """Refuse FPs that are not finite or whose spread is not within FIT_SIZE_LIMIT of the generic face's: a fit
+    changes the face's shape, not its unit (scale the object for that)."""
+    bad = [fp_id for fp_id, p in given.items() if not np.all(np.isfinite(p))]
+    if bad:
+        raise Mpeg4Error(f"FP {', '.join(bad[:5])} {'is' if len(bad) == 1 else 'are'} not at a finite position")
+    common = [fp_id for fp_id in given if fp_id in generic]
+    if len(common) < 2:
+        return  # complete_feature_points says what is missing
+    spread = extent(np.array([given[f] for f in common]))
+    own = extent(np.array([generic[f] for f in common]))
+    if own > 0.0 and not own / FIT_SIZE_LIMIT <= spread <= own * FIT_SIZE_LIMIT:
+        raise Mpeg4Error(
+            f"the feature points span {spread:.4g} units where the face's own span {own:.4g}, more than "
+            f"{FIT_SIZE_LIMIT:g} times {'larger' if spread > own else 'smaller'}: a fit changes the face's shape, "
+            "not its size; scale the face (or give the points in the face's units) and fit again"
+        )
 
 
 def _completed(completion: CompletedFeaturePoints) -> str:
@@ -291,14 +314,15 @@ def _current(face, parts) -> FaceShape:
 
 
 def write_shape(context, face, shape: FaceShape, parts) -> list[str]:
-    """Write `shape` and set the face up again; on a refused set-up put the face back and re-raise."""
+    """Write `shape` and set the face up again; on a refused set-up (or any failure) put the face back and
+    re-raise."""
     before = _current(face, parts)
     live.forget(face)
-    fitting_store.put(face, shape)
-    context.view_layer.update()  # followers' world matrices, which set-up reads for the eyes' pivots
     try:
+        fitting_store.put(face, shape)
+        context.view_layer.update()  # followers' world matrices, which set-up reads for the eyes' pivots
         return face_setup.set_up(face)
-    except Mpeg4Error:
+    except BaseException:  # whatever stopped it, the face goes back as it was
         live.forget(face)
         fitting_store.put(face, before)
         context.view_layer.update()
@@ -337,21 +361,23 @@ def back_to_generic(context, face) -> list[str]:
 # ----------------------------------------------------------------------------- FDP files
 
 
-def _is_xface(path: str) -> bool:
-    try:
-        with open(path, "rb") as stream:
-            start = stream.read(64).lstrip(b"\xef\xbb\xbf \t\r\n")
-    except OSError:
-        return False  # the reader reports it
-    return start.startswith(b"<")
+def read_fdp_file(path: str) -> Fdp | XfaceFdp:
+    """Our FDP or an XFace .fdp (XML: it starts with '<'), read once through the safe reader."""
+    name = str(Path(path))
+    data = read_regular_file(path, xface_fdp.MAX_BYTES, FdpFileError, name, "too large for an FDP file")
+    if data.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"<"):
+        return xface_fdp.parse_xface_fdp(data, name)
+    return parse_fdp(data, name)
 
 
 def import_fdp(context, face, path: str, xface_unit: float) -> list[str]:
     """Fit the face to an FDP file's FPs (with its texture and FAPU), or apply what an XFace .fdp carries."""
-    if _is_xface(path):
-        return apply_xface(face, read_xface_fdp(path), xface_unit)
-    fdp = read_fdp(path)
+    fdp = read_fdp_file(path)
+    if isinstance(fdp, XfaceFdp):
+        return apply_xface(face, fdp, xface_unit)
     plan = plan_fit(context, face, fdp.in_mesh(AXES))
+    if fdp.fapu is not None:
+        check_plausible(fdp.fapu, f"{path}: fapu", like=fap_io.face_fapu(face))
     notes = []
     uvs = None
     if fdp.texture_coordinates:
@@ -365,8 +391,8 @@ def import_fdp(context, face, path: str, xface_unit: float) -> list[str]:
         if uvs is None:
             notes.append(Warn(f"the image {fdp.image} comes without texture coordinates: not used"))
             image_path = None
-        elif not image_path.is_file():
-            raise Mpeg4Error(f"{path}: the image {fdp.image} is not a file ({image_path})")
+        elif (problem := file_problem(image_path)) is not None:
+            raise Mpeg4Error(f"{path}: the image {fdp.image[:80]}: {problem}")
     image, created = _load_image(image_path) if image_path is not None else (None, False)
     try:
         notes = write_fit(context, face, plan) + notes
@@ -416,6 +442,7 @@ def apply_xface(face, xface: XfaceFdp, unit: float) -> list[str]:
         notes.append(Warn("it gives no FAPU: nothing applied"))
         return notes
     fapu = tuple(unit * v for v in xface.fapu.as_dict().values())
+    check_plausible(Fapu(*fapu), f"XFace FAPU x {unit:g}", like=fap_io.face_fapu(face))
     face.mpeg4_face.fapu = fapu
     shown = ", ".join(f"{name} {1000 * v:.1f} mm" for name, v in zip(xface.fapu.as_dict(), fapu, strict=True))
     notes.append(f"FAPU from the file x {unit:g}: {shown} (Set Up Face measures them from the points again)")

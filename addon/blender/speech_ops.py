@@ -40,6 +40,7 @@ from ..mpeg4.faps import Expression
 from ..mpeg4.stream_timing import MAXFRAME
 from ..speech import coarticulation, cue_files, espeak, wav
 from ..speech.high_level import expression_values
+from ..user_files import file_problem, output_problem
 from . import fap_io, poll
 from .face_data import CREATED_PROP
 from .motion_options import GainAndClamp
@@ -57,13 +58,13 @@ def scene_fps(scene) -> float:
 
 def frame_budget(scene, start_frame: int, extend: bool) -> int:
     """Frames the speech may take from `start_frame`: to Blender's last frame when the scene's range may be
-    extended, else to the scene's end frame."""
+    extended, else to the scene's end frame; never more than `coarticulation.MAX_SECONDS`."""
     end = MAXFRAME if extend else scene.frame_end
     if start_frame > end:
         where = f"Blender's last frame {MAXFRAME}" if extend else f"the scene's end frame {end}"
         fix = "" if extend else " (or turn on Extend Frame Range)"
         raise Mpeg4Error(f"the start frame {start_frame} is after {where}: choose an earlier start frame{fix}")
-    return end - start_frame + 1
+    return min(end - start_frame + 1, max(1, math.floor(coarticulation.MAX_SECONDS * scene_fps(scene))))
 
 
 # ----------------------------------------------------------------------------- sequencer
@@ -204,7 +205,9 @@ def _play(context, face, segments, duration, name, source, options, layer, max_f
     tracks = coarticulation.fap_tracks(segments, scene_fps(scene), duration=duration, max_frames=max_frames)
     if layer.expression != "NONE":
         tracks = tracks.with_offsets(expression_values(layer.expression, layer.weight))
-    decoded = fap_io.decode_stream(context, face, tracks.to_stream(name), options, source)
+    # a replacing action keys only the frames that change (a silence costs two keys); an added one samples the
+    # motion below it on every frame
+    decoded = fap_io.decode_stream(context, face, tracks.to_stream(name, held=options.add), options, source)
     decoded = dataclasses.replace(decoded, name=name)
     notes = []
     strip = None
@@ -235,8 +238,14 @@ def speak_text(context, face, text, voice, rate, options, layer=Layer(), sound=T
     scene = context.scene
     fap_io.require_setup(face)
     max_frames = frame_budget(scene, options.start_frame, options.set_frame_range)
+    _check_audio_file(audio_file if sound else "")
     speech = espeak.synthesize(text, voice, rate=rate, max_seconds=max_frames / scene_fps(scene))
     return speak(context, face, speech, options, layer, sound, audio_file)
+
+
+def _check_audio_file(audio_file: str) -> None:
+    if audio_file and (problem := output_problem(bpy.path.abspath(audio_file))) is not None:
+        raise Mpeg4Error(f"Audio File {audio_file[:60]}: {problem}")
 
 
 def speak(context, face, speech: espeak.Speech, options, layer=Layer(), sound=True, audio_file="") -> list[str]:
@@ -244,6 +253,7 @@ def speak(context, face, speech: espeak.Speech, options, layer=Layer(), sound=Tr
     entry, because espeak-ng varies its output a little from one synthesis of a text to the next."""
     fap_io.require_setup(face)
     max_frames = frame_budget(context.scene, options.start_frame, options.set_frame_range)
+    _check_audio_file(audio_file if sound else "")
     segments = espeak.speech_segments(speech)
     short = speech.text if len(speech.text) <= 40 else speech.text[:39] + "…"
 
@@ -284,8 +294,8 @@ def import_cues(context, face, path, options, layer=Layer(), audio_file="") -> l
     audio = None
     if audio_file:
         sound_path = Path(bpy.path.abspath(audio_file))
-        if not sound_path.is_file():
-            raise Mpeg4Error(f"audio file not found: {sound_path}")
+        if (problem := file_problem(sound_path)) is not None:
+            raise Mpeg4Error(f"audio file {str(sound_path)[:80]}: {problem}")
 
         def audio():
             return sound_path, False  # the user's own file: never written or deleted

@@ -18,8 +18,9 @@
 - `fapu` (optional): the five FAPU0 distances in metres (not divided by 1024), all positive.
 
 Nothing else is allowed. The reader refuses, naming the file and the item: files over MAX_BYTES,
-invalid UTF-8 or JSON, repeated keys, unknown keys or FP ids, wrong shapes, booleans or strings where
-numbers belong, NaN and infinities, UVs outside the image. The writer checks the same and replaces the
+invalid UTF-8 or JSON (`user_json`: over-long numbers, deep nesting, NaN, repeated keys), unknown
+keys or FP ids, wrong shapes, booleans or strings where numbers belong, coordinates beyond MAX_COORDINATE,
+FAPU no face has (`fapu.check_plausible`), UVs outside the image. The writer checks the same and replaces the
 file only when the whole text is written; write then read gives the same values bit for bit.
 """
 
@@ -36,14 +37,16 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Mpeg4Error
-from ..mpeg4.fapu import Fapu
+from ..mpeg4.fapu import Fapu, FapuError, check_plausible
 from ..mpeg4.feature_points import FP_IDS, fp_index
 from ..user_files import read_regular_file
+from ..user_json import parse_json
 
 FORMAT = "mpeg4-face-fdp"
 VERSION = 1
 MAX_BYTES = 1 << 20
 MAX_IMAGE_PATH = 4096
+MAX_COORDINATE = 1e4  # beyond any face's feature points about its origin, in any unit (float32 holds them)
 FAPU_NAMES = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 _KEYS = {"format", "version", "feature_points", "texture_coordinates", "image", "fapu"}
 
@@ -79,13 +82,7 @@ def parse_fdp(data: bytes, source: str = "FDP") -> Fdp:
         text = data.decode("utf-8")
     except UnicodeDecodeError as error:
         raise FdpFileError(f"{source}: not UTF-8 text (byte {error.start})") from None
-    try:
-        # NaN and Infinity parse to floats that the checks below refuse, naming the item
-        document = json.loads(text, object_pairs_hook=_unique_keys)
-    except json.JSONDecodeError as error:
-        raise FdpFileError(f"{source}: not JSON: {error.msg} at line {error.lineno}, column {error.colno}") from None
-    except (_Refused, RecursionError) as error:
-        raise FdpFileError(f"{source}: {error if isinstance(error, _Refused) else 'nested too deeply'}") from None
+    document = parse_json(text, FdpFileError, source)
     return _document_to_fdp(document, source)
 
 
@@ -122,19 +119,6 @@ def fdp_text(fdp: Fdp, source: str = "FDP") -> str:
         document["fapu"] = {name: float(value) for name, value in fdp.fapu.as_dict().items()}
     _document_to_fdp(document, source)
     return json.dumps(document, indent=2, allow_nan=False) + "\n"
-
-
-class _Refused(ValueError):
-    pass
-
-
-def _unique_keys(pairs: list[tuple[str, object]]) -> dict[str, object]:
-    out: dict[str, object] = {}
-    for key, value in pairs:
-        if key in out:
-            raise _Refused(f"key {key!r} appears twice in one object")
-        out[key] = value
-    return out
 
 
 def _as_lists(points: Mapping[str, object], source: str, what: str) -> dict[object, object]:
@@ -199,6 +183,11 @@ def _point_table(table: object, size: int, source: str, what: str) -> dict[str, 
         value = table[fp_id]
         if not (isinstance(value, list) and len(value) == size and all(_number(v) for v in value)):
             raise FdpFileError(f"{source}: {what} {fp_id}: expected a list of {size} finite numbers, got {value!r}")
+        if size == 3 and max(map(abs, value)) > MAX_COORDINATE:
+            raise FdpFileError(
+                f"{source}: {what} {fp_id}: {value!r} is more than {MAX_COORDINATE:g} from the face's origin; "
+                "an FDP gives a person's feature points in metres"
+            )
         out[fp_id] = np.array(value, dtype=np.float64)
     return out
 
@@ -209,4 +198,9 @@ def _fapu(table: object, source: str) -> Fapu:
     bad = [name for name in FAPU_NAMES if not (_number(table[name]) and table[name] > 0)]
     if bad:
         raise FdpFileError(f"{source}: fapu {', '.join(bad)} must be positive numbers (metres)")
-    return Fapu(**{name: float(table[name]) for name in FAPU_NAMES})
+    fapu = Fapu(**{name: float(table[name]) for name in FAPU_NAMES})
+    try:
+        check_plausible(fapu, f"{source}: fapu")
+    except FapuError as error:
+        raise FdpFileError(str(error)) from None
+    return fapu

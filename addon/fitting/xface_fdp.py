@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Mpeg4Error
-from ..mpeg4.fapu import Fapu
+from ..mpeg4.fapu import Fapu, FapuError, check_plausible
 from ..mpeg4.feature_points import FP_IDS
 from ..user_files import read_regular_file
 
@@ -39,6 +39,9 @@ INFLUENCE_TYPES = frozenset(
     {"RaisedCosInfluenceSph", "RaisedCosInfluenceWaveX", "RaisedCosInfluenceWaveY", "RaisedCosInfluenceWaveZ"}
 )
 _DECLARATION = re.compile(rb"<!\s*(DOCTYPE|ENTITY)", re.IGNORECASE)
+# the XML declaration's encoding; expat reads these (and UTF-16 by its byte order mark) and nothing else
+_ENCODING = re.compile(rb"""^(?:\xef\xbb\xbf)?<\?xml[^>]*?\bencoding\s*=\s*["']([^"']*)["']""")
+ENCODINGS = frozenset({"utf-8", "utf8", "us-ascii", "ascii", "iso-8859-1", "latin-1", "latin1"})
 
 
 class XfaceFdpError(Mpeg4Error):
@@ -118,6 +121,10 @@ def parse_xface_fdp(data: bytes, source: str = "XFace FDP") -> XfaceFdp:
         raise XfaceFdpError(f"{source}: larger than {MAX_BYTES} bytes; not an XFace FDP")
     if _DECLARATION.search(data):
         raise XfaceFdpError(f"{source}: DOCTYPE and ENTITY declarations are not accepted")
+    declared = _ENCODING.match(data)
+    if declared and declared[1].decode("ascii", "replace").lower() not in ENCODINGS:
+        name = declared[1][:40].decode("ascii", "replace")
+        raise XfaceFdpError(f"{source}: the XML declares the encoding {name!r}; an XFace FDP is UTF-8")
     try:
         root = ET.fromstring(data)
     except ET.ParseError as error:
@@ -139,6 +146,10 @@ def parse_xface_fdp(data: bytes, source: str = "XFace FDP") -> XfaceFdp:
         if not all(value > 0.0 for value in values.values()):
             raise XfaceFdpError(f"{source}: <fapu> values must be positive, got {values}")
         fapu = Fapu(**values)
+        try:
+            check_plausible(fapu, f"{source}: <fapu>")
+        except FapuError as error:
+            raise XfaceFdpError(str(error)) from None
     translation = np.zeros(3)
     if (element := head.find("translation")) is not None:
         translation = np.array([_real(element, name, source) for name in "xyz"])

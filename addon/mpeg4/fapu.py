@@ -87,3 +87,25 @@ def compute_fapu(positions: Mapping[str, np.ndarray], axes: np.ndarray = BLENDER
             + ", ".join(bad)
         )
     return Fapu(**values)
+
+
+# each FAPU0 of a face modelled in any unit people use (an adult's ES0: 0.06 m, 6 cm, 60 mm; a doll's iris in
+# metres, a giant's mouth in millimetres)
+PLAUSIBLE_ANY_UNIT = (1e-5, 1e5)
+PLAUSIBLE_FACTOR = 10.0  # FAPU from elsewhere against the face's own: another head, not another unit
+
+
+def check_plausible(fapu: Fapu, source: str, like: Fapu | None = None) -> None:
+    """Refuse FAPU that no face has in any unit (PLAUSIBLE_ANY_UNIT), or, with `like` (the face's own FAPU, in
+    its units), FAPU more than PLAUSIBLE_FACTOR times larger or smaller than those: FapuError naming each."""
+    bad = []
+    for name, value in fapu.as_dict().items():
+        low, high = PLAUSIBLE_ANY_UNIT
+        if like is not None:
+            own = like.as_dict()[name]
+            low, high = own / PLAUSIBLE_FACTOR, own * PLAUSIBLE_FACTOR
+        if not low <= value <= high:
+            bad.append(f"{name} = {value:.4g} (plausible {low:.4g}..{high:.4g})")
+    if bad:
+        unit = "any unit" if like is None else f"the face's units, within {PLAUSIBLE_FACTOR:g}x of its own FAPU"
+        raise FapuError(f"{source}: implausible FAPU ({unit}): {', '.join(bad)}")

@@ -33,6 +33,7 @@ below 2e-22.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -45,7 +46,8 @@ from . import SpeechError
 from .segments import Segment, check_segments
 from .tables import DominanceTable, ShapeTable, load_dominance, load_visemes
 
-DEFAULT_MAX_FRAMES = 90_000  # one hour at 25 fps; the Blender side passes its frame range
+MAX_SECONDS = 3600.0  # the longest speech made at once (an hour): caps the frames before anything is allocated
+DEFAULT_MAX_FRAMES = 90_000  # MAX_SECONDS at 25 fps; the Blender side passes its frame range, at most MAX_SECONDS
 OPEN_JAW = 3
 # Lip pairs the closure constraint closes: (inner upper, inner lower, outer upper, outer lower); the lower
 # points 2.3, 2.8, 2.9 ride the jaw, so each pair's gap is open_jaw - upper - lower.
@@ -233,9 +235,16 @@ class FapTracks:
         faps = np.union1d(self.faps, np.flatnonzero(offsets[2:]) + 3)
         return FapTracks(self.fps, self.values + offsets, faps)
 
-    def to_stream(self, name: str = "speech", viseme_fields: np.ndarray | None = None) -> FapStream:
+    def to_stream(self, name: str = "speech", viseme_fields: np.ndarray | None = None, held: bool = True) -> FapStream:
         """A `.fap` stream of the tracks (write it with `fap_file.write_fap`); `viseme_fields` (F, 4), e.g.
-        from `viseme_track`, adds FAP 1 to every frame (players that read it take the low-level values first)."""
+        from `viseme_track`, adds FAP 1 to every frame (players that read it take the low-level values first).
+        `held=False` leaves out the frames inside a run of equal frames (`changing_frames`): linear keys
+        then give the same motion, and a long silence costs two keys, not one per frame."""
+        if not held:
+            kept = changing_frames(self.values)
+            faps = FapTracks(self.fps, self.values[kept], self.faps)
+            fields = None if viseme_fields is None else np.asarray(viseme_fields)[kept]
+            return dataclasses.replace(faps.to_stream(name, fields), frame_numbers=kept.astype(np.int64))
         mask = self.mask
         viseme = np.zeros((self.n_frames, 4))
         if viseme_fields is not None:
@@ -255,6 +264,18 @@ class FapTracks:
         )
 
 
+def changing_frames(values: np.ndarray) -> np.ndarray:
+    """Indices of the (F, K) `values`' frames that linear interpolation between them cannot give: the first and
+    the last, and every frame that differs from the one before or after it."""
+    values = np.asarray(values)
+    if len(values) <= 2:
+        return np.arange(len(values))
+    change = np.any(values[1:] != values[:-1], axis=1)
+    keep = np.ones(len(values), bool)
+    keep[1:-1] = change[:-1] | change[1:]
+    return np.flatnonzero(keep)
+
+
 def frame_count(duration: float, fps: float, max_frames: int = DEFAULT_MAX_FRAMES) -> int:
     """Frames that cover [0, duration) at `fps` (at least one), checked against `max_frames` first."""
     if isinstance(fps, bool) or not isinstance(fps, int | float) or not (math.isfinite(fps) and fps > 0):
@@ -264,9 +285,10 @@ def frame_count(duration: float, fps: float, max_frames: int = DEFAULT_MAX_FRAME
     if not (isinstance(duration, int | float) and math.isfinite(duration) and duration >= 0):
         raise SpeechError(f"duration {duration!r} is not a non-negative number of seconds")
     exact = duration * fps
-    if exact > max_frames:
+    if not exact <= max_frames:  # also an infinite product of two huge numbers
+        seconds, frames = (f"{duration:.3f}", math.ceil(exact)) if exact < 1e15 else (f"{duration:.3g}", f"{exact:.3g}")
         raise SpeechError(
-            f"the speech lasts {duration:.3f} s, {math.ceil(exact)} frames at {fps:g} fps, more than the "
+            f"the speech lasts {seconds} s, {frames} frames at {fps:g} fps, more than the "
             f"{max_frames} frames allowed: shorten the text or the cue file, or allow a longer frame range"
         )
     return max(1, math.ceil(exact - 1e-9))

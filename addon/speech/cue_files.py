@@ -31,6 +31,7 @@ from . import SpeechError
 from .segments import Segment, TimedLabel, check_timing, describe, segments_from_labels
 from .tables import PhonemeTable, load_rhubarb, number, read_json, read_text
 
+MAX_CUES = 100_000  # lines or entries of one cue file: an hour of speech has about 50,000 phonemes
 _NUMBER = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?", re.ASCII)
 
 
@@ -42,6 +43,8 @@ def _lines(path) -> list[tuple[int, list[str]]]:
     for n, line in enumerate(text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), 1):
         fields = line.split()
         if fields and not fields[0].startswith("#"):
+            if len(out) == MAX_CUES:
+                raise SpeechError(f"{source} line {n}: more than {MAX_CUES} timed lines; split the file")
             out.append((n, fields))
     if not out:
         raise SpeechError(f"{source}: no timed lines in the file")
@@ -80,6 +83,8 @@ def read_timed_labels(path) -> list[TimedLabel]:
 def _json_items(items, source: str, what: str, label_key: str) -> list[TimedLabel]:
     if not isinstance(items, list) or not items:
         raise SpeechError(f"{source}: expected a non-empty list of {what}s")
+    if len(items) > MAX_CUES:
+        raise SpeechError(f"{source}: {len(items)} {what}s, more than {MAX_CUES}; split the file")
     out = []
     for k, item in enumerate(items, 1):
         where = f"{source} {what} {k}"

@@ -10,7 +10,6 @@ and returned read-only.
 from __future__ import annotations
 
 import functools
-import json
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -21,6 +20,7 @@ import numpy as np
 
 from ..mpeg4.faps import FAPS, N_FAPS, Expression, Viseme, fap
 from ..user_files import read_regular_file
+from ..user_json import parse_json
 from . import SpeechError
 
 DATA = Path(__file__).resolve().with_name("data")
@@ -96,24 +96,6 @@ class PhonemeTable:
 # --- reading -------------------------------------------------------------------------------------------
 
 
-def _no_duplicates(source: str):
-    def hook(pairs):
-        keys = [key for key, _ in pairs]
-        for key in keys:
-            if keys.count(key) > 1:
-                raise SpeechError(f"{source}: key {key!r} appears twice in one object")
-        return dict(pairs)
-
-    return hook
-
-
-def _reject_constant(source: str):
-    def hook(name):
-        raise SpeechError(f"{source}: {name} is not a number a table may hold")
-
-    return hook
-
-
 MAX_FILE_BYTES = 16 * 2**20  # a cue list or table this large is not one
 
 
@@ -129,13 +111,8 @@ def read_text(path: Path | str, what: str) -> str:
 
 
 def read_json(path: Path | str, what: str) -> object:
-    """A JSON document, strictly: UTF-8, no duplicate keys, no NaN/Infinity; SpeechError naming the file."""
-    source = str(path)
-    text = read_text(path, what)
-    try:
-        return json.loads(text, object_pairs_hook=_no_duplicates(source), parse_constant=_reject_constant(source))
-    except json.JSONDecodeError as exc:
-        raise SpeechError(f"{source}: line {exc.lineno}: the {what} is not valid JSON: {exc.msg}") from None
+    """A JSON document, strictly (`user_json.parse_json`); SpeechError naming the file."""
+    return parse_json(read_text(path, what), SpeechError, f"{path}: the {what}")
 
 
 def _object(value, keys: set[str], optional: set[str], where: str) -> dict:

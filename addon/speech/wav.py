@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import secrets
 import wave
@@ -33,6 +34,7 @@ def write_wav(path, samples: np.ndarray, sample_rate: int) -> Path:
             out.writeframes(samples.astype("<i2").tobytes())
         os.replace(temporary, path)
     except OSError as exc:
-        temporary.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):  # a name too long to create is too long to remove
+            temporary.unlink(missing_ok=True)
         raise SpeechError(f"{path}: cannot write the audio: {exc.strerror or exc}") from None
     return path

@@ -60,11 +60,11 @@ def test_a_minimal_fdp_and_its_points_in_blenders_frame():
     ("data", "message"),
     [
         (b"\xff\xfe{}", "not UTF-8"),
-        (b'{"version": 1,', "not JSON: .* line 1"),
+        (b'{"version": 1,', "line 1, column .*: not valid JSON"),
         (b'{"version": 1, "version": 1}', "key 'version' appears twice"),
         (
             document(feature_points={"2.1": [0, 0, 0]}).replace(b"[0, 0, 0]", b"[NaN, 0, 0]"),
-            r"feature_points 2\.1: expected a list of 3 finite numbers, got \[nan",
+            "NaN is not a number",
         ),
         (b"[1, 2]", "one JSON object"),
         (document(colour="red"), "unknown key.*'colour'"),
@@ -77,7 +77,7 @@ def test_a_minimal_fdp_and_its_points_in_blenders_frame():
         (document(feature_points={"2.1": [0, 0]}), r"feature_points 2\.1: expected a list of 3 finite numbers"),
         (document(feature_points={"2.1": ["0", 0, 0]}), r"feature_points 2\.1: expected a list of 3"),
         (document(feature_points={"2.1": [True, 0, 0]}), r"feature_points 2\.1: expected a list of 3"),
-        (document(feature_points={"2.1": [1e999, 0, 0]}), r"feature_points 2\.1: expected a list of 3 finite"),
+        (document(feature_points={"2.1": [1e999, 0, 0]}), "line 1, column .*: Infinity is not a number"),
         (document(texture_coordinates={"3.5": [1.2, 0.5]}), r"outside the image \[0, 1\]: 3\.5 \[1\.2, 0\.5\]"),
         (document(texture_coordinates={"4.1": [0.2, 0.5]}), r"texture_coordinates for FPs without a position: 4\.1"),
         (document(image=""), "'image' must be a non-empty path"),

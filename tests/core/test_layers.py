@@ -8,6 +8,7 @@ ADDON = Path(__file__).resolve().parents[2] / "addon"
 LAYERS = {
     "errors": 0,
     "user_files": 0,
+    "user_json": 0,
     "geometry": 1,
     "formats": 1,
     "mpeg4": 2,

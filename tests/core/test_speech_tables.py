@@ -220,7 +220,7 @@ def test_json_traps_are_refused(tmp_path):
     with pytest.raises(SpeechError, match="NaN is not a number"):
         load_visemes(path)
     path.write_text('{"about": ')
-    with pytest.raises(SpeechError, match="line 1: the visemes table is not valid JSON"):
+    with pytest.raises(SpeechError, match="the visemes table: line 1, column 11: not valid JSON"):
         load_visemes(path)
     with pytest.raises(SpeechError, match="cannot read"):
         load_visemes(tmp_path / "missing.json")
