@@ -253,6 +253,11 @@ def pick_face(name: str | None):
         face = bpy.data.objects.get(name)
         if face is None or face.type != "MESH":
             raise ConvertError(f"no mesh object named {name!r} in the face file")
+        if not face_data.fp_empties(face):
+            raise ConvertError(
+                f"the mesh {name!r} has no feature points (no '{face_data.fp_collection_name(face)}' collection "
+                "of FP empties): name the face mesh with --object, or leave it out to take the first face"
+            )
         return face
     for ob in bpy.data.objects:
         if ob.type == "MESH" and face_data.fp_empties(ob):
@@ -280,6 +285,8 @@ def scene_rate(fps: float) -> tuple[int, float]:
 
 def stream_frames(stream, selection, vertices: int) -> tuple[int, int]:
     """The stream frames to convert (first, last), checked against Blender's limits and the bake's memory."""
+    if not len(stream.frame_numbers):
+        raise ConvertError("the stream has no frames")
     first, last = int(stream.frame_numbers[0]), int(stream.frame_numbers[-1])
     lo, hi = selection or (None, None)
     if lo is not None or hi is not None:

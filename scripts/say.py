@@ -190,10 +190,11 @@ def mp4_durations(path: Path) -> dict[str, float]:
 
 
 def check_arguments(args) -> str:
-    """Checks that need no speech; returns the output stem."""
+    """Checks that need no speech (the face file opens and holds the face); returns the output stem."""
     convert.check_input(args.face, "face file")
     convert.check_output_folder(args.out)
     convert.addon_package()
+    convert.open_face(args.face.resolve(), args.object)
     try:
         convert._addon("speech.espeak").check_text(args.text)
         if args.expression is not None:

@@ -165,7 +165,7 @@ BAD = {
         r"more than the \d+ frames allowed",
     ),
     "start after the end frame": (_cues("0 0.5 AA\n", set_frame_range=False, start_frame=100_000), "is after"),
-    "missing audio file": (_cues("0 0.5 AA\n", audio_filepath="/nonexistent/talk.wav"), "audio file not found"),
+    "missing audio file": (_cues("0 0.5 AA\n", audio_filepath="/nonexistent/talk.wav"), "audio file .*No such file"),
 }
 
 
