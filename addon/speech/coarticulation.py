@@ -116,12 +116,18 @@ def _check_closure_shape(visemes: ShapeTable) -> None:
 
 
 def _close_bilabials(values, times, segments, visemes, dominance, closure_fps) -> None:
-    """The closure constraint (module docstring), in place on (T, 68) `values` at sorted `times`."""
+    """The closure constraint (module docstring), in place on (T, 68) `values` at sorted `times`.
+
+    Closing one PP segment after another leaves each lip pair's excess gap times (1 - w_s) per segment, w_s
+    its weight at that frame (1 over the segment, fading outside), whatever the order: the excess left is
+    the product of (1 - w_s) over the segments, taken here in one pass over (segment, frame) pairs, so that
+    many overlapping segments cost their pairs, not a pass over the tracks each."""
     shape = visemes.targets[Viseme.PP]
     column = CLOSURE_PAIRS[0][0] - 1
     theta_before = dominance.theta_before[Viseme.PP, column]
     theta_after = dominance.theta_after[Viseme.PP, column]
     c = dominance.exponent[Viseme.PP, column]
+    spans = []
     for segment in segments:
         if segment.viseme != Viseme.PP:
             continue
@@ -129,22 +135,39 @@ def _close_bilabials(values, times, segments, visemes, dominance, closure_fps) -
         if closure_fps is not None:
             nearest_frame = round(segment.centre * closure_fps) / closure_fps
             a, b = min(a, nearest_frame), max(b, nearest_frame)
-        lo = np.searchsorted(times, a - (_MARGIN / theta_before) ** (1.0 / c))
-        hi = np.searchsorted(times, b + (_MARGIN / theta_after) ** (1.0 / c), side="right")
-        t = times[lo:hi]
+        spans.append((a, b))
+    if not spans:
+        return
+    a, b = np.array(spans).T
+    lo = np.searchsorted(times, a - (_MARGIN / theta_before) ** (1.0 / c))
+    hi = np.searchsorted(times, b + (_MARGIN / theta_after) ** (1.0 / c), side="right")
+    log_left = np.zeros(len(times))  # sum over segments of log(1 - w_s): the excess gap each frame keeps
+    ends = np.cumsum(hi - lo)
+    first = 0
+    while first < len(spans):
+        last = max(first + 1, int(np.searchsorted(ends, ends[first] - (hi - lo)[first] + _BLOCK_ELEMENTS)))
+        rows = np.arange(first, last)
+        counts = (hi - lo)[rows]
+        row = np.repeat(rows, counts)
+        frame = lo[row] + np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+        t = times[frame]
         weight = np.ones(len(t))
-        before, after = t < a, t > b
-        weight[before] = np.exp(-theta_before * (a - t[before]) ** c)
-        weight[after] = np.exp(-theta_after * (t[after] - b) ** c)
-        for upper, lower, upper_outer, lower_outer in CLOSURE_PAIRS:
-            up, down, jaw = upper - 1, lower - 1, OPEN_JAW - 1
-            share = shape[up] / (shape[up] + shape[down])
-            target_gap = shape[jaw] - shape[up] - shape[down]
-            gap = values[lo:hi, jaw] - values[lo:hi, up] - values[lo:hi, down]
-            correction = weight * np.maximum(gap - target_gap, 0.0)
-            for fap_upper, fap_lower in ((upper, lower), (upper_outer, lower_outer)):
-                values[lo:hi, fap_upper - 1] += share * correction
-                values[lo:hi, fap_lower - 1] += (1.0 - share) * correction
+        before, after = t < a[row], t > b[row]
+        weight[before] = np.exp(-theta_before * (a[row][before] - t[before]) ** c)
+        weight[after] = np.exp(-theta_after * (t[after] - b[row][after]) ** c)
+        with np.errstate(divide="ignore"):  # w = 1 over a segment: nothing of the excess is left
+            log_left += np.bincount(frame, np.log1p(-weight), minlength=len(times))
+        first = last
+    closed = -np.expm1(log_left)  # 1 - the product: the share of the excess taken away
+    for upper, lower, upper_outer, lower_outer in CLOSURE_PAIRS:
+        up, down, jaw = upper - 1, lower - 1, OPEN_JAW - 1
+        share = shape[up] / (shape[up] + shape[down])
+        target_gap = shape[jaw] - shape[up] - shape[down]
+        gap = values[:, jaw] - values[:, up] - values[:, down]
+        correction = closed * np.maximum(gap - target_gap, 0.0)
+        for fap_upper, fap_lower in ((upper, lower), (upper_outer, lower_outer)):
+            values[:, fap_upper - 1] += share * correction
+            values[:, fap_lower - 1] += (1.0 - share) * correction
 
 
 def coarticulate(
