@@ -194,13 +194,13 @@ def check_arguments(args) -> str:
     convert.check_input(args.face, "face file")
     convert.check_output_folder(args.out)
     convert.addon_package()
-    convert.open_face(args.face.resolve(), args.object)
     try:
         convert._addon("speech.espeak").check_text(args.text)
         if args.expression is not None:
             convert._addon("speech.high_level").expression_values(*args.expression)
     except convert._addon("speech").SpeechError as exc:
         raise SayError(str(exc)) from None
+    convert.open_face(args.face.resolve(), args.object)
     return args.name or default_name(args.text)
 
 
