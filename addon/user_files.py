@@ -3,6 +3,8 @@
 A FIFO (opening one waits for a writer), a device (/dev/zero never ends) or a folder is refused before it is
 opened; the open is non-blocking and re-checked with fstat, so a FIFO swapped in between cannot block either.
 The file's size is a hint only (a file may grow; /proc files claim 0): at most `max_bytes + 1` bytes are read.
+A path that another reader opens (an image, a sound) or that is written is checked by `file_problem` and
+`output_problem`, which give the reason (a name over NAME_MAX bytes among them) instead of raising.
 """
 
 from __future__ import annotations
