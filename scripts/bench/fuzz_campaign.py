@@ -11,10 +11,11 @@ random field counts, line ends and labels; texts with control and private-use ch
 moved by random factors; paths that are FIFOs, folders, devices, 300-byte names and NUL characters.
 
 Doors: the FDP and XFace readers, Import FDP, the cue readers, Import Lip-Sync Cues, Speak Text, Fit to
-Feature Points, convert.py and say.py. For each input it checks the promise: the core raises nothing but an
-Mpeg4Error; an operator is refused with a report (never "Internal error") and leaves the scene as it was
-(objects, transforms, evaluated face, actions, shape keys, settings, files) or finishes; nothing runs past
-30 s (SIGALRM). Prints the counts per door and every break, and keeps the breaking inputs in --keep.
+Feature Points, Fit to Calibration Mesh (random scans with their own FPs), convert.py and say.py. For each
+input it checks the promise: the core raises nothing but an Mpeg4Error; an operator is refused with a
+report (never "Internal error") and leaves the scene as it was (objects, transforms, evaluated face,
+actions, shape keys, settings, files) or finishes; nothing runs past 30 s (SIGALRM). Prints the counts per
+door and every break, and keeps the breaking inputs in --keep.
 """
 
 from __future__ import annotations
@@ -384,7 +385,43 @@ def run(campaign: Campaign, scale: float) -> None:
         campaign.operator("Fit to Feature Points", lambda: bpy.ops.mpeg4.fit_to_feature_points(), None)
         campaign.reopen()
 
+    for _ in range(n["Fit to Calibration Mesh"]):
+        calibration_target(campaign)
+        campaign.operator("Fit to Calibration Mesh", lambda: bpy.ops.mpeg4.fit_to_calibration_mesh(), None)
+        campaign.reopen()
+
     scripts_door(campaign, n["convert.py / say.py"])
+
+
+def calibration_target(campaign: Campaign) -> None:
+    """A selected scan: a random closed-ish surface (a sphere of random size, some vertices thrown far, some
+    triangles collapsed) with its own FP empties, of random ids and places."""
+    rng = campaign.rng
+    head = bpy.data.objects["Head"]
+    size = rng.choice([1e-6, 1e-3, 0.1, 0.2, 10.0, 1e4])
+    turns = np.linspace(0.0, np.pi, 12)[:, None], np.linspace(0.0, 2 * np.pi, 16, endpoint=False)[None, :]
+    sphere = np.stack(
+        [np.sin(turns[0]) * np.cos(turns[1]), np.sin(turns[0]) * np.sin(turns[1]), np.cos(turns[0]) + 0 * turns[1]], -1
+    )
+    vertices = (size * sphere.reshape(-1, 3)).tolist()
+    for k in rng.sample(range(len(vertices)), rng.choice([0, 0, 1, 20])):
+        vertices[k] = [rng.choice([1e30, -3e38, 0.0, size]) for _ in range(3)]
+    faces = [(a * 16 + b, a * 16 + (b + 1) % 16, (a + 1) * 16 + b) for a in range(11) for b in range(16)]
+    faces += [(0, 0, 1)] * rng.choice([0, 3])
+    mesh = bpy.data.meshes.new("Scan")
+    mesh.from_pydata(vertices, [], faces if rng.random() > 0.05 else [])
+    target = bpy.data.objects.new("Scan", mesh)
+    bpy.context.scene.collection.objects.link(target)
+    collection = bpy.data.collections.new("Scan FPs")
+    bpy.context.scene.collection.children.link(collection)
+    for fp_id in rng.sample(FP_IDS, rng.choice([1, 3, 10, 40])):
+        empty = bpy.data.objects.new(f"Scan FP {fp_id}", None)
+        empty["mpeg4_fp"] = fp_id
+        empty.location = [size * rng.uniform(-1, 1) * rng.choice([1.0, 1.0, 1e3, 0.0]) for _ in range(3)]
+        collection.objects.link(empty)
+    bpy.context.view_layer.update()
+    select(head)
+    target.select_set(True)
 
 
 def scripts_door(campaign: Campaign, count: int) -> None:
@@ -448,13 +485,14 @@ def scripts_door(campaign: Campaign, count: int) -> None:
 
 
 DOORS = {
-    "FDP reader": 200,
+    "FDP reader": 180,
     "XFace reader": 120,
     "cue readers": 200,
     "Import FDP": 200,
-    "Import Lip-Sync Cues": 220,
+    "Import Lip-Sync Cues": 200,
     "Speak Text": 100,
     "Fit to Feature Points": 40,
+    "Fit to Calibration Mesh": 40,
     "convert.py / say.py": 20,
 }
 
