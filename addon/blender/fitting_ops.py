@@ -375,9 +375,9 @@ def import_fdp(context, face, path: str, xface_unit: float) -> list[str]:
     fdp = read_fdp_file(path)
     if isinstance(fdp, XfaceFdp):
         return apply_xface(face, fdp, xface_unit)
-    plan = plan_fit(context, face, fdp.in_mesh(AXES))
     if fdp.fapu is not None:
         check_plausible(fdp.fapu, f"{path}: fapu", like=fap_io.face_fapu(face))
+    plan = plan_fit(context, face, fdp.in_mesh(AXES))
     notes = []
     uvs = None
     if fdp.texture_coordinates:
