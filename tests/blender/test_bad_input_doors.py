@@ -24,6 +24,7 @@ from addon.blender.animation import find_fcurve
 from tests.markers import needs_espeak
 
 from .helpers import DEMO_FAP, open_sample, select, set_up_sample
+from .test_fitting_blender import calibration_target
 from .test_fitting_blender import state as fitting_state
 from .test_speech_blender import saved_sample, scene_state
 
@@ -320,3 +321,14 @@ def test_cue_imports_stay_under_a_memory_limit(tmp_path):
     lines = result.stdout
     assert "hour {'FINISHED'}" in lines and "many {'FINISHED'}" in lines, lines
     assert "more refused: Error: the speech lasts 3600.040 s" in lines, lines
+
+
+@pytest.mark.parametrize(("factor", "message"), [(1000.0, "100 times larger"), (1e38, "3.5e+37 units")])
+def test_a_calibration_mesh_in_another_unit_is_refused_and_changes_nothing(tmp_path, factor, message):
+    head = set_up_sample()
+    target = calibration_target(head, factor * np.eye(3), np.zeros(3))
+    select(head)
+    target.select_set(True)
+    before = promise_state(head, tmp_path)
+    refused(lambda: bpy.ops.mpeg4.fit_to_calibration_mesh(), message)
+    assert promise_state(head, tmp_path) == before
