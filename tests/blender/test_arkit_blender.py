@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from addon.arkit.captures import live_link_header
+from addon.arkit.mapping import weights_to_faps
 from addon.arkit.recipes import ARKIT_NAMES
 from addon.blender import arkit_keys, elastic_rig, fap_io, rest_shape
-from addon.arkit.mapping import weights_to_faps
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
 from tests.blender.helpers import set_up_sample
@@ -141,7 +141,13 @@ def test_a_capture_becomes_a_fap_stream_that_exports_as_fap(tmp_path):
     path = tmp_path / "take.json"
     weights = np.zeros((6, 52))
     weights[:, ARKIT_NAMES.index("jawOpen")] = np.linspace(0, 1, 6)
-    doc = {"exportFps": 30, "numPoses": 52, "numFrames": 6, "facsNames": list(ARKIT_NAMES), "weightMat": weights.tolist()}
+    doc = {
+        "exportFps": 30,
+        "numPoses": 52,
+        "numFrames": 6,
+        "facsNames": list(ARKIT_NAMES),
+        "weightMat": weights.tolist(),
+    }
     path.write_text(json.dumps(doc))
     bpy.context.scene.render.fps = 30
     assert bpy.ops.mpeg4.import_arkit(filepath=str(path), target="FAPS", start_frame=1) == {"FINISHED"}
