@@ -2,7 +2,7 @@
 
 import bpy
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
-from bpy_extras.io_utils import ImportHelper
+from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from . import arkit_io, arkit_keys, fap_io, poll
 from .motion_options import GainAndClamp
@@ -73,14 +73,39 @@ class MPEG4_OT_import_arkit(GainAndClamp, Mpeg4Operator, bpy.types.Operator, Imp
         return arkit_io.import_capture(context, face, self.filepath, self.target, options, fps=self.fps)
 
 
+class MPEG4_OT_export_arkit_glb(Mpeg4Operator, bpy.types.Operator, ExportHelper):
+    """Write the face and its eyes, teeth and tongue with the 52 ARKit shape keys as glTF morph targets (made first
+    if the face has none), for three.js, Unity and Unreal"""
+
+    bl_idname = "mpeg4.export_arkit_glb"
+    bl_label = "Export ARKit glTF"
+    bl_options = {"REGISTER"}
+
+    filename_ext = ".glb"
+    filter_glob: StringProperty(default="*.glb", options={"HIDDEN"})
+
+    @classmethod
+    def unavailable(cls, context):
+        return poll.not_set_up(context)
+
+    def run(self, context):
+        return arkit_io.export_arkit_glb(context, poll.face(context), self.filepath)
+
+
 def draw(layout) -> None:
     col = layout.column(align=True)
     col.operator(MPEG4_OT_make_arkit_shape_keys.bl_idname, icon="SHAPEKEY_DATA")
-    col.operator(MPEG4_OT_import_arkit.bl_idname, icon="IMPORT")
+    row = col.row(align=True)
+    row.operator(MPEG4_OT_import_arkit.bl_idname, text="Import ARKit", icon="IMPORT")
+    row.operator(MPEG4_OT_export_arkit_glb.bl_idname, text="Export ARKit glTF", icon="EXPORT")
 
 
 def menu_import(self, _context):
     self.layout.operator(MPEG4_OT_import_arkit.bl_idname, text="ARKit Capture (.csv, .json)")
 
 
-CLASSES = (MPEG4_OT_make_arkit_shape_keys, MPEG4_OT_import_arkit)
+def menu_export(self, _context):
+    self.layout.operator(MPEG4_OT_export_arkit_glb.bl_idname, text="ARKit Face glTF (.glb)")
+
+
+CLASSES = (MPEG4_OT_make_arkit_shape_keys, MPEG4_OT_import_arkit, MPEG4_OT_export_arkit_glb)

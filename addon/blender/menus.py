@@ -59,6 +59,7 @@ def menu_import(self, _context):
 def menu_export(self, _context):
     self.layout.operator(ops.MPEG4_OT_export_fap.bl_idname, text="MPEG-4 FAP (.fap)")
     self.layout.operator(fitting_ops.MPEG4_OT_export_fdp.bl_idname, text="MPEG-4 FDP (.json)")
+    arkit_ops.menu_export(self, _context)
 
 
 def menu_object(self, _context):
