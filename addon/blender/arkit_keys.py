@@ -128,6 +128,7 @@ def _add_key(ob, name: str, co: np.ndarray) -> None:
     block.relative_key = ob.data.shape_keys.reference_key
     block.data.foreach_set("co", np.ascontiguousarray(co, dtype=np.float32).ravel())
     block.slider_min, block.slider_max = 0.0, 1.0
+    block.value = 0.0  # a new key starts at 1: the face must look as it did until a weight is set
     ob.data[KEYS_PROP] = [*ob.data.get(KEYS_PROP, ()), name]
 
 

@@ -12,7 +12,7 @@ from addon.arkit.recipes import ARKIT_NAMES
 from addon.blender import arkit_keys, elastic_rig, fap_io, rest_shape
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
-from tests.blender.helpers import set_up_sample
+from tests.blender.helpers import evaluated_positions, set_up_sample
 
 
 def _key(ob, name) -> np.ndarray:
@@ -37,6 +37,8 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     offsets = _made_keys(head)
     names = [block.name for block in head.data.shape_keys.key_blocks]
     assert names[0] == "Basis" and set(ARKIT_NAMES) <= set(names)
+    assert all(head.data.shape_keys.key_blocks[name].value == 0.0 for name in ARKIT_NAMES)
+    np.testing.assert_allclose(evaluated_positions(head), rest, atol=1e-6)  # the face looks as it did
     moved = {name: np.linalg.norm(offset, axis=1) for name, offset in offsets.items()}
     assert all(m.max() > 1e-4 for name, m in moved.items() if not name.startswith("eyeLook")), "each key moves"
     # Left is the face's own left, Blender +X on the sample head
