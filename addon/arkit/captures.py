@@ -53,6 +53,7 @@ LIVE_LINK_ROTATIONS = (
     "RightEyeYaw", "RightEyePitch", "RightEyeRoll",
 )  # fmt: skip
 _BY_LOWER = {name.lower(): name for name in ARKIT_NAMES}
+_NUMBER = re.compile(r"[ \t]*[-+]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?[ \t]*", re.ASCII)
 _TIMECODE = re.compile(r"(\d{1,2}):(\d{2}):(\d{2})[:;](\d{1,3})(?:\.(\d{1,6}))?")
 
 
@@ -138,26 +139,20 @@ def _rows(lines: list[tuple[int, str]], width: int, source: str) -> np.ndarray:
     """The data rows (after the header) as an (F, width) float array; every cell a finite number."""
     if len(lines) < 2:
         raise ArkitError(f"{source}: the header has no frames after it")
-    cells = []
     for number, line in lines[1:]:
-        row = line.split(",")
-        if len(row) != width:
-            raise ArkitError(f"{source}: line {number}: {len(row)} values, the header has {width} columns")
-        cells.append(row)
-    try:
-        values = np.array(cells, dtype=np.float64)
+        if line.count(",") != width - 1:
+            raise ArkitError(f"{source}: line {number}: {line.count(',') + 1} values, the header has {width} columns")
+    try:  # all cells in numpy's C reader; a bad one is found and named below
+        values = np.loadtxt([line for _number, line in lines[1:]], delimiter=",", comments=None, ndmin=2)
     except ValueError:
-        values = None
-    if values is None or not np.all(np.isfinite(values)):
-        for (number, _line), row in zip(lines[1:], cells, strict=True):
-            for cell in row:
-                try:
-                    ok = math.isfinite(float(cell))
-                except ValueError:
-                    ok = False
-                if not ok:
-                    raise ArkitError(f"{source}: line {number}: {_quote(cell.strip())} is not a finite number")
-    return values
+        values = np.zeros((0, width))
+    if values.shape == (len(lines) - 1, width) and np.all(np.isfinite(values)):
+        return values
+    for number, line in lines[1:]:
+        for cell in line.split(","):
+            if _NUMBER.fullmatch(cell) is None or not math.isfinite(float(cell)):
+                raise ArkitError(f"{source}: line {number}: {_quote(cell.strip())} is not a finite number")
+    raise ArkitError(f"{source}: a number is out of range")  # every cell looks like a number: one overflowed
 
 
 def _columns(header: list[str], number: int, source: str, allowed: dict[str, str]) -> list[tuple[int, str]]:
