@@ -14,12 +14,12 @@ FAPs no recipe uses (the head's) do not enter the fit; the head is carried over 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import lsq_linear
 
 from ..mpeg4.decode import EYEBALL_RADIUS_PER_ES0, fap_scale, fap_to_fp, translation_basis
 from ..mpeg4.fap_file import FapStream
 from ..mpeg4.faps import N_FAPS
 from ..mpeg4.fapu import AU, Fapu
+from . import ArkitError
 from .recipes import N_SHAPES, RecipeTable, load_recipes
 
 HEAD_FAPS = (48, 49, 50)  # pitch, yaw, roll
@@ -80,6 +80,14 @@ def motion_metric(fapu: Fapu) -> np.ndarray:
 def faps_to_weights(values: np.ndarray, fapu: Fapu, table: RecipeTable | None = None) -> np.ndarray:
     """(F, 68) FAP values -> (F, 52) ARKit weights in [0, 1]: per frame, the bounded least-squares fit of the
     feature points' motion (see the module's docstring)."""
+    try:  # imported here: Blender ships numpy, not scipy, and the rest of the bridge must load without it
+        from scipy.optimize import lsq_linear
+    except ImportError as error:
+        raise ArkitError(
+            f"FAP -> ARKit weights need scipy, which Blender does not ship and which is not installed ({error}); "
+            "install the MPEG-4 Face extension from its zip, which brings scipy's wheel for Windows x64, macOS and "
+            "Linux x64, or install scipy into Blender's Python"
+        ) from None
     table = table or load_recipes()
     values = np.asarray(values, dtype=np.float64).reshape(-1, N_FAPS)
     metric = motion_metric(fapu)
