@@ -35,7 +35,7 @@ import bpy
 import numpy as np
 
 from addon.arkit.captures import Capture, read_capture, write_live_link_csv
-from addon.arkit.mapping import EYE_FAPS, HEAD_FAPS, capture_faps, fp_distances, round_trip
+from addon.arkit.mapping import EYE_FAPS, HEAD_FAPS, capture_faps, capture_to_stream, fp_distances, round_trip
 from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES
 from addon.blender import arkit_io, elastic_rig, face_data, fap_io
 from addon.mpeg4.decode import hold_missing
@@ -195,13 +195,20 @@ def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
         bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = CAPTURE_FPS, 1.0
         options = fap_io.ImportOptions(start_frame=0)
         start = time.perf_counter()
+        capture_to_stream(read_capture(long_csv))
+        reading = time.perf_counter() - start
+        start = time.perf_counter()
         arkit_io.import_capture(bpy.context, head, str(long_csv), "FAPS", options)
         seconds = time.perf_counter() - start
         size = long_csv.stat().st_size
-    moving = np.nanmax(fp_distances(neutral, values, np.zeros_like(values), fapu, eye_pivots=pivots), axis=0) > 0
+    still_head = values.copy()
+    still_head[:, [n - 1 for n in HEAD_FAPS]] = 0.0  # which FPs the face's own FAPs move, the head held still
+    moved = fp_distances(neutral, still_head, np.zeros_like(values), fapu, eye_pivots=pivots)
+    moving = np.nanmax(moved, axis=0) > 1e-9
     return {
         "capture_rows": rows,
         "capture_mib": size / 2**20,
+        "capture_read_and_convert_seconds": reading,
         "capture_to_fap_keys_seconds": seconds,
         "demo_frames": int(stream.n_frames),
         "round_trip_weights_only_mean_mm": 1e3 * float(np.nanmean(weights_only)),
