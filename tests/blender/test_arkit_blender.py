@@ -12,7 +12,7 @@ from addon.arkit.recipes import ARKIT_NAMES
 from addon.blender import arkit_keys, elastic_rig, fap_io, rest_shape
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
-from tests.blender.helpers import evaluated_positions, set_up_sample
+from tests.blender.helpers import ROOT, evaluated_positions, open_sample, select, set_up_sample
 
 
 def _key(ob, name) -> np.ndarray:
@@ -177,3 +177,20 @@ def test_a_bad_capture_changes_nothing(tmp_path):
         bpy.ops.mpeg4.import_arkit(filepath=str(path), target="SHAPE_KEYS")
     assert len(bpy.data.actions) == actions and head.data.shape_keys is None
     assert not arkit_keys.has_keys(head)
+
+
+def test_the_second_sample_face_and_an_incomplete_fp_set():
+    head = open_sample(ROOT / "sample_blends" / "makehuman_head_b.blend")
+    select(head)
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    offsets = _made_keys(head)
+    assert np.linalg.norm(offsets["jawOpen"], axis=1).max() > 0.01
+    head = open_sample()
+    select(head)
+    empties = {ob["mpeg4_fp"]: ob for ob in bpy.data.collections["Head FPs"].objects if "mpeg4_fp" in ob}
+    for fp_id in ("4.5", "4.6", "5.3", "5.4", "2.13", "2.14"):  # the outer brows and the cheeks' lift points
+        bpy.data.objects.remove(empties[fp_id])
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    offsets = _made_keys(head)
+    assert np.linalg.norm(offsets["eyeBlinkLeft"], axis=1).max() > 0.005
+    assert np.all(np.isfinite(offsets["browOuterUpLeft"]))
