@@ -101,14 +101,16 @@ def _check_names(ob) -> None:
             )
 
 
-def _remove_keys(ob) -> int:
-    """Remove the ARKit keys made on `ob` (and a part's Basis made for them); how many went."""
+def _remove_keys(ob, drop_capture: bool) -> int:
+    """Remove the ARKit keys made on `ob` (and a part's Basis made for them); how many went. A capture keyed onto
+    them stays unless `drop_capture`: its F-curves find the keys made again by name."""
     mesh = ob.data
     names = list(mesh.get(KEYS_PROP, ()))
     key = mesh.shape_keys
     removed = 0
     if key is not None:
-        _clear_capture(key)
+        if drop_capture:
+            _clear_capture(key)
         for name in names:
             block = key.key_blocks.get(name)
             if block is not None:
@@ -165,7 +167,7 @@ def make_keys(context, face) -> list[str]:
         _check_names(ob)
     points = [_face_points(face, empties, table.recipe(name)) for name in ARKIT_NAMES]  # all checked first
 
-    removed = sum(_remove_keys(ob) for ob in [face, *parts.values()])
+    removed = sum(_remove_keys(ob, drop_capture=False) for ob in [face, *parts.values()])
     scene = context.scene
     frame = (scene.frame_current, scene.frame_subframe)
     saved = {fp_id: ob.location.copy() for fp_id, ob in empties.items()}
@@ -219,7 +221,7 @@ def remove(face) -> list[str]:
     removed = 0
     for ob in [face, *(getattr(settings, name) for name in FOLLOWING_PARTS)]:
         if ob is not None and ob.type == "MESH" and (KEYS_PROP in ob.data or PART_BASIS_PROP in ob.data):
-            removed += _remove_keys(ob)
+            removed += _remove_keys(ob, drop_capture=True)
     return [f"removed {removed} ARKit shape keys"] if removed else []
 
 

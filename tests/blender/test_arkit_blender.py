@@ -134,6 +134,9 @@ def test_a_capture_keys_the_arkit_shape_keys(tmp_path):
     assert bpy.data.objects["Teeth Lower"].data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(1.0)
     bpy.context.scene.frame_set(1)
     assert head.data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(0.0)
+    _made_keys(head)  # made again: the capture's keys find them by name
+    bpy.context.scene.frame_set(12)
+    assert head.data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(1.0)
     assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
     assert head.data.shape_keys is None
 
