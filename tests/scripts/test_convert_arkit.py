@@ -54,3 +54,9 @@ def test_a_bad_capture_fails_its_line_and_leaves_no_outputs(tmp_path):
     assert result.returncode == 1
     assert "bad.json: FAILED: bad.json: frames frame 1: jawOpen = 2 is outside 0..1" in result.stdout
     assert sorted(p.name for p in out.iterdir() if p.suffix != ".log") == []
+
+
+def test_no_streams_needs_arkit_glb(tmp_path):
+    result = run_convert("--face", FACE, "-o", tmp_path / "out")
+    assert result.returncode == 2
+    assert "give the streams to convert (or --arkit-glb" in result.stderr
