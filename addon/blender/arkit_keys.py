@@ -34,6 +34,7 @@ from .reporting import Warn, progress
 KEYS_PROP = "mpeg4_arkit_keys"  # on a mesh: the names of the ARKit keys made on it
 PART_BASIS_PROP = "mpeg4_arkit_basis"  # on a part's mesh: its Basis key was made for the ARKit keys
 FOLLOWING_PARTS = ("left_eye", "right_eye", "lower_teeth", "tongue")  # moved by FPs; the others by the skin
+NEW_PREFIX = "MPEG-4 new "  # the name of a key being made, until the run succeeds
 STILL = 1e-9  # a part whose transform changes less than this (model units, radians) has no key
 
 
@@ -118,20 +119,49 @@ def _remove_keys(ob, drop_capture: bool) -> int:
                 removed += 1
     if KEYS_PROP in mesh:
         del mesh[KEYS_PROP]
-    if mesh.get(PART_BASIS_PROP):
-        if mesh.shape_keys is not None and len(mesh.shape_keys.key_blocks) == 1:
+    if mesh.get(PART_BASIS_PROP) and (mesh.shape_keys is None or len(mesh.shape_keys.key_blocks) == 1):
+        if mesh.shape_keys is not None:  # the Basis made for the keys, alone now
             ob.shape_key_remove(mesh.shape_keys.key_blocks[0])
         del mesh[PART_BASIS_PROP]
     return removed
 
 
-def _add_key(ob, name: str, co: np.ndarray) -> None:
-    block = ob.shape_key_add(name=name, from_mix=False)
+def _add_key(ob, name: str, co: np.ndarray, made: dict) -> None:
+    """A new key under a temporary name (the earlier keys stay until every new one is made); `made[ob]` lists them."""
+    block = ob.shape_key_add(name=f"{NEW_PREFIX}{name}", from_mix=False)
     block.relative_key = ob.data.shape_keys.reference_key
     block.data.foreach_set("co", np.ascontiguousarray(co, dtype=np.float32).ravel())
     block.slider_min, block.slider_max = 0.0, 1.0
     block.value = 0.0  # a new key starts at 1: the face must look as it did until a weight is set
-    ob.data[KEYS_PROP] = [*ob.data.get(KEYS_PROP, ()), name]
+    made.setdefault(ob, []).append(name)
+
+
+def _take_back(made: dict, bases: list) -> None:
+    """A failed run: its new keys and the Basis keys it added go; the earlier keys are as they were."""
+    for ob, names in made.items():
+        for name in names:
+            block = ob.data.shape_keys.key_blocks.get(f"{NEW_PREFIX}{name}")
+            if block is not None:
+                ob.shape_key_remove(block)
+    for ob in bases:
+        if ob.data.shape_keys is not None and len(ob.data.shape_keys.key_blocks) == 1:
+            ob.shape_key_remove(ob.data.shape_keys.key_blocks[0])
+        for prop in (PART_BASIS_PROP, bake.CREATED_BASIS_PROP):
+            if prop in ob.data:
+                del ob.data[prop]
+
+
+def _put_in_place(objects, made: dict) -> int:
+    """A run that succeeded: the earlier keys go and the new ones take their names; how many earlier ones went."""
+    removed = 0
+    for ob in objects:
+        removed += _remove_keys(ob, drop_capture=False)
+        names = made.get(ob, [])
+        for name in names:
+            ob.data.shape_keys.key_blocks[f"{NEW_PREFIX}{name}"].name = name
+        if names:
+            ob.data[KEYS_PROP] = names
+    return removed
 
 
 def _local_vertices(ob) -> np.ndarray:
@@ -167,22 +197,25 @@ def make_keys(context, face) -> list[str]:
         _check_names(ob)
     points = [_face_points(face, empties, table.recipe(name)) for name in ARKIT_NAMES]  # all checked first
 
-    removed = sum(_remove_keys(ob, drop_capture=False) for ob in [face, *parts.values()])
     scene = context.scene
     frame = (scene.frame_current, scene.frame_subframe)
     saved = {fp_id: ob.location.copy() for fp_id, ob in empties.items()}
     mesh = face.data
+    bases = []  # the objects this run gave a Basis key
     if mesh.shape_keys is None:
         live.pause(face)  # the Basis copies the mesh: it must get the rest shape, not the pose
         face.shape_key_add(name="Basis", from_mix=False)
         mesh[bake.CREATED_BASIS_PROP] = True  # Remove takes it away with the last key on it
+        bases.append(face)
     for ob in parts.values():
         if ob.data.shape_keys is None:
             ob.shape_key_add(name="Basis", from_mix=False)
             ob.data[PART_BASIS_PROP] = True
+            bases.append(ob)
     basis = rest_shape.read_key(mesh.shape_keys.reference_key).astype(np.float64)
     neutral = face_data.neutral_positions(empties)
     part_basis = {name: rest_shape.read_key(ob.data.shape_keys.reference_key) for name, ob in parts.items()}
+    made: dict = {}
     try:
         _pose(empties, _face_points(face, empties, np.zeros(N_FAPS)))
         rest = _deformed(face)
@@ -190,8 +223,7 @@ def make_keys(context, face) -> list[str]:
         with progress(context, len(ARKIT_NAMES)) as step:
             for i, name in enumerate(ARKIT_NAMES):
                 _pose(empties, points[i])
-                moved = _deformed(face) - rest
-                _add_key(face, name, basis + moved)
+                _add_key(face, name, basis + _deformed(face) - rest, made)
                 posed = _part_matrices(parts)
                 for part, ob in parts.items():
                     change = posed[part]
@@ -199,13 +231,17 @@ def make_keys(context, face) -> list[str]:
                         change = Matrix.Translation(_tongue_thrust(face, points[i], neutral)) @ change
                     co = _moved_part(ob, part_rest[part], change, part_basis[part])
                     if co is not None:
-                        _add_key(ob, name, co)
+                        _add_key(ob, name, co, made)
                 step(i)
+    except BaseException:
+        _take_back(made, bases)
+        raise
     finally:
         for fp_id, location in saved.items():
             empties[fp_id].location = location
         scene.frame_set(frame[0], subframe=frame[1])
         live.refresh(face)
+    removed = _put_in_place([face, *parts.values()], made)
     again = " (replacing the earlier ones)" if removed else ""
     notes.insert(0, f"made {len(ARKIT_NAMES)} ARKit shape keys on {face.name}{again}")
     for ob in parts.values():

@@ -10,6 +10,7 @@ from addon.arkit.captures import live_link_header
 from addon.arkit.mapping import weights_to_faps
 from addon.arkit.recipes import ARKIT_NAMES
 from addon.blender import arkit_keys, elastic_rig, fap_io, rest_shape
+from addon.errors import Mpeg4Error
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
 from tests.blender.helpers import ROOT, evaluated_positions, open_sample, select, set_up_sample
@@ -197,3 +198,29 @@ def test_the_second_sample_face_and_an_incomplete_fp_set():
     offsets = _made_keys(head)
     assert np.linalg.norm(offsets["eyeBlinkLeft"], axis=1).max() > 0.005
     assert np.all(np.isfinite(offsets["browOuterUpLeft"]))
+
+
+def test_a_run_that_fails_half_way_leaves_the_earlier_keys(monkeypatch):
+    head = set_up_sample()
+    first = _made_keys(head)
+    deformed = arkit_keys._deformed
+    calls = []
+
+    def failing(face):
+        calls.append(1)
+        if len(calls) == 10:
+            raise Mpeg4Error("the face could not be deformed")
+        return deformed(face)
+
+    monkeypatch.setattr(arkit_keys, "_deformed", failing)
+    with pytest.raises(Mpeg4Error, match="could not be deformed"):
+        arkit_keys.make_keys(bpy.context, head)
+    names = [block.name for block in head.data.shape_keys.key_blocks]
+    assert not any(name.startswith(arkit_keys.NEW_PREFIX) for name in names)
+    assert set(ARKIT_NAMES) <= set(names) and len(names) == len(set(names))
+    for name in ARKIT_NAMES:
+        np.testing.assert_array_equal(_offset(head, name), first[name])
+    eye = bpy.data.objects["Eye L"]
+    assert [b.name for b in eye.data.shape_keys.key_blocks][1:] == [
+        f"eyeLook{d}Left" for d in ("Down", "In", "Out", "Up")
+    ]
