@@ -256,6 +256,8 @@ def _live_link(lines, source: str, name: str, timecode_fps: float | None) -> Cap
     if all(label in named for label in LIVE_LINK_ROTATIONS[:3]):
         head = values[:, [named["HeadPitch"], named["HeadYaw"], named["HeadRoll"]]]
         _check_angles(head, ("HeadPitch", "HeadYaw", "HeadRoll"), lines, source)
+        if not np.any(head):
+            head = None  # a take without head tracking: the head is left alone
     eye_names = ("LeftEyeYaw", "RightEyeYaw", "LeftEyePitch", "RightEyePitch")
     if all(label in named for label in eye_names):
         eyes = values[:, [named[label] for label in eye_names]]

@@ -148,7 +148,9 @@ def test_live_link_face_csv(tmp_path):
 def test_live_link_30_fps_and_60_fps_on_a_30_fps_timecode(tmp_path):
     path = tmp_path / "take30.csv"
     path.write_text(_live_link_rows(10, fps_field=30))
-    assert read_capture(path).fps == 30.0
+    capture = read_capture(path)
+    assert capture.fps == 30.0
+    assert capture.head is None and capture.eyes is None  # all zero: no head or eye tracking in the take
     header = ",".join(live_link_header())
     zeros = ",".join(["0"] * 61)
     rows = [f"00:00:01:{k // 2:02d}.{5 * (k % 2)},61,{zeros}" for k in range(8)]  # half frames
