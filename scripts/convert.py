@@ -54,6 +54,8 @@ ENGINES = ("WORKBENCH", "CYCLES")
 FACE_ENGINES = {"planar": "PLANAR_BONES", "elastic": "ELASTIC_BONES"}  # --engine-face -> Object.mpeg4_face.engine
 MAX_CACHE_BYTES = 4 * 2**30  # a point cache on disk beyond this is a mistaken frame range, not a wish
 OUTPUT_SUFFIXES = (".pc2", ".abc", ".mp4", "_sheet.png", ".glb")
+CAPTURE_SUFFIXES = (".csv", ".json")  # ARKit captures: converted to a FAP stream, which is written as STEM.fap
+ARKIT_CSV_SUFFIX = "_arkit.csv"
 SCRATCH_SUFFIXES = ("_sheet.frame.png",)  # the contact sheet's one-frame renders
 
 
@@ -93,7 +95,12 @@ def frame_range(text: str) -> tuple[int | None, int | None]:
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     parser = _Parser(prog="convert.py", description="Convert MPEG-4 FAP streams on a face.")
-    parser.add_argument("streams", nargs="+", type=Path, help=".fap files")
+    parser.add_argument(
+        "streams",
+        nargs="*",
+        type=Path,
+        help=".fap files, or ARKit captures (Live Link Face .csv, Audio2Face .json, a CSV/JSON of the 52 weights)",
+    )
     parser.add_argument("-o", "--out", type=Path, required=True, help="output folder")
     parser.add_argument("--face", type=Path, help="the face .blend (default: the file Blender opened)")
     parser.add_argument("--object", help="name of the face mesh (default: the first mesh with feature points)")
@@ -115,6 +122,16 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--glb",
         action="store_true",
         help="also write STEM.glb: face, skeleton and animation (with --engine-face elastic)",
+    )
+    parser.add_argument(
+        "--arkit-glb",
+        action="store_true",
+        help="also write FACE_arkit.glb: the face and its parts with the 52 ARKit shape keys as morph targets",
+    )
+    parser.add_argument(
+        "--arkit-csv",
+        action="store_true",
+        help="also write STEM_arkit.csv: each stream as ARKit weights (Live Link Face CSV) and its round trip error",
     )
     parser.add_argument("--no-video", action="store_true", help="skip the preview video")
     parser.add_argument(
@@ -142,6 +159,8 @@ def stream_options(args) -> list[str]:
         options += ["--engine-face", args.engine_face]
     if args.glb:
         options.append("--glb")
+    if args.arkit_csv:
+        options.append("--arkit-csv")
     if args.frames:
         options.append("--frames=" + ":".join("" if end is None else str(end) for end in args.frames))
     if args.object:
@@ -234,6 +253,8 @@ def check_arguments(args) -> Path:
     if face_file is None:
         raise ConvertError("give the face file: --face FACE.blend (or open it with blender FACE.blend)")
     check_input(face_file, "face file")
+    if not args.streams and not args.arkit_glb:
+        raise ConvertError("give the streams to convert (or --arkit-glb to export the face's ARKit shape keys)")
     for stream in args.streams:
         check_input(stream, "stream")
     check_distinct_outputs(args.streams)
@@ -549,9 +570,21 @@ def blender_output_to(log: Path):
             os.close(fd)
 
 
+def is_capture(path: Path) -> bool:
+    return path.suffix.lower() in CAPTURE_SUFFIXES
+
+
+def read_stream(path: Path):
+    """A .fap stream, or an ARKit capture turned into one through the recipe table."""
+    if is_capture(path):
+        return _addon("arkit.mapping").capture_to_stream(_addon("arkit.captures").read_capture(path))
+    return _addon("mpeg4.fap_file").read_fap(path)
+
+
 def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertices: int, written: list[Path], progress):
-    """Convert one stream; every file it starts writing is appended to `written` first."""
-    stream = _addon("mpeg4.fap_file").read_fap(stream_path)
+    """Convert one stream; every file it starts writing is appended to `written` first. Returns notes for its line."""
+    notes = []
+    stream = read_stream(stream_path)
     first, last = stream_frames(stream, args.frames, vertices)
     fps, fps_base = scene_rate(stream.fps)  # a bad stream fails here, before the face is opened
     frames = last - first + 1
@@ -567,7 +600,17 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertice
     if face.mpeg4_face.engine != FACE_ENGINES[args.engine_face]:
         bpy.ops.mpeg4.set_engine(engine=FACE_ENGINES[args.engine_face])
     scene.render.fps, scene.render.fps_base = fps, fps_base
-    bpy.ops.mpeg4.import_fap(filepath=str(stream_path), timing="SCENE", start_frame=0, set_frame_range=False)
+    fap_path = stream_path
+    if is_capture(stream_path):  # its FAP stream is an output, and what is imported
+        fap_path = out_dir / f"{stream_path.stem}.fap"
+        written.append(fap_path)
+        _addon("mpeg4.fap_file").write_fap(stream, fap_path)
+    bpy.ops.mpeg4.import_fap(filepath=str(fap_path), timing="SCENE", start_frame=0, set_frame_range=False)
+    if args.arkit_csv:
+        csv = out_dir / f"{stream_path.stem}{ARKIT_CSV_SUFFIX}"
+        written.append(csv)
+        error = _addon("blender.arkit_io").write_arkit_csv(face, stream, csv)
+        notes.append(f"FAP -> ARKit -> FAP mean FP error {error * 1000:.3f} mm")
     scene.frame_start, scene.frame_end = first, last
 
     handlers = bpy.app.handlers
@@ -597,6 +640,7 @@ def convert_one(face_file: Path, stream_path: Path, out_dir: Path, args, vertice
         written.append(sheet)
         with counting(progress, handlers.render_post, tiles, "contact sheet"):
             contact_sheet(scene, sheet, tiles)
+    return notes
 
 
 def export_glb(face, path: Path) -> None:
@@ -623,6 +667,23 @@ def export_glb(face, path: Path) -> None:
         raise ConvertError("glTF export wrote nothing")
 
 
+def export_arkit_glb(face_file: Path, args) -> Path:
+    """OUT/FACE_arkit.glb: the face (set up if it is not yet) with its 52 ARKit shape keys as morph targets."""
+    path = args.out.resolve() / f"{face_file.stem}_arkit.glb"
+    face = open_face(face_file, args.object)
+    select_only(face)
+    if not _addon("blender.binding_store").is_bound(face):
+        bpy.ops.mpeg4.setup_face()
+    if face.mpeg4_face.engine != FACE_ENGINES[args.engine_face]:
+        bpy.ops.mpeg4.set_engine(engine=FACE_ENGINES[args.engine_face])
+    try:
+        _addon("blender.arkit_io").export_arkit_glb(bpy.context, face, path)
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
+    return path
+
+
 def _message(exc: BaseException) -> str:
     """One line: Blender's operator errors come as 'Error: text\\n'; a bug also names its exception type."""
     text = " ".join(str(exc).split()).removeprefix("Error: ")
@@ -637,7 +698,7 @@ def report(progress: Progress, i: int, streams: list[Path], outcome: str) -> Non
 
 def remove_outputs(out_dir: Path, stream: Path) -> None:
     """Whatever a conversion of `stream` that ended half-way may have left (not its log)."""
-    for suffix in OUTPUT_SUFFIXES + SCRATCH_SUFFIXES:
+    for suffix in OUTPUT_SUFFIXES + SCRATCH_SUFFIXES + (ARKIT_CSV_SUFFIX,) + ((".fap",) if is_capture(stream) else ()):
         (out_dir / f"{stream.stem}{suffix}").unlink(missing_ok=True)
 
 
@@ -661,9 +722,9 @@ def convert_stream(face_file: Path, i: int, args, out_dir: Path, vertices: int, 
     written: list[Path] = []
     try:
         with blender_output_to(log):
-            convert_one(face_file, stream.resolve(), out_dir, args, vertices, written, progress)
+            notes = convert_one(face_file, stream.resolve(), out_dir, args, vertices, written, progress)
         names = ", ".join(p.name for p in written)
-        outcome = f"ok in {time.perf_counter() - start:.1f} s -> {names}"
+        outcome = f"ok in {time.perf_counter() - start:.1f} s -> {names}" + "".join(f"; {note}" for note in notes)
     except Exception as exc:  # one bad stream must not stop the others
         outcome = f"FAILED: {_message(exc)}"
         for path in written:
@@ -795,6 +856,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"convert.py: error: {exc}", file=sys.stderr, flush=True)
         return 2
     # the terminal's stderr, kept apart from fd 2, which Blender's output goes to while a stream converts
+    if args.arkit_glb:
+        try:
+            path = export_arkit_glb(face_file, args)
+        except Exception as exc:
+            print(f"convert.py: error: ARKit glTF: {_message(exc)}", file=sys.stderr, flush=True)
+            return 1
+        print(f"{face_file}: ARKit glTF -> {path}", flush=True)
     progress = Progress(os.fdopen(os.dup(2), "w", encoding="utf-8", errors="replace"))
     try:
         if args.jobs > 1 and len(args.streams) > 1:

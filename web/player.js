@@ -4,7 +4,10 @@
 //   clip=N        which animation (default 0)
 //   t=SECONDS     start at this time (default 0)
 //   paused=1      do not play: draw the frame at t and wait (the browser test's deterministic frames)
-// For scripts: window.player.seek(t), .play(), .pause(), .measure(frames); window.playerReady is true once a
+//   morph=NAME:W,NAME:W  hold these morph targets at these weights on every mesh that has them, over the
+//                 animation (e.g. morph=jawOpen:1,eyeBlinkLeft:0.5 on a face exported with its ARKit shape keys)
+// For scripts: window.player.seek(t), .play(), .pause(), .measure(frames), .morph(name, weight) (how many meshes
+// have the target; the next drawn frame shows it); window.playerReady is true once a
 // frame of the loaded file is on screen (after every seek too), window.playerError holds a failure's message.
 import {
   AnimationMixer,
@@ -50,7 +53,32 @@ let playing = false;
 const clock = new Clock(false);
 
 window.playerReady = false;
-window.player = { seek, play, pause, measure, duration: 0, clips: [] };
+window.player = { seek, play, pause, measure, morph, duration: 0, clips: [] };
+const held = new Map(); // morph target name -> weight, held over the animation
+
+// Set a morph target's weight on every mesh that has one of that name (glTF's mesh.extras.targetNames, which
+// three.js reads into morphTargetDictionary); returns how many meshes have it.
+function morph(name, weight) {
+  held.set(name, weight);
+  return applyHeld();
+}
+
+function applyHeld() {
+  let meshes = 0;
+  scene.traverse((object) => {
+    const index = object.morphTargetDictionary;
+    if (!index) return;
+    let found = false;
+    for (const [name, weight] of held) {
+      if (name in index) {
+        object.morphTargetInfluences[index[name]] = weight;
+        found = true;
+      }
+    }
+    meshes += found;
+  });
+  return meshes;
+}
 
 function fail(message) {
   window.playerError = message;
@@ -97,6 +125,7 @@ function matteWhereNoMaterial(gltf) {
 async function seek(seconds) {
   window.playerReady = false;
   if (mixer) mixer.setTime(seconds);
+  applyHeld();
   draw();
   await presented();
   window.playerReady = true;
@@ -108,6 +137,7 @@ function play() {
   clock.start();
   renderer.setAnimationLoop(() => {
     mixer?.update(clock.getDelta());
+    applyHeld();
     draw();
   });
 }
@@ -164,7 +194,12 @@ async function load(src) {
     window.player.duration = clips[index].duration;
   }
   mixer.setTime(0);
-  restBox = new Box3().setFromObject(gltf.scene, true);
+  restBox = new Box3().setFromObject(gltf.scene, true); // at rest: the held morphs come after, at the seek
+  for (const item of (params.get("morph") ?? "").split(",").filter(Boolean)) {
+    const [name, weight] = item.split(":");
+    if (!(Number(weight) >= 0 && Number(weight) <= 1)) throw new Error(`morph ${item}: the weight must be 0 to 1`);
+    if (morph(name, Number(weight)) === 0) throw new Error(`morph ${name}: no mesh in the file has this target`);
+  }
   frame(restBox);
   status.hidden = true;
   await seek(Number(params.get("t") ?? 0));

@@ -21,6 +21,7 @@ from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
 from . import (
     animation,
+    arkit_keys,
     bake,
     binding_store,
     elastic_rig,
@@ -300,6 +301,7 @@ def remove(face) -> list[str]:
     rest_shape.remove_own_shape_key(face)
     binding_store.clear(face)
     rest_shape.clear_rest(mesh)
+    notes.extend(arkit_keys.remove(face))  # before the bakes: the last of them takes a Basis made for them
     notes.extend(bake.remove_bakes(face))
     empties = face_data.fp_empties(face)
     removed_actions = animation.remove_streams([face, *empties.values()])

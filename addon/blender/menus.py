@@ -3,7 +3,7 @@ a .fap file dropped on the 3D viewport."""
 
 import bpy
 
-from . import fitting_ops, ops, speech_ops
+from . import arkit_ops, fitting_ops, ops, speech_ops
 
 
 class MPEG4_MT_object(bpy.types.Menu):
@@ -25,6 +25,9 @@ class MPEG4_MT_object(bpy.types.Menu):
         layout.operator(fitting_ops.MPEG4_OT_export_fdp.bl_idname, text="Export FDP…")
         layout.operator(fitting_ops.MPEG4_OT_fit_to_calibration_mesh.bl_idname)
         layout.operator(fitting_ops.MPEG4_OT_fit_reset.bl_idname)
+        layout.separator()
+        layout.operator(arkit_ops.MPEG4_OT_make_arkit_shape_keys.bl_idname)
+        layout.operator(arkit_ops.MPEG4_OT_import_arkit.bl_idname, text="Import ARKit Capture…")
         layout.separator()
         layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Shape Keys").target = "SHAPE_KEYS"
         layout.operator(ops.MPEG4_OT_bake.bl_idname, text="Bake to Point Cache").target = "POINT_CACHE"
@@ -50,11 +53,13 @@ def menu_import(self, _context):
     self.layout.operator(ops.MPEG4_OT_import_fap.bl_idname, text="MPEG-4 FAP (.fap)")
     self.layout.operator(fitting_ops.MPEG4_OT_import_fdp.bl_idname, text="MPEG-4 FDP (.json, XFace .fdp)")
     self.layout.operator(speech_ops.MPEG4_OT_import_cues.bl_idname, text="Lip-Sync Cues (.tsv, .json)")
+    arkit_ops.menu_import(self, _context)
 
 
 def menu_export(self, _context):
     self.layout.operator(ops.MPEG4_OT_export_fap.bl_idname, text="MPEG-4 FAP (.fap)")
     self.layout.operator(fitting_ops.MPEG4_OT_export_fdp.bl_idname, text="MPEG-4 FDP (.json)")
+    arkit_ops.menu_export(self, _context)
 
 
 def menu_object(self, _context):

@@ -4,7 +4,7 @@ import bpy
 
 from ..mpeg4.fap_groups import GROUP_NAMES
 from ..mpeg4.feature_points import FP_IDS
-from . import binding_store, elastic_ops, face_data, fap_io, followers
+from . import arkit_ops, binding_store, elastic_ops, face_data, fap_io, followers
 
 FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
@@ -98,6 +98,7 @@ class MPEG4_PT_face(bpy.types.Panel):
             col.operator("mpeg4.speak_text", text="Speak Text", icon="PLAY_SOUND")
             col.operator("mpeg4.import_cues", text="Import Lip-Sync Cues", icon="SPEAKER")
             col.prop(context.scene.mpeg4, "fill_partners")
+            arkit_ops.draw(layout)
             col = layout.column(align=True)
             col.label(text="Bake the scene's frames:")
             row = col.row(align=True)

@@ -19,13 +19,18 @@ CHROMIUM = Path(os.environ.get("CHROMIUM", "/usr/bin/chromium"))  # Debian's pac
 
 
 def shoot(
-    glb: Path, shots: Sequence[tuple[float, Path]] = (), size: tuple[int, int] = (480, 480), measure: int = 0
+    glb: Path,
+    shots: Sequence[tuple[float, Path]] = (),
+    size: tuple[int, int] = (480, 480),
+    measure: int = 0,
+    morph: str = "",
 ) -> dict:
     """Screenshots of `glb` paused at each (seconds, png) and, with `measure` frames, the frame time; the report
-    `web/shoot.mjs` prints. Raises RuntimeError with the browser's message if the page fails."""
+    `web/shoot.mjs` prints. `morph` holds morph targets (the player's `morph=NAME:W,...`). Raises RuntimeError with
+    the browser's message if the page fails."""
     glb = Path(glb).resolve()
     with serving(glb.parent) as url:
-        page = f"{url}?src=models/{quote(glb.name)}"
+        page = f"{url}?src=models/{quote(glb.name)}" + (f"&morph={quote(morph)}" if morph else "")
         command = [NODE or "node", str(WEB / "shoot.mjs"), page, "--size", "x".join(map(str, size))]
         for seconds, png in shots:
             command += ["--shot", f"{seconds}:{Path(png).resolve()}"]

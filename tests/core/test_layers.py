@@ -16,6 +16,7 @@ LAYERS = {
     "speech": 3,
     "fitting": 3,
     "elastic": 3,
+    "arkit": 3,
     "blender": 4,
 }
 

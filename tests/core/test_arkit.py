@@ -1,0 +1,285 @@
+"""The ARKit bridge's core: the recipe table, weights <-> FAPs, and the capture readers (no bpy)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from addon.arkit import ArkitError, captures
+from addon.arkit.captures import Capture, format_live_link_csv, live_link_header, read_capture
+from addon.arkit.mapping import capture_to_stream, faps_to_weights, fp_distances, round_trip, weights_to_faps
+from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, load_recipes, mirror_faps, mirror_name
+from addon.mpeg4.faps import fap
+from addon.mpeg4.fapu import AU, Fapu
+
+FAPU = Fapu(IRISD0=0.0092, ES0=0.0615, ENS0=0.0495, MNS0=0.0181, MW0=0.0506)  # the sample head's, in metres
+
+
+def test_table_has_every_arkit_name_once_with_a_why():
+    table = load_recipes()
+    assert len(ARKIT_NAMES) == len(set(ARKIT_NAMES)) == 52
+    assert table.targets.shape == (52, 68)
+    assert all(len(why) > 20 for why in table.why)
+    assert all(np.any(table.recipe(name)) for name in ARKIT_NAMES)
+    assert not table.targets[:, :2].any()  # low-level FAPs only
+    assert set(table.cannot) >= {"cheekPuff", "tongueOut", "mouthRollLower", "mouthRollUpper"}
+    assert table.parts == {"tongueOut": "tongue_forward"}
+
+
+def test_left_and_right_recipes_mirror_each_other():
+    table = load_recipes()
+    for name in ARKIT_NAMES:
+        np.testing.assert_allclose(mirror_faps(table.recipe(name)), table.recipe(mirror_name(name)), err_msg=name)
+
+
+@pytest.mark.parametrize(
+    ("name", "number", "sign"),
+    [
+        ("eyeBlinkLeft", 19, 1),  # close_t_l_eyelid: the face's own left
+        ("eyeBlinkRight", 20, 1),
+        ("jawOpen", 3, 1),
+        ("eyeLookInLeft", 23, -1),  # toward the nose = the face's right = yaw -
+        ("eyeLookInRight", 24, 1),
+        ("eyeLookUpLeft", 25, -1),  # pitch + is down
+        ("mouthSmileLeft", 12, 1),
+        ("mouthFrownRight", 13, -1),
+        ("browInnerUp", 31, 1),
+        ("browDownLeft", 31, -1),
+        ("jawLeft", 15, -1),  # shift_jaw + is toward the face's right
+    ],
+)
+def test_recipes_move_the_right_side_the_right_way(name, number, sign):
+    assert np.sign(load_recipes().recipe(name)[number - 1]) == sign
+
+
+def test_a_bad_table_is_refused_naming_the_entry(tmp_path):
+    doc = json.loads((load_recipes.__globals__["DATA"] / "recipes.json").read_text())
+    cases = {
+        "missing": lambda d: d["shapes"].pop(),
+        "unknown name": lambda d: d["shapes"][0].update(name="eyeBlinkLef"),
+        "unknown fap": lambda d: d["shapes"][0]["faps"].update(close_eye=3),
+        "out of range": lambda d: d["shapes"][0]["faps"].update(open_jaw=99999),
+        "unknown part": lambda d: d["shapes"][0].update(part="warp"),
+    }
+    for case, edit in cases.items():
+        changed = json.loads(json.dumps(doc))
+        edit(changed)
+        path = tmp_path / f"{case}.json"
+        path.write_text(json.dumps(changed))
+        with pytest.raises(ArkitError, match=path.name):
+            load_recipes(path)
+
+
+def test_weights_add_their_recipes():
+    table = load_recipes()
+    weights = np.zeros((2, 52))
+    weights[0, ARKIT_INDEX["jawOpen"]] = 0.5
+    weights[1, ARKIT_INDEX["jawOpen"]] = 1.0
+    weights[1, ARKIT_INDEX["eyeBlinkLeft"]] = 1.0
+    values = weights_to_faps(weights, table)
+    assert values[0, 2] == 0.5 * table.recipe("jawOpen")[2]
+    np.testing.assert_allclose(values[1], table.recipe("jawOpen") + table.recipe("eyeBlinkLeft"))
+
+
+def test_faps_to_weights_recovers_the_weights_that_made_the_faps():
+    rng = np.random.default_rng(4)
+    weights = np.where(rng.random((20, 52)) < 0.15, rng.random((20, 52)), 0.0)
+    found = faps_to_weights(weights_to_faps(weights), FAPU)
+    assert found.min() >= 0.0 and found.max() <= 1.0
+    # the weights may differ where two recipes move the points alike; the FAPs they make may not
+    moved = (weights_to_faps(found) - weights_to_faps(weights)) * FAPU.MNS0 / 1024
+    assert np.abs(moved[:, [n - 1 for n in range(3, 23)]]).max() < 1e-6
+
+
+def test_faps_to_weights_keeps_weights_in_range():
+    values = np.zeros((1, 68))
+    values[0, 2] = 5000.0  # a jaw far beyond jawOpen's
+    values[0, 30] = -1000.0  # brows down more than any recipe, and the other way too
+    weights = faps_to_weights(values, FAPU)
+    assert weights[0, ARKIT_INDEX["jawOpen"]] == 1.0
+    assert weights.min() >= 0.0 and weights.max() <= 1.0
+
+
+def test_round_trip_carries_the_head_and_measures_fp_error():
+    values = np.zeros((3, 68))
+    values[:, 47:50] = [[1000, 2000, -300]] * 3
+    values[1] += load_recipes().recipe("mouthSmileLeft")
+    _, back = round_trip(values, FAPU)
+    np.testing.assert_array_equal(back[:, 47:50], values[:, 47:50])
+    neutral = np.zeros((84, 3))
+    neutral[:, 0] = np.linspace(-0.05, 0.05, 84)
+    assert np.nanmax(fp_distances(neutral, values, back, FAPU)) < 1e-6
+
+
+# --- capture files, written from each format's description --------------------------------------------
+
+
+def _live_link_rows(n: int, fps_field: int = 60, **columns) -> str:
+    header = live_link_header()
+    rows = [",".join(header)]
+    for k in range(n):
+        values = dict.fromkeys(header[2:], 0.0) | {name: column[k] for name, column in columns.items()}
+        s, ff = divmod(k, fps_field)
+        rows.append(",".join([f"10:20:{30 + s:02d}:{ff:02d}.000", "61", *(f"{values[h]:g}" for h in header[2:])]))
+    return "\n".join(rows) + "\n"
+
+
+def test_live_link_face_csv(tmp_path):
+    path = tmp_path / "take.csv"
+    path.write_text(
+        _live_link_rows(
+            40, JawOpen=np.linspace(0, 1, 40), EyeBlinkLeft=[0.5] * 40, HeadYaw=[0.1] * 40, LeftEyePitch=[-0.2] * 40
+        )
+    )
+    capture = read_capture(path)
+    assert capture.fps == 60.0 and capture.n_frames == 40
+    np.testing.assert_array_equal(capture.frame_numbers, np.arange(40))
+    assert capture.weights[39, ARKIT_INDEX["jawOpen"]] == 1.0
+    assert capture.weights[0, ARKIT_INDEX["eyeBlinkLeft"]] == 0.5
+    np.testing.assert_allclose(capture.head[0], [0.0, 0.1, 0.0])  # pitch, yaw, roll
+    np.testing.assert_allclose(capture.eyes[0], [0.0, 0.0, -0.2, 0.0])
+    stream = capture_to_stream(capture)
+    assert stream.values[0, fap("head_yaw").number - 1] == round(0.1 / AU)
+    assert stream.values[0, fap("pitch_l_eyeball").number - 1] == round(-0.2 / AU)  # the eye's own turn wins
+    assert stream.values[39, 2] == load_recipes().recipe("jawOpen")[2]
+    assert stream.mask.all(axis=0)[fap("close_t_l_eyelid").number - 1]
+
+
+def test_live_link_30_fps_and_60_fps_on_a_30_fps_timecode(tmp_path):
+    path = tmp_path / "take30.csv"
+    path.write_text(_live_link_rows(10, fps_field=30))
+    capture = read_capture(path)
+    assert capture.fps == 30.0
+    assert capture.head is None and capture.eyes is None  # all zero: no head or eye tracking in the take
+    header = ",".join(live_link_header())
+    zeros = ",".join(["0"] * 61)
+    rows = [f"00:00:01:{k // 2:02d}.{5 * (k % 2)},61,{zeros}" for k in range(8)]  # half frames
+    path.write_text("\n".join([header, *rows]))
+    capture = read_capture(path)
+    assert capture.fps == 60.0
+    np.testing.assert_array_equal(capture.frame_numbers, np.arange(8))
+
+
+def test_live_link_writer_reads_back(tmp_path):
+    rng = np.random.default_rng(1)
+    capture = Capture(
+        "x", 60.0, np.arange(75), rng.random((75, 52)).round(4), head=rng.normal(0, 0.1, (75, 3)).round(4)
+    )
+    path = tmp_path / "out.csv"
+    path.write_text(format_live_link_csv(capture))
+    back = read_capture(path)
+    assert back.fps == 60.0
+    np.testing.assert_array_equal(back.frame_numbers, capture.frame_numbers)
+    np.testing.assert_allclose(back.weights, capture.weights, atol=1e-6)
+    np.testing.assert_allclose(back.head, capture.head, atol=1e-6)
+    assert back.eyes is None  # all zeros: the take had no eye tracking
+
+
+def test_audio2face_json(tmp_path):
+    names = list(ARKIT_NAMES)
+    weights = np.zeros((5, 52))
+    weights[:, ARKIT_INDEX["jawOpen"]] = [0, 0.25, 0.5, 0.75, 1.0]
+    doc = {
+        "exportFps": 30,
+        "trackPath": "/World/audio2face/Player",
+        "numPoses": 52,
+        "numFrames": 5,
+        "facsNames": names,
+        "weightMat": weights.tolist(),
+    }
+    path = tmp_path / "a2f.json"
+    path.write_text(json.dumps(doc))
+    capture = read_capture(path)
+    assert capture.fps == 30.0 and capture.n_frames == 5
+    np.testing.assert_array_equal(capture.weights, weights)
+
+
+def test_plain_csv_and_json(tmp_path):
+    path = tmp_path / "mp.csv"
+    path.write_text("time,_neutral,jawOpen,EyeBlinkRight\n0.0,1,0.2,0\n0.04,1,0.4,1\n0.08,1,0.6,0.5\n")
+    capture = read_capture(path)
+    assert capture.fps == 25.0
+    np.testing.assert_allclose(capture.weights[:, ARKIT_INDEX["jawOpen"]], [0.2, 0.4, 0.6])
+    assert capture.present == ("jawOpen", "eyeBlinkRight")
+    path = tmp_path / "mp.json"
+    frames = [{"jawOpen": 0.1}, [{"categoryName": "_neutral", "score": 0.9}, {"categoryName": "jawOpen", "score": 0.3}]]
+    path.write_text(json.dumps({"fps": 30, "frames": frames}))
+    capture = read_capture(path)
+    np.testing.assert_allclose(capture.weights[:, ARKIT_INDEX["jawOpen"]], [0.1, 0.3])
+    assert capture.weights.sum() == pytest.approx(0.4)
+
+
+BAD_CSV = {
+    "wrong header": ("Timecode,Count,JawOpen\n00:00:00:00.000,1,0\n", "line 1: a Live Link Face header"),
+    "unknown name": ("jawOpen,jawOpn\n0,0\n", "line 1: unknown column 'jawOpn'"),
+    "repeated name": ("jawOpen,JawOpen\n0,0\n", "line 1: column jawOpen appears twice"),
+    "NaN": ("jawOpen,eyeBlinkLeft\n0,0\n0.5,nan\n", "line 3: 'nan' is not a finite number"),
+    "text": ("jawOpen\n0\nopen\n", "line 3: 'open' is not a finite number"),
+    "ragged": ("jawOpen,eyeBlinkLeft\n0,0\n0.5\n", "line 3: 1 values, the header has 2 columns"),
+    "weight above 1": ("jawOpen\n0\n1.5\n", "line 3: jawOpen = 1.5 is outside 0..1"),
+    "negative weight": ("\n\njawOpen\n-0.2\n", "line 4: jawOpen = -0.2 is outside 0..1"),
+    "no frames": ("jawOpen\n", "no frames"),
+    "empty": ("\n\n", "empty"),
+    "times back": ("time,jawOpen\n0.1,0\n0.0,0\n", "line 3: its time does not come after"),
+    "bad timecode": ("Timecode,BlendShapeCount,JawOpen\n12:00,1,0\n", "line 2: timecode '12:00' is not"),
+    "count mismatch": ("Timecode,BlendShapeCount,JawOpen\n00:00:00:01.0,5,0\n", "line 2: BlendShapeCount '5'"),
+    "angle": ("Timecode,BlendShapeCount,HeadYaw,HeadPitch,HeadRoll,JawOpen\n00:00:00:01.0,4,9,0,0,0\n", "HeadYaw = 9"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_CSV)
+def test_bad_csv_files_name_file_and_line(tmp_path, case):
+    text, message = BAD_CSV[case]
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(ArkitError, match="bad.csv: .*" + message.replace("(", r"\(").replace(".", r"\.")):
+        read_capture(path)
+
+
+BAD_JSON = {
+    "not json": ("{fps: 30}", "line 1: not valid JSON"),
+    "NaN": ('{"fps": 30, "frames": [{"jawOpen": NaN}]}', "NaN is not a number"),
+    "unknown name": ('{"fps": 30, "frames": [{"jawOpn": 0}]}', "'jawOpn' is not one of ARKit"),
+    "weight": ('{"fps": 30, "frames": [{"jawOpen": 0}, {"jawOpen": 2}]}', "frames frame 1: jawOpen = 2 is outside"),
+    "fps": ('{"fps": 0, "frames": [{"jawOpen": 0}]}', "the frame rate 0 is not"),
+    "a2f count": (
+        '{"exportFps": 30, "facsNames": ["jawOpen"], "numFrames": 3, "weightMat": [[0]]}',
+        "numFrames is 3 but weightMat has 1",
+    ),
+    "a2f ragged": (
+        '{"exportFps": 30, "facsNames": ["jawOpen", "cheekPuff"], "numFrames": 2, "weightMat": [[0, 0], [0]]}',
+        "weightMat frame 1: 1 values for 2 names",
+    ),
+    "a2f text": (
+        '{"exportFps": 30, "facsNames": ["jawOpen"], "numFrames": 1, "weightMat": [["0"]]}',
+        "weightMat frame 0: '0' is not a finite number",
+    ),
+    "a2f missing": ('{"weightMat": []}', "needs exportFps, facsNames, numFrames"),
+    "duplicate key": ('{"fps": 30, "fps": 30, "frames": []}', "key 'fps' appears twice"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_JSON)
+def test_bad_json_files_name_file_and_frame(tmp_path, case):
+    text, message = BAD_JSON[case]
+    path = tmp_path / "bad.json"
+    path.write_text(text)
+    with pytest.raises(ArkitError, match="bad.json: .*" + message.replace("(", r"\(").replace(".", r"\.")):
+        read_capture(path)
+
+
+def test_caps_on_frames_size_and_file_kind(tmp_path, monkeypatch):
+    path = tmp_path / "long.csv"
+    path.write_bytes(b"jawOpen\n" + b"0\n" * 1_000_001)  # a million rows, 2 MB
+    with pytest.raises(ArkitError, match="long.csv: more than 1,000,000 frames"):
+        read_capture(path)
+    monkeypatch.setattr(captures, "MAX_FILE_BYTES", 100)
+    path.write_bytes(b"jawOpen\n" + b"0\n" * 100)
+    with pytest.raises(ArkitError, match="long.csv: the capture: larger than"):
+        read_capture(path)
+    with pytest.raises(ArkitError, match="not a regular file but a directory"):
+        read_capture(tmp_path)
+    path.write_bytes(b"jawOpen\n\x00\n")
+    monkeypatch.setattr(captures, "MAX_FILE_BYTES", 2**20)
+    with pytest.raises(ArkitError, match="NUL"):
+        read_capture(path)
