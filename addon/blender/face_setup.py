@@ -146,7 +146,7 @@ def plan(face) -> Plan:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
     made = _planned_masks(face, rest, neutral, notes) if face.mpeg4_face.use_masks else {}
-    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], made_masks=made)
+    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made)
     try:
         binding = inputs.bind()
     except np.linalg.LinAlgError as exc:

@@ -10,6 +10,12 @@ A head is covered by the control mesh only in part, so two choices sit on top of
   half of the volumes' reach instead of their outer third, and the skin where the face ends (temples,
   under the chin, the mouth corners' inside) stretches over a wider band and folds far less; measured on
   the sample head's expression units and .fap streams (README, "Accuracy against sculpted expressions").
+
+Still skin around the eyes and brows (``local_triangles``, docs/eyes_brows.md): raising radii to cover every
+face vertex is what spreads a brow's or a lid's motion over the forehead, temple and cheek, which the sculpts
+leave still (eq. 8 normalises a far vertex's one faint weight to the triangle's full motion). So only the
+skin over the mouth-and-jaw triangles must be covered; the upper face's triangles keep their own §3 radius
+(× LOCAL_RADIUS_FRACTION) and skin beyond their reach fades to rest (``fade_below``) instead of following.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ from .planar_bones import Binding, bind, cover_over_control_mesh
 
 FADE_BELOW = 0.2
 FACE_DEPTH_PER_ES0 = 0.25
+LOCAL_RADIUS_FRACTION = 0.5  # of the §3 radius, for the upper face's triangles (docs/eyes_brows.md)
 
 
 def face_depth(es0: float, control_rest: np.ndarray) -> float:
@@ -44,17 +51,27 @@ def bind_face(
     falloff_exponent: float = 2.0,
     vertex_masks: Mapping[str, np.ndarray] | None = None,
     triangle_masks: Sequence[str | None] | None = None,
+    local_triangles: np.ndarray | None = None,
     local_float32: bool = False,
 ) -> Binding:
+    """`bind` as the add-on binds a face; ``local_triangles`` (T,) bool marks the triangles whose reach stays
+    local (the upper face's, `control_mesh.upper_face_triangles`; None or none marked: the paper's cover)."""
+    cover = face_cover(rest, control_rest, triangles, es0)
+    fraction = radius_fraction
+    if local_triangles is not None and np.any(local_triangles):
+        local = np.asarray(local_triangles, dtype=bool)
+        lower = triangles[~local]
+        cover &= len(lower) > 0 and cover_over_control_mesh(rest, control_rest, lower, face_depth(es0, control_rest))
+        fraction = np.where(local, LOCAL_RADIUS_FRACTION * radius_fraction, radius_fraction)
     return bind(
         rest,
         control_rest,
         triangles,
-        radius_fraction=radius_fraction,
+        radius_fraction=fraction,
         falloff_exponent=falloff_exponent,
         vertex_masks=vertex_masks,
         triangle_masks=triangle_masks,
-        cover=face_cover(rest, control_rest, triangles, es0),
+        cover=cover,
         fade_below=FADE_BELOW,
         local_float32=local_float32,
     )

@@ -146,13 +146,14 @@ def bind(
     excludes cannot be covered and stays at rest (counted in `Binding.n_static`). ``fade_below``
     (0 = the paper) normalises a vertex's weights by max(their sum, fade_below) and gives the remainder to
     its rest position, for meshes the control mesh covers only in part (see the module notes).
-    ``local_float32`` rounds the per-pair local coordinates (``LOCAL_FIELDS``) to float32, as a saved
-    binding stores them, before the evaluation arrays are built (once). Raises `DeformError` on bad input.
+    ``radius_fraction`` may also be (T,), one per triangle. ``local_float32`` rounds the per-pair local
+    coordinates (``LOCAL_FIELDS``) to float32, as a saved binding stores them, before the evaluation arrays
+    are built (once). Raises `DeformError` on bad input.
     """
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
     tris = check_triangles(triangles, len(control))
-    fraction = check_positive(radius_fraction, "radius_fraction")
+    fraction = _radius_fractions(radius_fraction, len(tris))
     exponent = check_positive(falloff_exponent, "falloff_exponent")
     mask_values = _triangle_mask_values(vertex_masks, triangle_masks, len(tris), len(rest))
     must_cover = _cover(cover, len(rest))
@@ -699,6 +700,16 @@ def _chunks(run_key: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     first_chunk = np.cumsum(run_chunks) - run_chunks
     slot = (first_chunk[run_of_pair] + offset // CHUNK) * CHUNK + offset % CHUNK
     return np.repeat(np.arange(len(run_start)), run_chunks), run_start, slot
+
+
+def _radius_fractions(radius_fraction: float | np.ndarray, n_triangles: int) -> float | np.ndarray:
+    """`bind`'s ``radius_fraction``: one positive number, or (T,) one per triangle."""
+    if np.ndim(radius_fraction) == 0:
+        return check_positive(radius_fraction, "radius_fraction")
+    fractions = np.asarray(radius_fraction, dtype=np.float64)
+    if fractions.shape != (n_triangles,) or not (np.isfinite(fractions).all() and (fractions > 0.0).all()):
+        raise DeformError(f"radius_fraction must be one positive number or {n_triangles} of them")
+    return fractions
 
 
 def _initial_radius(

@@ -183,6 +183,16 @@ def template_indices(fp_ids: tuple[str, ...]) -> np.ndarray:
     return np.array([[row[fp_id] for fp_id in triangle] for triangle in CONTROL_TRIANGLES], dtype=np.int64)
 
 
+MOUTH_AND_JAW_GROUPS = frozenset({"2", "8"})  # FP groups of the jaw, chin and inner lips (2) and outer lips (8)
+
+
+def upper_face_triangles(fp_ids, triangles: np.ndarray) -> np.ndarray:
+    """(T,) True for the control triangles of the upper face: none of their corners is on the lips, the jaw
+    or the chin (FP groups 2 and 8)."""
+    lower = np.array([fp_id.split(".")[0] in MOUTH_AND_JAW_GROUPS for fp_id in fp_ids], dtype=bool)
+    return ~lower[np.asarray(triangles, dtype=np.intp)].any(axis=1) if len(triangles) else np.zeros(0, bool)
+
+
 def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
     """Problems that stop (points (M, 3), triangles (T, 3)) from being a control mesh; [] if none.
 
