@@ -26,7 +26,7 @@ from ..deform.face_binding import FADE_BELOW, bind_face
 from ..deform.masks import image_masks, vertex_uvs
 from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
-from ..mpeg4.control_mesh import MASK_NAMES, upper_face_triangles
+from ..mpeg4.control_mesh import MASK_NAMES, triangle_parts
 from . import face_data, rest_shape
 from .face_data import CREATED_PROP
 from .reporting import report_outside_operator
@@ -289,7 +289,7 @@ def gather(
     tri_masks = [m if m in masks else None for m in triangle_masks]
     params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent, "es0": es0}
     if settings.still_upper_face:
-        params["local_triangles"] = tuple(upper_face_triangles(fp_ids, triangles).tolist())
+        params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
     key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)
     return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key)
 

@@ -11,11 +11,12 @@ A head is covered by the control mesh only in part, so two choices sit on top of
   under the chin, the mouth corners' inside) stretches over a wider band and folds far less; measured on
   the sample head's expression units and .fap streams (README, "Accuracy against sculpted expressions").
 
-Still skin around the eyes and brows (``local_triangles``, docs/eyes_brows.md): raising radii to cover every
-face vertex is what spreads a brow's or a lid's motion over the forehead, temple and cheek, which the sculpts
-leave still (eq. 8 normalises a far vertex's one faint weight to the triangle's full motion). So only the
-skin over the mouth-and-jaw triangles must be covered; the upper face's triangles keep their own §3 radius
-(× LOCAL_RADIUS_FRACTION) and skin beyond their reach fades to rest (``fade_below``) instead of following.
+Still skin around the eyes and brows (``triangle_parts``, docs/eyes_brows.md): raising radii to cover every
+face vertex is what spreads a brow's or a lid's motion over the forehead, temple and cheek, which sculpted
+expressions leave still (eq. 8 normalises a far vertex's one faint weight to the triangle's full motion). So
+only the skin over the mouth-and-jaw triangles must be covered; the upper face's triangles keep a fraction of
+their own §3 radius (LOCAL_RADIUS_FRACTIONS, by part of the face) and skin beyond their reach fades to rest
+(``fade_below``) instead of following.
 """
 
 from __future__ import annotations
@@ -24,11 +25,14 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..mpeg4.control_mesh import EYES_AND_BROWS, MOUTH_AND_JAW, OTHER_UPPER
 from .planar_bones import Binding, bind, cover_over_control_mesh
 
 FADE_BELOW = 0.2
 FACE_DEPTH_PER_ES0 = 0.25
-LOCAL_RADIUS_FRACTION = 0.5  # of the §3 radius, for the upper face's triangles (docs/eyes_brows.md)
+# of the §3 radius, by `control_mesh.triangle_parts` (the mouth and jaw's triangles still cover their skin);
+# chosen on a grid over the development units with leave-one-unit-and-twin-out checks (docs/eyes_brows.md)
+LOCAL_RADIUS_FRACTIONS = {EYES_AND_BROWS: 0.15, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
 
 
 def face_depth(es0: float, control_rest: np.ndarray) -> float:
@@ -51,18 +55,21 @@ def bind_face(
     falloff_exponent: float = 2.0,
     vertex_masks: Mapping[str, np.ndarray] | None = None,
     triangle_masks: Sequence[str | None] | None = None,
-    local_triangles: np.ndarray | None = None,
+    triangle_parts: Sequence[int] | None = None,
     local_float32: bool = False,
 ) -> Binding:
-    """`bind` as the add-on binds a face; ``local_triangles`` (T,) bool marks the triangles whose reach stays
-    local (the upper face's, `control_mesh.upper_face_triangles`; None or none marked: the paper's cover)."""
+    """`bind` as the add-on binds a face; ``triangle_parts`` (T,) `control_mesh.triangle_parts`: the upper face's
+    triangles reach only locally (None: the paper's cover everywhere)."""
     cover = face_cover(rest, control_rest, triangles, es0)
     fraction = radius_fraction
-    if local_triangles is not None and np.any(local_triangles):
-        local = np.asarray(local_triangles, dtype=bool)
-        lower = triangles[~local]
+    if triangle_parts is not None:
+        parts = np.asarray(triangle_parts)
+        scale = np.ones(len(parts))
+        for part, local_fraction in LOCAL_RADIUS_FRACTIONS.items():
+            scale[parts == part] = local_fraction
+        lower = triangles[parts == MOUTH_AND_JAW]
         cover &= len(lower) > 0 and cover_over_control_mesh(rest, control_rest, lower, face_depth(es0, control_rest))
-        fraction = np.where(local, LOCAL_RADIUS_FRACTION * radius_fraction, radius_fraction)
+        fraction = scale * radius_fraction
     return bind(
         rest,
         control_rest,

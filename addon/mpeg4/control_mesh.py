@@ -183,14 +183,20 @@ def template_indices(fp_ids: tuple[str, ...]) -> np.ndarray:
     return np.array([[row[fp_id] for fp_id in triangle] for triangle in CONTROL_TRIANGLES], dtype=np.int64)
 
 
-MOUTH_AND_JAW_GROUPS = frozenset({"2", "8"})  # FP groups of the jaw, chin and inner lips (2) and outer lips (8)
+MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER = 0, 1, 2  # `triangle_parts`
+_PART_GROUPS = ((MOUTH_AND_JAW, frozenset({"2", "8"})), (EYES_AND_BROWS, frozenset({"3", "4"})))
 
 
-def upper_face_triangles(fp_ids, triangles: np.ndarray) -> np.ndarray:
-    """(T,) True for the control triangles of the upper face: none of their corners is on the lips, the jaw
-    or the chin (FP groups 2 and 8)."""
-    lower = np.array([fp_id.split(".")[0] in MOUTH_AND_JAW_GROUPS for fp_id in fp_ids], dtype=bool)
-    return ~lower[np.asarray(triangles, dtype=np.intp)].any(axis=1) if len(triangles) else np.zeros(0, bool)
+def triangle_parts(fp_ids, triangles: np.ndarray) -> np.ndarray:
+    """(T,) the part of the face each control triangle belongs to: MOUTH_AND_JAW when a corner is on the lips,
+    the jaw or the chin (FP groups 2, 8), else EYES_AND_BROWS when a corner is on an eye or a brow (3, 4), else
+    OTHER_UPPER (cheeks, nose, hairline and ears: groups 5, 9, 10, 11)."""
+    group = np.array([fp_id.split(".")[0] for fp_id in fp_ids])
+    corners = group[np.asarray(triangles, dtype=np.intp).reshape(-1, 3)]
+    parts = np.full(len(corners), OTHER_UPPER, dtype=np.int8)
+    for part, groups in reversed(_PART_GROUPS):  # mouth and jaw last: it wins
+        parts[np.isin(corners, list(groups)).any(axis=1)] = part
+    return parts
 
 
 def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
