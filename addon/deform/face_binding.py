@@ -14,9 +14,9 @@ A head is covered by the control mesh only in part, so two choices sit on top of
 Still skin around the eyes and brows (``triangle_parts``, docs/eyes_brows.md): raising radii to cover every
 face vertex is what spreads a brow's or a lid's motion over the forehead, temple and cheek, which sculpted
 expressions leave still (eq. 8 normalises a far vertex's one faint weight to the triangle's full motion). So
-only the skin over the mouth-and-jaw triangles must be covered; the upper face's triangles keep a fraction of
-their own §3 radius (LOCAL_RADIUS_FRACTIONS, by part of the face) and skin beyond their reach fades to rest
-(``fade_below``) instead of following.
+only the skin over the mouth-and-jaw triangles must be covered, by raising those triangles' radii alone; the
+upper face's triangles keep a fraction of their own §3 radius (LOCAL_RADIUS_FRACTIONS, by part of the face)
+and skin beyond their reach fades to rest (``fade_below``) instead of following.
 """
 
 from __future__ import annotations
@@ -61,13 +61,14 @@ def bind_face(
     """`bind` as the add-on binds a face; ``triangle_parts`` (T,) `control_mesh.triangle_parts`: the upper face's
     triangles reach only locally (None: the paper's cover everywhere)."""
     cover = face_cover(rest, control_rest, triangles, es0)
-    fraction = radius_fraction
+    fraction, raisable = radius_fraction, None
     if triangle_parts is not None:
         parts = np.asarray(triangle_parts)
         scale = np.ones(len(parts))
         for part, local_fraction in LOCAL_RADIUS_FRACTIONS.items():
             scale[parts == part] = local_fraction
-        lower = triangles[parts == MOUTH_AND_JAW]
+        raisable = parts == MOUTH_AND_JAW
+        lower = triangles[raisable]
         cover &= len(lower) > 0 and cover_over_control_mesh(rest, control_rest, lower, face_depth(es0, control_rest))
         fraction = scale * radius_fraction
     return bind(
@@ -80,5 +81,6 @@ def bind_face(
         triangle_masks=triangle_masks,
         cover=cover,
         fade_below=FADE_BELOW,
+        raisable=raisable,
         local_float32=local_float32,
     )

@@ -135,6 +135,7 @@ def bind(
     triangle_masks: Sequence[str | None] | None = None,
     cover: np.ndarray | None = None,
     fade_below: float = 0.0,
+    raisable: np.ndarray | None = None,
     local_float32: bool = False,
 ) -> Binding:
     """Bind (N, 3) rest vertices to the control mesh (M, 3) points / (T, 3) triangles.
@@ -146,7 +147,8 @@ def bind(
     excludes cannot be covered and stays at rest (counted in `Binding.n_static`). ``fade_below``
     (0 = the paper) normalises a vertex's weights by max(their sum, fade_below) and gives the remainder to
     its rest position, for meshes the control mesh covers only in part (see the module notes).
-    ``radius_fraction`` may also be (T,), one per triangle. ``local_float32`` rounds the per-pair local
+    ``radius_fraction`` may also be (T,), one per triangle; ``raisable`` (T,) bool limits the triangles whose
+    radii coverage may raise (default: all). ``local_float32`` rounds the per-pair local
     coordinates (``LOCAL_FIELDS``) to float32, as a saved binding stores them, before the evaluation arrays
     are built (once). Raises `DeformError` on bad input.
     """
@@ -213,7 +215,8 @@ def bind(
     # radius / distance at which a single triangle's eq. 9 weight is fade_below (RAISE_MARGIN at least)
     reach = np.pi / np.arccos(2.0 * fade ** (1.0 / exponent) - 1.0) if fade > 0.0 else 0.0
     factor = max(1.0 + RAISE_MARGIN, reach)
-    raised_radius = _raised_radius(located, rest, uncovered, radius, active_ids, mask_values, tolerance, factor)
+    may_raise = active_ids if raisable is None else active_ids[np.asarray(raisable, dtype=bool)[active_ids]]
+    raised_radius = _raised_radius(located, rest, uncovered, radius, may_raise, mask_values, tolerance, factor)
     raised = np.flatnonzero(raised_radius > radius)
     radius = raised_radius
     for t in raised:
