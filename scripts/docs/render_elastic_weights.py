@@ -5,7 +5,7 @@
 Columns: inner-brow raise (eyebrows-left-inner-up) and brow raise (eyebrows-left-up) from the front, coloured by
 motion (dark blue still, red at the sculpt's largest motion); mouth-open at 1.5 times its FP motion seen from the
 front and from three-quarters, plain, with the faces turned over painted red. Rows: the sculpt (coloured; plain for the
-mouth); Elastic Bones with `skinning.SMOOTHING_STEPS` = 0 (the weights as before); with the shipped smoothing.
+mouth); Elastic Bones with `skinning.SMOOTHING_WIDTH` = 0 (the weights as before); with the shipped smoothing.
 Both rows use the shipped trained parameters. The engine is driven by the unit's FP motion as
 `scripts.bench.evaluate --method elastic_bones` drives it. Workbench, 300 px tiles.
 """
@@ -49,12 +49,12 @@ def main(argv=None) -> int:
     scene, head = bpy.context.scene, face.head
     camera = closeup_camera(scene, head, TILE, SHOTS[0][-1])
     scene.display.shading.color_type = "VERTEX"
-    shipped = skinning.SMOOTHING_STEPS
+    shipped = skinning.SMOOTHING_WIDTH
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for label, steps in (("the sculpt", None), ("unsmoothed", 0), ("smoothed", shipped)):
             if steps is not None:
-                skinning.SMOOTHING_STEPS = steps
+                skinning.SMOOTHING_WIDTH = steps
                 method = ElasticBonesMethod(face)
             tiles = []
             for name, scale, coloured, target, yaw, pitch, ortho in SHOTS:
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
                 aim_camera(camera, bpy.data.objects[f"FP {target}"].matrix_world.translation, 0.4, yaw, pitch)
                 tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
             rows.append(np.concatenate(tiles, axis=1))
-    skinning.SMOOTHING_STEPS = shipped
+    skinning.SMOOTHING_WIDTH = shipped
     save_rows(rows, args.out)
     return 0
 
