@@ -24,9 +24,9 @@ from addon.elastic import skinning
 from scripts import convert
 from scripts.bench import evaluate
 from scripts.bench.elastic_bones import ElasticBonesMethod
-from scripts.docs.closeups import aim_camera, closeup_camera, save_rows
+from scripts.docs.closeups import UNITS, aim_camera, closeup_camera, save_rows
 from scripts.docs.render_eyes_brows import motion_colours, paint
-from scripts.docs.render_unfold import UNITS, paint_folds
+from scripts.docs.render_unfold import paint_folds
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 300

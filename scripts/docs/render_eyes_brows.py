@@ -14,7 +14,6 @@ largest motion and each tile's E against the sculpt are printed.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 from pathlib import Path
@@ -25,9 +24,9 @@ from mathutils import Vector
 
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.docs.closeups import aim_camera, closeup_camera, open_sample, save_rows
+from scripts.docs.closeups import aim_camera, closeup_camera, save_rows, set_up_sample, unit_arguments
 from scripts.docs.render_eyes import pose
-from scripts.docs.render_unfold import UNITS, unit_motion
+from scripts.docs.render_unfold import unit_motion
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 240
@@ -73,22 +72,14 @@ def positions(mesh) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "eyes_brows_before_after.png")
-    parser.add_argument("--targets", type=Path, default=UNITS, help="the MakeHuman expression units")
-    args = parser.parse_args(argv)
+    args = unit_arguments(__doc__, ROOT / "docs" / "eyes_brows_before_after.png", argv)
     sample = evaluate.load_face(evaluate.DEFAULT_FACE)
     files = {evaluate.target_name(p): p for p in evaluate.target_files(args.targets)}
     sculpts = {name: evaluate.target_motion(files[name], sample)[0] for name, *_ in SHOTS if name}
     motions = {name: unit_motion(sample, name, args.targets) for name, *_ in SHOTS if name}
-    scene, head = open_sample()
-    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
-    face_data, live = convert._addon("blender.face_data"), convert._addon("blender.live")
-    empties = face_data.fp_empties(head)
-    controls = [empties[fp_id] for fp_id in sample.fp_ids]
-    at_rest = [ob.location.copy() for ob in controls]
+    scene, head, empties, controls, at_rest, rest = set_up_sample(sample.fp_ids)
+    live = convert._addon("blender.live")
     every_rest = {ob: ob.location.copy() for ob in empties.values()}  # the pupils too, which the gaze moves
-    rest = convert._addon("blender.rest_shape").stored_rest(head.data).astype(np.float64)
     camera = closeup_camera(scene, head, TILE, SHOTS[0][-1])
     shading = scene.display.shading
 
