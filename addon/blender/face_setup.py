@@ -248,6 +248,7 @@ def set_up(face) -> list[str]:
     rest_shape.store_rest(mesh, p.rest)
     _write_masks(face, p.made_masks)
     binding_store.save(face, p.binding, p.key)
+    settings["still_upper_face"] = settings.still_upper_face  # stored, even at its default (`live.on_load_post`)
     settings["enabled"] = False  # the handlers leave the face at rest while lashes and brows bind to it
     notes.extend(hook_followers(face, p.empties))
     settings.status = ""

@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import face_data
+from addon.blender import binding_store, face_data
 from addon.mpeg4.fapu import compute_fapu
 
 from .helpers import positions, set_up_sample
@@ -75,3 +75,19 @@ def test_a_blink_is_the_lids_turn_alone_either_way(head):
     head.mpeg4_face.still_upper_face = True
     assert on.max() > 0.005
     np.testing.assert_array_equal(on, off)
+
+
+def test_a_face_bound_before_the_setting_opens_with_it_off_and_plays_as_saved(tmp_path):
+    head = set_up_sample()
+    assert head.mpeg4_face.is_property_set("still_upper_face") and head.mpeg4_face.still_upper_face
+    key = binding_store.stored_key(head)
+    del head.mpeg4_face["still_upper_face"]  # as a file saved before the setting existed has it
+    path = tmp_path / "older.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    head = bpy.data.objects["Head"]
+    assert head.mpeg4_face.still_upper_face is False  # as its binding was made, not the default
+    assert binding_store.stored_key(head) == key  # and nothing was rebound
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    assert bpy.data.objects["Head"].mpeg4_face.still_upper_face is False
