@@ -26,7 +26,7 @@ from ..deform.face_binding import FADE_BELOW, bind_face
 from ..deform.masks import image_masks, vertex_uvs
 from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
-from ..mpeg4.control_mesh import MASK_NAMES
+from ..mpeg4.control_mesh import MASK_NAMES, triangle_parts
 from . import face_data, rest_shape
 from .face_data import CREATED_PROP
 from .reporting import report_outside_operator
@@ -278,14 +278,18 @@ def gather(
     triangles: np.ndarray,
     triangle_masks,
     es0: float,
+    fp_ids,
     fresh=True,
     made_masks: dict[str, np.ndarray] | None = None,
 ) -> BindInputs:
-    """The inputs of a binding with the face's current parameters; changes nothing in the scene."""
+    """The inputs of a binding with the face's current parameters; changes nothing in the scene. `fp_ids`: the
+    control mesh's FP ids, in its vertex order."""
     settings = face.mpeg4_face
     masks = _masks(face, fresh, made_masks)
     tri_masks = [m if m in masks else None for m in triangle_masks]
     params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent, "es0": es0}
+    if settings.still_upper_face:
+        params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
     key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)
     return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key)
 
@@ -313,7 +317,10 @@ def stored_inputs(face) -> BindInputs:
     if rest is None or len(rest) != len(mesh.vertices):
         raise Mpeg4Error(f"{face.name}'s mesh changed since set-up: run Set Up Face again")
     points, tris, tri_masks = control_data(face)
-    return gather(face, rest, points, tris, tri_masks, face.mpeg4_face.fapu[1], fresh=False)
+    fp_ids = list(face.mpeg4_face.control_object.data.get(face_data.FP_IDS_PROP, ()))
+    if len(fp_ids) != len(points):
+        raise Mpeg4Error(f"the control mesh {face.mpeg4_face.control_object.name!r} was edited: run Set Up Face")
+    return gather(face, rest, points, tris, tri_masks, face.mpeg4_face.fapu[1], fp_ids, fresh=False)
 
 
 def rebind(face) -> None:

@@ -147,7 +147,7 @@ def plan(face) -> Plan:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
     made = _planned_masks(face, rest, neutral, notes) if face.mpeg4_face.use_masks else {}
-    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], made_masks=made)
+    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made)
     try:
         binding = inputs.bind()
     except np.linalg.LinAlgError as exc:
@@ -249,6 +249,7 @@ def set_up(face) -> list[str]:
     rest_shape.store_rest(mesh, p.rest)
     _write_masks(face, p.made_masks)
     binding_store.save(face, p.binding, p.key)
+    settings["still_upper_face"] = settings.still_upper_face  # stored, even at its default (`live.on_load_post`)
     settings["enabled"] = False  # the handlers leave the face at rest while lashes and brows bind to it
     notes.extend(hook_followers(face, p.empties))
     settings.status = ""

@@ -542,6 +542,19 @@ def on_load_post(*_args):
     forget()
     _skins.clear()
     eyelid_rig.forget()  # another file: nothing of the last one's rigs is wanted again
+    keep_paper_cover()
+
+
+def keep_paper_cover() -> None:
+    """A face bound before Still Skin Around Eyes existed was bound with the paper's cover: show the setting off, as
+    its binding is, rather than on (its default), so that it plays as saved and a later rebind does not change its
+    upper face unasked. Set-up stores the setting, so an unset one means an older file. The raw ID property is
+    written: no update callback, no rebind."""
+    for ob in bpy.data.objects:
+        settings = getattr(ob, "mpeg4_face", None)
+        if ob.type == "MESH" and settings is not None and binding_store.is_bound(ob):
+            if not settings.is_property_set("still_upper_face"):
+                settings["still_upper_face"] = False
 
 
 @bpy.app.handlers.persistent

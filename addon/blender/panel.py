@@ -56,6 +56,7 @@ class MPEG4_PT_face(bpy.types.Panel):
             sub.prop(settings, "mode")
             sub.prop(settings, "keep_lips_apart")
             sub.prop(settings, "unfold_skin")
+            sub.prop(settings, "still_upper_face")
             sub.prop(settings, "radius_fraction")
             sub.prop(settings, "falloff_exponent")
             sub.prop(settings, "use_masks")

@@ -135,6 +135,7 @@ def bind(
     triangle_masks: Sequence[str | None] | None = None,
     cover: np.ndarray | None = None,
     fade_below: float = 0.0,
+    raisable: np.ndarray | None = None,
     local_float32: bool = False,
 ) -> Binding:
     """Bind (N, 3) rest vertices to the control mesh (M, 3) points / (T, 3) triangles.
@@ -146,13 +147,15 @@ def bind(
     excludes cannot be covered and stays at rest (counted in `Binding.n_static`). ``fade_below``
     (0 = the paper) normalises a vertex's weights by max(their sum, fade_below) and gives the remainder to
     its rest position, for meshes the control mesh covers only in part (see the module notes).
-    ``local_float32`` rounds the per-pair local coordinates (``LOCAL_FIELDS``) to float32, as a saved
-    binding stores them, before the evaluation arrays are built (once). Raises `DeformError` on bad input.
+    ``radius_fraction`` may also be (T,), one per triangle; ``raisable`` (T,) bool limits the triangles whose
+    radii coverage may raise (default: all). ``local_float32`` rounds the per-pair local
+    coordinates (``LOCAL_FIELDS``) to float32, as a saved binding stores them, before the evaluation arrays
+    are built (once). Raises `DeformError` on bad input.
     """
     rest = check_points(rest_vertices, "rest_vertices")
     control = check_points(control_rest, "control_rest")
     tris = check_triangles(triangles, len(control))
-    fraction = check_positive(radius_fraction, "radius_fraction")
+    fraction = _radius_fractions(radius_fraction, len(tris))
     exponent = check_positive(falloff_exponent, "falloff_exponent")
     mask_values = _triangle_mask_values(vertex_masks, triangle_masks, len(tris), len(rest))
     must_cover = _cover(cover, len(rest))
@@ -212,7 +215,8 @@ def bind(
     # radius / distance at which a single triangle's eq. 9 weight is fade_below (RAISE_MARGIN at least)
     reach = np.pi / np.arccos(2.0 * fade ** (1.0 / exponent) - 1.0) if fade > 0.0 else 0.0
     factor = max(1.0 + RAISE_MARGIN, reach)
-    raised_radius = _raised_radius(located, rest, uncovered, radius, active_ids, mask_values, tolerance, factor)
+    may_raise = active_ids if raisable is None else active_ids[np.asarray(raisable, dtype=bool)[active_ids]]
+    raised_radius = _raised_radius(located, rest, uncovered, radius, may_raise, mask_values, tolerance, factor)
     raised = np.flatnonzero(raised_radius > radius)
     radius = raised_radius
     for t in raised:
@@ -699,6 +703,16 @@ def _chunks(run_key: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     first_chunk = np.cumsum(run_chunks) - run_chunks
     slot = (first_chunk[run_of_pair] + offset // CHUNK) * CHUNK + offset % CHUNK
     return np.repeat(np.arange(len(run_start)), run_chunks), run_start, slot
+
+
+def _radius_fractions(radius_fraction: float | np.ndarray, n_triangles: int) -> float | np.ndarray:
+    """`bind`'s ``radius_fraction``: one positive number, or (T,) one per triangle."""
+    if np.ndim(radius_fraction) == 0:
+        return check_positive(radius_fraction, "radius_fraction")
+    fractions = np.asarray(radius_fraction, dtype=np.float64)
+    if fractions.shape != (n_triangles,) or not (np.isfinite(fractions).all() and (fractions > 0.0).all()):
+        raise DeformError(f"radius_fraction must be one positive number or {n_triangles} of them")
+    return fractions
 
 
 def _initial_radius(

@@ -21,6 +21,12 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
 3. a falloff (1 − (g / r)²)² inside the bone's radius r = `Bone.reach` · RADIUS_PER_SCALE · skeleton scale,
    times the bone's side mask for a bone on one side of an opening, so that e.g. the upper-lip bones
    leave the lower lip alone even where the lips touch;
+   then smoothed over the skin (`smooth_over_edges`: steps that move each vertex's value halfway to the mean
+   of its neighbours' across the remaining edges, as many as spread it over SMOOTHING_WIDTH · skeleton scale
+   (about 2 (width / mean edge length)² steps: 4 on the sample head, more on a denser mesh, so the blur is the
+   same on the face whatever its resolution). Distances along mesh edges zigzag, so the raw falloff's outline
+   is jagged (a brow raise showed it) and its slope uneven, which turned faces over where two bones pull apart
+   (an open jaw creased the chin and the skin from the mouth corners down); the openings stay cut;
 4. the root (head) bone takes what the face bones leave, max(0, 1 − Σ), and every row is divided by its
    sum (eq. 2), so a vertex far from every face bone moves rigidly with the head. (Squaring what is left
    made the head's share rise steeply where the face bones fade, e.g. between the lower lip and the chin,
@@ -40,6 +46,8 @@ RADIUS_PER_SCALE = 0.25  # falloff radius per skeleton scale (outer eye corner d
 SEED_BAND = 0.02  # seeds: vertices within this fraction of the scale of the nearest to the segment
 CUT_JUMP = 0.5  # an edge is cut where a side mask jumps by at least this much along it (a gap, not a gradient)
 WEIGHT_TOLERANCE = 1e-6
+SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
+MAX_SMOOTHING_STEPS = 400
 
 
 def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
@@ -105,6 +113,29 @@ def geodesic_distances(
     return dist[:, :n].T
 
 
+def smooth_over_edges(values: np.ndarray, edges: np.ndarray, steps: int) -> np.ndarray:
+    """(N, K) `values` after `steps` steps of v <- (v + mean of the neighbours' v) / 2 over `edges`; a vertex
+    with no edge keeps its value."""
+    coo_matrix, _dijkstra = _scipy_graph()
+    n = len(values)
+    rows, cols = np.concatenate([edges[:, 0], edges[:, 1]]), np.concatenate([edges[:, 1], edges[:, 0]])
+    adjacency = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)).tocsr()
+    degree = np.asarray(adjacency.sum(axis=1)).ravel()
+    lonely = degree == 0
+    for _ in range(steps):
+        mean = (adjacency @ values) / np.where(lonely, 1.0, degree)[:, None]
+        values = np.where(lonely[:, None], values, 0.5 * (values + mean))
+    return values
+
+
+def smoothing_steps(width: float, edge_length: float) -> int:
+    """Steps of `smooth_over_edges` that spread a value over about `width` on edges of `edge_length`: each step
+    adds edge_length² / 2 to the spread's variance."""
+    if width <= 0.0 or edge_length <= 0.0:
+        return 0
+    return min(MAX_SMOOTHING_STEPS, round(2.0 * (width / edge_length) ** 2))
+
+
 def skin_weights(
     vertices: np.ndarray,
     edges: np.ndarray,
@@ -144,15 +175,19 @@ def skin_weights(
         seed = np.flatnonzero(d <= d.min() + band) if np.isfinite(d.min()) else np.zeros(0, np.intp)
         seeds.append(seed)
         costs.append(d[seed])
-    geodesic = geodesic_distances(vertices, cut_openings(edges, masks), seeds, costs)
+    kept = cut_openings(edges, masks)
+    geodesic = geodesic_distances(vertices, kept, seeds, costs)
+    radii = np.array([bones[b].reach * radius_per_scale * skeleton.scale for b in skinned])
+    mean_edge = float(np.linalg.norm(vertices[kept[:, 0]] - vertices[kept[:, 1]], axis=1).mean()) if len(kept) else 0.0
+    steps = smoothing_steps(SMOOTHING_WIDTH * skeleton.scale, mean_edge)
+    falloffs = smooth_over_edges((1.0 - np.clip(geodesic / radii, 0.0, 1.0) ** 2) ** 2, kept, steps)
 
     raw = np.zeros((n, len(bones)))
     for column, b in enumerate(skinned):
-        radius = bones[b].reach * radius_per_scale * skeleton.scale
-        falloff = (1.0 - np.clip(geodesic[:, column] / radius, 0.0, 1.0) ** 2) ** 2
+        falloff = falloffs[:, column]
         side = bones[b].side
         if side is not None and side in masks:
-            falloff *= masks[side]
+            falloff = falloff * masks[side]
         raw[:, b] = falloff
     roots = [b for b, bone in enumerate(bones) if bone.kind == "root"]
     raw[:, roots[0]] = np.maximum(0.0, 1.0 - raw.sum(axis=1))

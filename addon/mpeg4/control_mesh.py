@@ -183,6 +183,22 @@ def template_indices(fp_ids: tuple[str, ...]) -> np.ndarray:
     return np.array([[row[fp_id] for fp_id in triangle] for triangle in CONTROL_TRIANGLES], dtype=np.int64)
 
 
+MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER = 0, 1, 2  # `triangle_parts`
+_PART_GROUPS = ((MOUTH_AND_JAW, frozenset({"2", "8"})), (EYES_AND_BROWS, frozenset({"3", "4"})))
+
+
+def triangle_parts(fp_ids, triangles: np.ndarray) -> np.ndarray:
+    """(T,) the part of the face each control triangle belongs to: MOUTH_AND_JAW when a corner is on the lips,
+    the jaw or the chin (FP groups 2, 8), else EYES_AND_BROWS when a corner is on an eye or a brow (3, 4), else
+    OTHER_UPPER (cheeks, nose, hairline and ears: groups 5, 9, 10, 11)."""
+    group = np.array([fp_id.split(".")[0] for fp_id in fp_ids])
+    corners = group[np.asarray(triangles, dtype=np.intp).reshape(-1, 3)]
+    parts = np.full(len(corners), OTHER_UPPER, dtype=np.int8)
+    for part, groups in reversed(_PART_GROUPS):  # mouth and jaw last: it wins
+        parts[np.isin(corners, list(groups)).any(axis=1)] = part
+    return parts
+
+
 def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
     """Problems that stop (points (M, 3), triangles (T, 3)) from being a control mesh; [] if none.
 

@@ -20,9 +20,11 @@ the 95th percentile over all (target, vertex) errors. Targets that do not move t
 Regions: each head vertex within ES0 / 2 of a control-mesh FP belongs to the region of the nearest one
 (`REGIONS`: brows and forehead, eyes, cheeks and nose, mouth, jaw and chin); a region's E pools the errors
 and the sculpted motion of its vertices over all targets, so it says where on the face a method errs,
-counting motion where the sculpt has none. Fold-overs: the faces of the head that a method turns over
-against their rest normal (`addon.deform.folds`), summed over the targets, with each target's FP motion
-at 1.0 and 1.5 times its size; the sculpts' own count is given too.
+counting motion where the sculpt has none. Spill (per target and per region): the share of the error on
+vertices the sculpt leaves still (moved less than `STILL_MM`) and how many of those the method moves more
+than `SPILL_MM`; a method that moves skin the sculpt keeps still has a high share. Fold-overs: the faces of
+the head that a method turns over against their rest normal (`addon.deform.folds`), summed over the
+targets, with each target's FP motion at 1.0 and 1.5 times its size; the sculpts' own count is given too.
 
 Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection radii so that "every
 vertex of the targeted face geometry" lies in a volume. `face` (default) is exactly what the add-on binds
@@ -93,6 +95,8 @@ REGIONS = {  # FP group (or FP) -> region of the face; the nearest control FP de
 REGION_NAMES = ("brows", "eyes", "cheeks", "mouth", "jaw")
 REGION_REACH_PER_ES0 = 0.5  # a vertex farther than this from every control FP is in no region
 FOLD_SCALES = (1.0, 1.5)
+STILL_MM = 0.1  # a vertex the sculpt moves less than this is still skin
+SPILL_MM = 0.3  # still skin a method moves more than this is counted as moved
 
 
 @dataclass(frozen=True)
@@ -279,6 +283,7 @@ class Score:
     motion_sum: float
     errors: np.ndarray  # (N,) per-vertex ‖deformed − sculpted‖, metres
     motion: np.ndarray  # (N,) per-vertex ‖sculpted − neutral‖, metres
+    moved: np.ndarray  # (N,) per-vertex ‖deformed − neutral‖, metres
     folds: tuple[int, ...] = ()  # faces turned over at each of FOLD_SCALES
 
     @property
@@ -289,11 +294,20 @@ class Score:
     def p95_mm(self) -> float:
         return 1e3 * float(np.percentile(self.errors, 95))
 
+    def spill(self, inside: np.ndarray | slice = slice(None)) -> tuple[float, int]:
+        """Over the vertices `inside`: the share of the error on skin the sculpt leaves still, and how many
+        of those still vertices the method moves more than SPILL_MM."""
+        errors, still = self.errors[inside], self.motion[inside] < 1e-3 * STILL_MM
+        total = float(errors.sum())
+        share = float(errors[still].sum()) / total if total > 0 else 0.0
+        return share, int(np.count_nonzero(self.moved[inside][still] > 1e-3 * SPILL_MM))
+
 
 def score(deformed: np.ndarray, sculpted: np.ndarray, rest: np.ndarray, folds: tuple[int, ...] = ()) -> Score:
     errors = np.linalg.norm(deformed - sculpted, axis=1)
     motion = np.linalg.norm(sculpted - rest, axis=1)
-    return Score(float(errors.sum()), float(motion.sum()), errors, motion, folds)
+    moved = np.linalg.norm(deformed - rest, axis=1)
+    return Score(float(errors.sum()), float(motion.sum()), errors, motion, moved, folds)
 
 
 def folds(deformer, face: SampleFace, control: np.ndarray) -> tuple[int, ...]:
@@ -346,8 +360,28 @@ def summary(scores: dict[str, Score], region: np.ndarray) -> dict:
         "e_mean": float(per_target.mean()),
         "p95_mm": 1e3 * float(np.percentile(np.concatenate([s.errors for s in scores.values()]), 95)),
         "regions": region_e(scores, region),
+        "spill_share": pooled_spill(scores.values()),
+        "region_spill_share": {
+            name: pooled_spill(scores.values(), region == index) for index, name in enumerate(REGION_NAMES)
+        },
         "folds": [sum(s.folds[k] for s in scores.values()) for k in range(len(FOLD_SCALES))],
     }
+
+
+def pooled_spill(scores, inside: np.ndarray | slice = slice(None)) -> float:
+    """Share of the error, summed over `scores` and the vertices `inside`, on skin the sculpt leaves still."""
+    still = sum(float(s.errors[inside][s.motion[inside] < 1e-3 * STILL_MM].sum()) for s in scores)
+    return still / sum(float(s.errors[inside].sum()) for s in scores)
+
+
+def target_spill(s: Score, region: np.ndarray) -> dict:
+    """Spill of one target over the head and in each region."""
+    share, moved = s.spill()
+    regions = {}
+    for index, name in enumerate(REGION_NAMES):
+        region_share, region_moved = s.spill(region == index)
+        regions[name] = {"share": region_share, "moved": region_moved}
+    return {"share": share, "moved": moved, "regions": regions}
 
 
 def region_e(scores: dict[str, Score], region: np.ndarray) -> dict[str, float]:
@@ -369,24 +403,34 @@ def markdown(run_result: dict, command: str) -> str:
         "E = Σ‖deformed − sculpted‖ / Σ‖sculpted − neutral‖ over the head vertices; p95 = 95th-percentile"
         " vertex error (mm).",
         "",
-        "| target | motion mean (mm) | " + " | ".join(f"{m} E | {m} p95" for m in methods) + " |",
-        "|---|---:|" + "---:|---:|" * len(methods),
+        f"spill = share of the error on vertices the sculpt moves less than {STILL_MM} mm / how many of them"
+        f" the method moves more than {SPILL_MM} mm.",
+        "",
+        "| target | motion mean (mm) | " + " | ".join(f"{m} E | {m} p95 | {m} spill" for m in methods) + " |",
+        "|---|---:|" + "---:|---:|---:|" * len(methods),
     ]
     rest = run_result["face"].rest
     for name, (sculpted, _control) in run_result["motions"].items():
         motion = 1e3 * np.linalg.norm(sculpted - rest, axis=1).mean()
         scores = [results[m]["scores"][name] for m in methods]
-        cells = [f"{s.e:.3f} | {s.p95_mm:.2f}" for s in scores]
+        cells = [f"{s.e:.3f} | {s.p95_mm:.2f} | {100 * s.spill()[0]:.0f} % / {s.spill()[1]}" for s in scores]
         lines.append(f"| {name} | {motion:.2f} | " + " | ".join(cells) + " |")
     region = run_result["face"].region
     summaries = {m: summary(results[m]["scores"], region) for m in methods}
-    cells = [f"**{summaries[m]['e_pooled']:.3f}** | **{summaries[m]['p95_mm']:.2f}**" for m in methods]
+    cells = [
+        f"**{summaries[m]['e_pooled']:.3f}** | **{summaries[m]['p95_mm']:.2f}**"
+        f" | {100 * summaries[m]['spill_share']:.0f} %"
+        for m in methods
+    ]
     lines.append("| **overall (pooled)** | | " + " | ".join(cells) + " |")
-    cells = [f"{summaries[m]['e_median']:.3f} / {summaries[m]['e_mean']:.3f} | " for m in methods]
+    cells = [f"{summaries[m]['e_median']:.3f} / {summaries[m]['e_mean']:.3f} | | " for m in methods]
     lines.append("| median / mean of per-target E | | " + " | ".join(cells) + " |")
     for index, name in enumerate(REGION_NAMES):
         motion = 1e3 * np.mean([s.motion[region == index].mean() for s in results[methods[0]]["scores"].values()])
-        cells = [f"{summaries[m]['regions'][name]:.3f} | " for m in methods]
+        cells = [
+            f"{summaries[m]['regions'][name]:.3f} | | {100 * summaries[m]['region_spill_share'][name]:.0f} %"
+            for m in methods
+        ]
         lines.append(f"| region: {name} | {motion:.2f} | " + " | ".join(cells) + " |")
     scales = " / ".join(f"{k:g}" for k in FOLD_SCALES)
     counts = {"the sculpts": sculpt_folds(run_result), **{m: summaries[m]["folds"] for m in methods}}
@@ -417,7 +461,13 @@ def to_json(run_result: dict, command: str, args: argparse.Namespace) -> dict:
                 "bind_seconds": data["bind_seconds"],
                 "overall": summary(data["scores"], run_result["face"].region),
                 "targets": {
-                    name: {"e": s.e, "p95_mm": s.p95_mm, "folds": list(s.folds)} for name, s in data["scores"].items()
+                    name: {
+                        "e": s.e,
+                        "p95_mm": s.p95_mm,
+                        "folds": list(s.folds),
+                        "spill": target_spill(s, run_result["face"].region),
+                    }
+                    for name, s in data["scores"].items()
                 },
             }
             for method, data in results.items()

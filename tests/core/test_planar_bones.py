@@ -342,6 +342,22 @@ def test_affection_radius_is_distance_to_nearest_other_feature_point():
     assert binding.n_raised == 0
 
 
+def test_radius_fraction_per_triangle():
+    control, triangles = lips()
+    binding = bind(np.zeros((1, 3)), control, triangles, radius_fraction=np.array([0.5, 2.0]), cover=np.zeros(1, bool))
+    np.testing.assert_allclose(binding.affection_radius, [0.005, 0.02], rtol=1e-12)
+    rest = sphere_points(200, radius=0.02)
+    one, same = (
+        bind(rest, control, triangles, radius_fraction=0.7),
+        bind(rest, control, triangles, radius_fraction=[0.7] * 2),
+    )
+    for name in ("pair_vertex", "pair_triangle", "pair_weight", "affection_radius"):
+        assert getattr(one, name).tobytes() == getattr(same, name).tobytes()
+    for bad in ([0.5], [0.5, 0.0], [0.5, np.nan], [[0.5, 0.5]]):
+        with pytest.raises(DeformError, match="radius_fraction"):
+            bind(rest, control, triangles, radius_fraction=bad)
+
+
 def test_far_vertex_raises_nearest_triangle_radius():
     control, triangles = lips()
     far = np.array([[0.02, 0.2, 0.0]])  # 0.175 above the upper lip's apex
@@ -352,6 +368,15 @@ def test_far_vertex_raises_nearest_triangle_radius():
     assert binding.n_static == 0
     shifted = evaluate(binding, control + [0.0, 0.0, 0.003])
     np.testing.assert_allclose(shifted, far + [0.0, 0.0, 0.003], atol=1e-12)
+
+
+def test_only_raisable_triangles_are_raised_to_cover():
+    control, triangles = lips()
+    far = np.array([[0.02, 0.2, 0.0]])  # nearest the upper lip's triangle 0
+    binding = bind(far, control, triangles, raisable=np.array([False, True]))
+    assert binding.affection_radius[0] == pytest.approx(0.01)
+    assert binding.affection_radius[1] == pytest.approx(0.205 * 1.1, rel=1e-6)  # to the lower lip's upper edge
+    assert binding.pair_triangle.tolist() == [1]
 
 
 def test_small_radius_fraction_still_covers_every_vertex(sphere):

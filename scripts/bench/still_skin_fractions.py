@@ -1,0 +1,101 @@
+"""Choose Still Skin Around Eyes' radius fractions on the development units, with leave-one-out checks.
+
+    .venv/bin/python -m scripts.bench.still_skin_fractions --targets DIR [--json OUT]
+
+For every point of a small grid of `face_binding.LOCAL_RADIUS_FRACTIONS` (eyes and brows x other upper face x
+mouth and jaw), the add-on as `scripts.bench.evaluate --method add_on` plays it (Set Up Face on the sample head
+with those fractions) is scored on every unit: E pooled over the units, the region E and the faces turned over
+at 1.0 / 1.5 times the FP motion. Then leave-one-out: each unit, with its left/right twin, is scored with the
+grid point that is best (pooled E) on the other units; the pooled E of those scores is the figure for
+expressions the choice has not seen, and the grid points so chosen are counted. About 3 minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from addon.deform import face_binding
+from addon.mpeg4.control_mesh import EYES_AND_BROWS, MOUTH_AND_JAW, OTHER_UPPER
+from scripts.bench import evaluate
+
+GRID = ((0.15, 0.2, 0.25, 0.3), (0.35, 0.5, 0.7), (1.0, 1.25, 1.5))  # eyes and brows, other upper, mouth and jaw
+
+
+def twin(name: str) -> str:
+    """The unit's mirror image (left <-> right), or itself."""
+    for side, other in (("left", "right"), ("right", "left")):
+        if side in name:
+            return name.replace(side, other)
+    return name
+
+
+def score_grid(targets: Path) -> dict[tuple[float, ...], dict[str, evaluate.Score]]:
+    results = {}
+    default = dict(face_binding.LOCAL_RADIUS_FRACTIONS)
+    try:
+        for point in itertools.product(*GRID):
+            face_binding.LOCAL_RADIUS_FRACTIONS = dict(
+                zip((EYES_AND_BROWS, OTHER_UPPER, MOUTH_AND_JAW), point, strict=True)
+            )
+            face = evaluate.load_face(evaluate.DEFAULT_FACE)
+            method = evaluate.AddOnMethod(face)
+            scores = {}
+            for path in evaluate.target_files(targets):
+                offsets, fp_offsets = evaluate.target_motion(path, face)
+                if np.any(offsets):
+                    control = face.control_rest + fp_offsets
+                    deformed = method.evaluate(control)
+                    folds = evaluate.folds(method, face, control)
+                    scores[evaluate.target_name(path)] = evaluate.score(deformed, face.rest + offsets, face.rest, folds)
+            results[point] = (scores, face.region)
+    finally:
+        face_binding.LOCAL_RADIUS_FRACTIONS = default
+    return results
+
+
+def leave_one_out(results: dict) -> tuple[float, dict]:
+    points = list(results)
+    units = list(results[points[0]][0])
+    errors = np.array([[results[p][0][u].error_sum for u in units] for p in points])
+    motion = np.array([results[points[0]][0][u].motion_sum for u in units])
+    held_out, chosen = 0.0, {}
+    for k, unit in enumerate(units):
+        others = np.array([u not in (unit, twin(unit)) for u in units])
+        best = int(np.argmin(errors[:, others].sum(axis=1)))
+        held_out += errors[best, k]
+        chosen[points[best]] = chosen.get(points[best], 0) + 1
+    return held_out / motion.sum(), chosen
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--targets", required=True, help="folder of MakeHuman .target(.gz) files")
+    parser.add_argument("--json", help="also write the grid's figures to this JSON file")
+    args = parser.parse_args()
+    results = score_grid(Path(args.targets))
+    names = " | ".join(evaluate.REGION_NAMES)
+    print(f"| eyes and brows | other upper | mouth and jaw | pooled E | {names} | folds 1.0 / 1.5 |")
+    print("|" + "---:|" * (5 + len(evaluate.REGION_NAMES)))
+    table = {}
+    for point, (scores, region) in sorted(results.items(), key=lambda item: evaluate.summary(*item[1])["e_pooled"]):
+        s = evaluate.summary(scores, region)
+        table[":".join(map(str, point))] = s | {"targets": {n: [x.error_sum, x.motion_sum] for n, x in scores.items()}}
+        regions = " | ".join(f"{s['regions'][n]:.3f}" for n in evaluate.REGION_NAMES)
+        print(
+            f"| {' | '.join(map(str, point))} | {s['e_pooled']:.3f} | {regions} | {s['folds'][0]} / {s['folds'][1]} |"
+        )
+    pooled, chosen = leave_one_out(results)
+    print(f"\nleave-one-unit-and-twin-out pooled E {pooled:.3f}; chosen: {chosen}")
+    if args.json:
+        Path(args.json).write_text(json.dumps({"grid": table, "leave_one_out": pooled}, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,84 @@
+"""Close-ups of Elastic Bones with its skin weights unsmoothed and smoothed (docs/elastic_weights_before_after.png).
+
+    .venv/bin/python -m scripts.docs.render_elastic_weights [--out docs/elastic_weights_before_after.png]
+
+Columns: inner-brow raise (eyebrows-left-inner-up) and brow raise (eyebrows-left-up) from the front, coloured by
+motion (dark blue still, red at the sculpt's largest motion); mouth-open at 1.5 times its FP motion seen from the
+front and from three-quarters, plain, with the faces turned over painted red. Rows: the sculpt (coloured; plain for the
+mouth); Elastic Bones with `skinning.SMOOTHING_WIDTH` = 0 (the weights as before); with the shipped smoothing.
+Both rows use the shipped trained parameters. The engine is driven by the unit's FP motion as
+`scripts.bench.evaluate --method elastic_bones` drives it. Workbench, 300 px tiles.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from addon.elastic import skinning
+from scripts import convert
+from scripts.bench import evaluate
+from scripts.bench.elastic_bones import ElasticBonesMethod
+from scripts.docs.closeups import UNITS, aim_camera, closeup_camera, save_rows
+from scripts.docs.render_eyes_brows import motion_colours, paint
+from scripts.docs.render_unfold import paint_folds
+
+ROOT = Path(__file__).resolve().parents[2]
+TILE = 300
+# (unit, FP motion times, coloured by motion, FP the camera looks at, yaw, pitch, ortho scale)
+SHOTS = (
+    ("eyebrows-left-inner-up", 1.0, True, "4.3", 0.0, 0.0, 0.08),
+    ("eyebrows-left-up", 1.0, True, "4.3", 0.0, 0.0, 0.08),
+    ("mouth-open", 1.5, False, "2.10", 0.0, 0.0, 0.1),
+    ("mouth-open", 1.5, False, "2.10", -45.0, 0.0, 0.1),
+)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_weights_before_after.png")
+    args = parser.parse_args(argv)
+    face = evaluate.load_face(evaluate.DEFAULT_FACE)
+    files = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
+    motion = {name: evaluate.target_motion(files[name], face) for name, *_ in SHOTS}
+    scene, head = bpy.context.scene, face.head
+    camera = closeup_camera(scene, head, TILE, SHOTS[0][-1])
+    scene.display.shading.color_type = "VERTEX"
+    shipped = skinning.SMOOTHING_WIDTH
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, steps in (("the sculpt", None), ("unsmoothed", 0), ("smoothed", shipped)):
+            if steps is not None:
+                skinning.SMOOTHING_WIDTH = steps
+                method = ElasticBonesMethod(face)
+            tiles = []
+            for name, scale, coloured, target, yaw, pitch, ortho in SHOTS:
+                offsets, fp_offsets = motion[name]
+                sculpted = face.rest + scale * offsets
+                shown = sculpted if steps is None else method.evaluate(face.control_rest + scale * fp_offsets)
+                head.data.attributes["position"].data.foreach_set("vector", shown.astype(np.float32).ravel())
+                if coloured:
+                    largest = np.linalg.norm(sculpted - face.rest, axis=1).max()
+                    paint(head.data, motion_colours(np.linalg.norm(shown - face.rest, axis=1), largest))
+                else:
+                    count = paint_folds(head, face.rest)
+                    print(f"{name} x{scale}, {label}: {count} faces turned over")
+                if steps is not None:
+                    e = evaluate.score(shown, sculpted, face.rest).e
+                    print(f"{name} x{scale}, {label}: E {e:.3f}")
+                camera.data.ortho_scale = ortho
+                aim_camera(camera, bpy.data.objects[f"FP {target}"].matrix_world.translation, 0.4, yaw, pitch)
+                tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
+            rows.append(np.concatenate(tiles, axis=1))
+    skinning.SMOOTHING_WIDTH = shipped
+    save_rows(rows, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
