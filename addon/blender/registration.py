@@ -2,7 +2,7 @@
 
 import bpy
 
-from . import elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
+from . import auto_placement_ops, elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
 
 CLASSES = (
     *properties.CLASSES,
@@ -10,6 +10,7 @@ CLASSES = (
     *elastic_ops.CLASSES,
     *speech_ops.CLASSES,
     *fitting_ops.CLASSES,
+    *auto_placement_ops.CLASSES,
     *menus.CLASSES,
     *panel.CLASSES,
 )

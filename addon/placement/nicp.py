@@ -22,8 +22,8 @@ import numpy as np
 from .scipy_modules import coo_matrix, csr_matrix, diags, factorized, kron
 from .surface import Surface, vertex_normals
 
-STIFFNESS = tuple(float(x) for x in __import__("os").environ.get("NICP_STIFF", "10,5,2,1,0.5").split(","))
-INNER_STEPS = int(__import__("os").environ.get("NICP_INNER", "2"))
+STIFFNESS = (10.0, 5.0, 2.0, 1.0, 0.5)
+INNER_STEPS = 2
 GAMMA = 1.0
 NORMAL_AGREEMENT = 0.5  # cos 60 deg
 FAR = 0.1  # of the template's size
@@ -49,9 +49,14 @@ def register(
     triangles: np.ndarray,
     surface: Surface,
     stiffness=STIFFNESS,
+    features=None,
 ):
     """Generator: yields the fraction done; returns the template `vertices` (n, 3) deformed onto `surface`
-    (both in the same frame) and the per-vertex affine transforms (n, 4, 3) that do it, in that frame."""
+    (both in the same frame) and the per-vertex affine transforms (n, 4, 3) that do it, in that frame.
+
+    With `features` ((n,) local heights of the template vertices, a `FeatureMatcher` of the surface), the
+    correspondences of all but the last stiffness are found by position and local height; the last uses
+    the closest surface points."""
     n = len(vertices)
     centre = vertices.mean(axis=0)
     size = float(np.linalg.norm(vertices - centre, axis=1).max()) or 1.0
@@ -71,10 +76,13 @@ def register(
     transforms = np.tile(np.vstack([np.eye(3), np.zeros((1, 3))]), (n, 1))  # (4n, 3): identity
     deformed = local.copy()
     step = 0
-    for alpha in stiffness:
+    for level, alpha in enumerate(stiffness):
         for _inner in range(INNER_STEPS):
             world = deformed * size + centre
-            target, target_normals = surface.closest(world)
+            if features is not None and level < len(stiffness) - 1:
+                target, target_normals = features[1].match(world, features[0])
+            else:
+                target, target_normals = surface.closest(world)
             target = (target - centre) / size
             normals = vertex_normals(deformed, triangles)
             agree = (normals * target_normals).sum(1)

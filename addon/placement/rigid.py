@@ -160,7 +160,15 @@ def align(
     for i, rotation in enumerate(frames):
         start = _width_profile_start(coarse_points, rotation, template)
         tried.append(
-            icp(coarse_template, coarse_template_normals, coarse_points, coarse_normals, coarse_tree, start, COARSE_STEPS)
+            icp(
+                coarse_template,
+                coarse_template_normals,
+                coarse_points,
+                coarse_normals,
+                coarse_tree,
+                start,
+                COARSE_STEPS,
+            )
         )
         yield (i + 1) / (len(frames) + REFINED)
     tried.sort(key=lambda fit_score: fit_score[1])

@@ -1,8 +1,9 @@
 """A user's mesh as placement reads it: triangles, loose parts, closest surface points (numpy + scipy).
 
-Polygons of any size are fanned into triangles first (`deform.folds.fan_triangles`). Closest points are found on the triangles around the nearest
-few vertices (a k-d tree of the vertices), which is exact when the mesh's edges are short against the
-query's distance and close otherwise; placement only asks about points already near the surface.
+Polygons of any size are fanned into triangles first (`deform.folds.fan_triangles`). Closest points are
+found on the triangles around the nearest few vertices (a k-d tree of the vertices), which is exact when
+the mesh's edges are short against the query's distance and close otherwise; placement only asks about
+points already near the surface.
 """
 
 from __future__ import annotations
@@ -100,13 +101,13 @@ class Surface:
         self.vertex_triangles = np.full((len(self.vertices), width), -1, dtype=np.int64)
         self.vertex_triangles[vertex, slot] = order // 3
 
-    def closest(self, points: np.ndarray, near: int = NEAR_VERTICES) -> tuple[np.ndarray, np.ndarray]:
-        """(closest surface points (K, 3), their interpolated unit normals (K, 3)) of `points` (K, 3)."""
+    def locate(self, points: np.ndarray, near: int = NEAR_VERTICES) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """For `points` (K, 3): their closest surface points (K, 3), the triangles holding them (K,) and their
+        barycentric weights there (K, 3)."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         k = min(near, len(self.vertices))
         _d, nearest = self.tree.query(points, k=k)
-        nearest = nearest.reshape(len(points), k)
-        candidates = self.vertex_triangles[nearest].reshape(len(points), -1)
+        candidates = self.vertex_triangles[nearest.reshape(len(points), k)].reshape(len(points), -1)
         valid = candidates >= 0
         query, slot = np.nonzero(valid)
         triangle = candidates[query, slot]
@@ -114,14 +115,18 @@ class Surface:
         q = closest_on_triangles(points[query], *(self.vertices[t[:, j]] for j in range(3)))
         distance = np.full(candidates.shape, np.inf)
         distance[query, slot] = ((q - points[query]) ** 2).sum(1)
-        pick = distance.argmin(axis=1)
         chosen = np.full(candidates.shape, -1, dtype=np.int64)
         chosen[query, slot] = np.arange(len(query))
-        row = chosen[np.arange(len(points)), pick]
+        row = chosen[np.arange(len(points)), distance.argmin(axis=1)]
         best, best_triangle = q[row], triangle[row]
         corners = self.triangles[best_triangle]
         weights = _barycentric(best, *(self.vertices[corners[:, j]] for j in range(3)))
-        normal = np.einsum("kj,kjd->kd", weights, self.normals[corners])
+        return best, best_triangle, weights
+
+    def closest(self, points: np.ndarray, near: int = NEAR_VERTICES) -> tuple[np.ndarray, np.ndarray]:
+        """(closest surface points (K, 3), their interpolated unit normals (K, 3)) of `points` (K, 3)."""
+        best, triangle, weights = self.locate(points, near)
+        normal = np.einsum("kj,kjd->kd", weights, self.normals[self.triangles[triangle]])
         length = np.linalg.norm(normal, axis=1, keepdims=True)
         return best, normal / np.where(length > 0, length, 1.0)
 

