@@ -1,12 +1,15 @@
 """Place the feature points automatically on the two third-party heads and render them (docs/auto_placement_*.png).
 
     .venv/bin/python -m scripts.docs.render_auto_placement [--heads ../shared/heads] [--out docs/]
+        [--development HEAD.blend]
 
 The scan (`leeperrysmith_scan.obj`, imported Y-up as Blender's OBJ importer leaves it) and the full-body
 character (`valid_rocketbox_male.glb`: its body mesh, with its eyeballs and teeth selected as parts) each
 get Place Feature Points Automatically; Workbench renders front and three-quarter views show a sphere on
 every FP, green when the placement is confident, red when it lists the point as low-confidence. The heads
-are read from their folder, never copied into the repository.
+are read from their folder, never copied into the repository. A head refused by the operator is reported
+and not rendered. `--development` also renders a development head of `scripts.bench.placement_heads` (its
+truth FP empties deleted first) as `auto_placement_development_*.png`.
 """
 
 from __future__ import annotations
@@ -36,6 +39,12 @@ COLOURS = {"sure": (0.1, 0.75, 0.2, 1.0), "low": (0.9, 0.1, 0.05, 1.0), "skin": 
 
 
 def _import(path: Path):
+    if path.suffix == ".blend":
+        bpy.ops.wm.open_mainfile(filepath=str(path))
+        for ob in [ob for ob in bpy.data.objects if ob.type == "EMPTY" and "mpeg4_fp" in ob]:
+            bpy.data.objects.remove(ob)
+        bpy.context.view_layer.update()
+        return
     bpy.ops.wm.read_homefile(use_empty=True)
     if path.suffix == ".obj":
         bpy.ops.wm.obj_import(filepath=str(path))
@@ -57,7 +66,11 @@ def place(path: Path, face_name: str | None, parts: tuple[str, ...]):
     for name in parts:
         bpy.data.objects[name].select_set(True)
     start = time.perf_counter()
-    result = bpy.ops.mpeg4.auto_place_feature_points()
+    try:
+        result = bpy.ops.mpeg4.auto_place_feature_points()
+    except RuntimeError as refused:
+        print(f"{path.name}: refused: {refused}")
+        return None, [], 0.0
     seconds = time.perf_counter() - start
     low = auto_placement.low_confidence(face)
     print(f"{path.name}: {result}, {seconds:.1f} s, {len(face.data.vertices)} vertices; low confidence: {low}")
@@ -108,12 +121,17 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--heads", type=Path, default=ROOT.parent / "shared" / "heads")
     parser.add_argument("--out", type=Path, default=ROOT / "docs")
+    parser.add_argument("--development", type=Path, help="a development head (.blend with a mesh named Head)")
     args = parser.parse_args()
+    heads = {name: (args.heads / file, face, parts) for name, (file, face, parts) in HEADS.items()}
+    if args.development:
+        heads["development"] = (args.development, "Head", ())
     addon.register()
     try:
-        for name, (file, face_name, parts) in HEADS.items():
-            face, low, _seconds = place(args.heads / file, face_name, parts)
-            render(face, low, args.out, name)
+        for name, (path, face_name, parts) in heads.items():
+            face, low, _seconds = place(path, face_name, parts)
+            if face is not None:
+                render(face, low, args.out, name)
     finally:
         addon.unregister()
     return 0
