@@ -106,8 +106,3 @@ def _to_frame(affine: np.ndarray, centre: np.ndarray, size: float) -> np.ndarray
     linear = affine[:, :3, :]
     translation = affine[:, 3, :] * size + centre - centre @ linear
     return np.concatenate([linear, translation[:, None, :]], axis=1)
-
-
-def transform_points(points: np.ndarray, affine: np.ndarray) -> np.ndarray:
-    """Apply per-point affines (K, 4, 3) to points (K, 3)."""
-    return np.einsum("kd,kdj->kj", points, affine[:, :3, :]) + affine[:, 3, :]
