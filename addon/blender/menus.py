@@ -3,7 +3,7 @@ a .fap file dropped on the 3D viewport."""
 
 import bpy
 
-from . import arkit_ops, fitting_ops, ops, speech_ops
+from . import arkit_ops, auto_placement_ops, fitting_ops, ops, speech_ops
 
 
 class MPEG4_MT_object(bpy.types.Menu):
@@ -13,6 +13,7 @@ class MPEG4_MT_object(bpy.types.Menu):
     def draw(self, _context):
         layout = self.layout
         layout.operator(ops.MPEG4_OT_place_feature_points.bl_idname)
+        layout.operator(auto_placement_ops.MPEG4_OT_auto_place_feature_points.bl_idname)
         layout.operator(ops.MPEG4_OT_setup_face.bl_idname)
         layout.separator()
         layout.operator(ops.MPEG4_OT_import_fap.bl_idname)

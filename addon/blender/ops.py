@@ -11,7 +11,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
-from . import bake, face_data, face_setup, fap_io, fp_empties, poll
+from . import auto_placement, bake, face_data, face_setup, fap_io, fp_empties, poll
 from .motion_options import GainAndClamp
 from .reporting import Mpeg4Operator, progress, report_outside_operator
 
@@ -60,6 +60,12 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
 
     fp_id: EnumProperty(name="Feature Point", items=_fp_items)
     location: bpy.props.FloatVectorProperty(name="Location", subtype="TRANSLATION", description="World position")
+    low_confidence: BoolProperty(
+        name="Low-Confidence Points",
+        default=False,
+        options={"SKIP_SAVE"},
+        description="Walk through the points automatic placement was unsure of, instead of the missing ones",
+    )
 
     @classmethod
     def unavailable(cls, context):
@@ -77,7 +83,10 @@ class MPEG4_OT_place_feature_points(Mpeg4Operator, bpy.types.Operator):
             self.report({"ERROR"}, "Place Feature Points works in a 3D viewport")
             return {"CANCELLED"}
         self._face_name = face.name
-        self._queue = [fp_id for fp_id in FP_IDS if fp_id not in face_data.fp_empties(face)]
+        if self.low_confidence:
+            self._queue = auto_placement.low_confidence(face)
+        else:
+            self._queue = [fp_id for fp_id in FP_IDS if fp_id not in face_data.fp_empties(face)]
         if not self._queue:
             self.report({"INFO"}, "all 84 feature points are placed")
             return {"CANCELLED"}

@@ -4,7 +4,7 @@ import bpy
 
 from ..mpeg4.fap_groups import GROUP_NAMES
 from ..mpeg4.feature_points import FP_IDS
-from . import arkit_ops, binding_store, elastic_ops, face_data, fap_io, followers
+from . import arkit_ops, auto_placement, binding_store, elastic_ops, face_data, fap_io, followers
 
 FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
@@ -44,6 +44,12 @@ class MPEG4_PT_face(bpy.types.Panel):
         row.operator("mpeg4.place_feature_points", icon="EMPTY_AXIS")
         row.prop(settings, "use_x_mirror", text="", icon="MOD_MIRROR")
         row.operator("mpeg4.setup_face", icon="MOD_MESHDEFORM")
+        layout.operator("mpeg4.auto_place_feature_points", icon="SHADERFX")
+        low = auto_placement.low_confidence(face)
+        if low:
+            col = layout.column(align=True)
+            col.label(text="Low confidence: " + ", ".join(low[:8]) + (" ..." if len(low) > 8 else ""), icon="ERROR")
+            col.operator("mpeg4.place_feature_points", text="Place Low-Confidence Points").low_confidence = True
         if bound:
             layout.operator("mpeg4.remove_face", icon="X")
 

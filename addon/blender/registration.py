@@ -2,7 +2,7 @@
 
 import bpy
 
-from . import arkit_ops, elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
+from . import arkit_ops, auto_placement_ops, elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
 
 CLASSES = (
     *properties.CLASSES,
@@ -11,6 +11,7 @@ CLASSES = (
     *speech_ops.CLASSES,
     *fitting_ops.CLASSES,
     *arkit_ops.CLASSES,
+    *auto_placement_ops.CLASSES,
     *menus.CLASSES,
     *panel.CLASSES,
 )

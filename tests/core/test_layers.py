@@ -17,6 +17,7 @@ LAYERS = {
     "fitting": 3,
     "elastic": 3,
     "arkit": 3,
+    "placement": 3,
     "blender": 4,
 }
 

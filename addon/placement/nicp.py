@@ -1,0 +1,108 @@
+"""Optimal-step non-rigid ICP (Amberg, Romdhani and Vetter, CVPR 2007), on scipy's sparse solver.
+
+Each template vertex v_i gets its own affine transform X_i (4 x 3). For a stiffness alpha the cost
+
+    E(X) = || W (D X - U) ||^2 + alpha^2 || (M (x) G) X ||^2                 (eq. 11-12)
+
+is quadratic: D is the sparse (n x 4n) matrix of the vertices [v_i^T 1], U the closest surface points of
+the current deformed template, W their reliability weights, M the template's edge-vertex incidence and
+G = diag(1, 1, 1, gamma). For each alpha of a decreasing schedule, the closest points and X are
+re-found until X settles (section 3.2); E's normal equations are solved by sparse LU.
+
+Read here: the template is first put in a unit frame (centred, its size 1), so gamma = 1 weighs a
+vertex's translation like its linear part; correspondences get weight 0 where the normals disagree by
+more than 60 degrees, the distance is over a tenth of the head, or the template vertex is on its
+border (the neck cut), as the paper drops them (section 3.3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .scipy_modules import coo_matrix, csr_matrix, diags, factorized, kron
+from .surface import Surface, vertex_normals
+
+STIFFNESS = (10.0, 5.0, 2.0, 1.0, 0.5)
+INNER_STEPS = 2
+GAMMA = 1.0
+NORMAL_AGREEMENT = 0.5  # cos 60 deg
+FAR = 0.1  # of the template's size
+
+
+def edges_of(triangles: np.ndarray) -> np.ndarray:
+    """(E, 2) unique undirected edges of the triangles."""
+    pairs = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    return np.unique(np.sort(pairs, axis=1), axis=0)
+
+
+def border_vertices(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(n,) True for vertices on an open border (an edge used by one triangle only)."""
+    pairs = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    unique, counts = np.unique(pairs, axis=0, return_counts=True)
+    border = np.zeros(n_vertices, dtype=bool)
+    border[unique[counts == 1].ravel()] = True
+    return border
+
+
+def register(
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    surface: Surface,
+    stiffness=STIFFNESS,
+    features=None,
+):
+    """Generator: yields the fraction done; returns the template `vertices` (n, 3) deformed onto `surface`
+    (both in the same frame) and the per-vertex affine transforms (n, 4, 3) that do it, in that frame.
+
+    With `features` ((n,) local heights of the template vertices, a `FeatureMatcher` of the surface), the
+    correspondences of all but the last stiffness are found by position and local height; the last uses
+    the closest surface points."""
+    n = len(vertices)
+    centre = vertices.mean(axis=0)
+    size = float(np.linalg.norm(vertices - centre, axis=1).max()) or 1.0
+    local = (vertices - centre) / size
+    homogeneous = np.hstack([local, np.ones((n, 1))])
+    rows = np.repeat(np.arange(n), 4)
+    d_matrix = csr_matrix((homogeneous.ravel(), (rows, np.arange(4 * n))), shape=(n, 4 * n))
+    edges = edges_of(triangles)
+    m = len(edges)
+    incidence = coo_matrix(
+        (np.r_[-np.ones(m), np.ones(m)], (np.r_[np.arange(m), np.arange(m)], np.r_[edges[:, 0], edges[:, 1]])),
+        shape=(m, n),
+    )
+    smoothness = kron(incidence, diags([1.0, 1.0, 1.0, GAMMA])).tocsr()
+    smooth_normal = (smoothness.T @ smoothness).tocsc()
+    border = border_vertices(triangles, n)
+    transforms = np.tile(np.vstack([np.eye(3), np.zeros((1, 3))]), (n, 1))  # (4n, 3): identity
+    deformed = local.copy()
+    step = 0
+    for level, alpha in enumerate(stiffness):
+        for _inner in range(INNER_STEPS):
+            world = deformed * size + centre
+            if features is not None and level < len(stiffness) - 1:
+                target, target_normals = features[1].match(world, features[0])
+            else:
+                target, target_normals = surface.closest(world)
+            target = (target - centre) / size
+            normals = vertex_normals(deformed, triangles)
+            agree = (normals * target_normals).sum(1)
+            distance = np.linalg.norm(target - deformed, axis=1)
+            weights = ((agree > NORMAL_AGREEMENT) & (distance < FAR) & ~border).astype(np.float64)
+            wd = diags(weights) @ d_matrix
+            lhs = (alpha * alpha * smooth_normal + (wd.T @ wd)).tocsc()
+            solve = factorized(lhs)
+            rhs = wd.T @ (weights[:, None] * target)
+            transforms = np.stack([solve(rhs[:, j]) for j in range(3)], axis=1)
+            deformed = d_matrix @ transforms
+            step += 1
+            yield step / (len(stiffness) * INNER_STEPS)
+    affine = transforms.reshape(n, 4, 3)
+    return deformed * size + centre, _to_frame(affine, centre, size)
+
+
+def _to_frame(affine: np.ndarray, centre: np.ndarray, size: float) -> np.ndarray:
+    """Per-vertex affines of the unit frame rewritten for points in the caller's frame:
+    x -> ((x - c) / s) A + t, times s, plus c  =  x A + (t s + c - c A)."""
+    linear = affine[:, :3, :]
+    translation = affine[:, 3, :] * size + centre - centre @ linear
+    return np.concatenate([linear, translation[:, None, :]], axis=1)

@@ -1,0 +1,277 @@
+"""Place the 84 feature points on a user's mesh: the placement path end to end.
+
+    mesh (world vertices, triangles) -> skin and loose parts -> orientation, scale, position (rigid.align)
+    -> template registered to the skin (nicp.register) -> FPs carried over and snapped to the skin
+    -> pupils from eyeballs, teeth and tongue points from those parts -> head check -> confidences.
+
+`placement_steps` is a generator: it yields the fraction done between steps (so a modal operator can show
+progress and stop on Esc with nothing changed) and returns the `Placement`; `place_feature_points` runs it
+to the end.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mpeg4.feature_points import FEATURE_POINTS, fp_index
+from .errors import PlacementError
+from .features import FeatureMatcher, local_height
+from .nicp import register
+from .parts import find_eyeballs, pupil_on_eyeball
+from .rigid import TEMPLATE_AXES, align
+from .scipy_modules import cKDTree
+from .surface import Surface, area_samples, loose_parts, triangle_areas
+from .template import load_template
+
+SAMPLES = 4000  # surface samples of the mesh for the rigid fit
+SKIN_SHARE = 0.2  # a loose piece with at least this share of the largest one's area is skin (head, body)
+CROP = 0.25  # the skin kept around the fitted template: its bounding box grown by this share
+PART_REACH = 0.006  # template metres: a teeth or tongue point snaps onto a part this near
+CONFIDENCE_RESIDUAL = 0.0015  # template metres: the fit residual at which confidence falls to 1/e
+NEIGHBOURS = 8  # template vertices around an FP whose fit says how well it is placed
+INSIDE_REACH = 0.01  # template metres: the least fall-off radius of the map carrying an inside point
+FEATURE_SAMPLES = 12000  # area samples of the template skin for local heights (about 2.5 mm apart)
+FEATURE_RADIUS = 0.008  # template metres
+FEATURE_WEIGHT = 3.0  # 1 mm of local height difference counts as 3 mm of distance
+FIT_LIMIT = 0.02  # template metres: the development heads' rigid fit scores 11-14 mm, a sphere or box 26-28
+LOW_CONFIDENCE = 0.5
+RECESS_SHARE = 0.5  # an eye socket at least half as deep as the template's
+ESTIMATE_CONFIDENCE = 0.3
+MIN_VERTICES = 100
+
+
+@dataclass(frozen=True)
+class Placement:
+    positions: np.ndarray  # (84, 3) world
+    confidence: np.ndarray  # (84,) in [0, 1]
+    estimated: tuple[str, ...]  # FP ids placed without the part they belong on (no eyeball, teeth, tongue)
+    axes: np.ndarray  # (3, 3) rows: the face's left, up and forward in the world
+    scale: float  # world units per template metre
+
+    def low_confidence(self, threshold: float = LOW_CONFIDENCE) -> list[str]:
+        return [fp.id for fp, c in zip(FEATURE_POINTS, self.confidence, strict=True) if c < threshold]
+
+
+def place_feature_points(vertices: np.ndarray, triangles: np.ndarray) -> Placement:
+    steps = placement_steps(vertices, triangles)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def _validate(vertices: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    vertices = np.asarray(vertices, dtype=np.float64).reshape(-1, 3)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(vertices) < MIN_VERTICES or not len(triangles):
+        raise PlacementError(
+            f"this mesh does not look like a human head: it has {len(vertices)} vertices and {len(triangles)} "
+            f"triangles, too few for eyes and a mouth (at least {MIN_VERTICES} vertices); nothing was placed"
+        )
+    if not np.all(np.isfinite(vertices)):
+        raise PlacementError("the mesh has vertices at infinite or undefined positions")
+    if triangles.min() < 0 or triangles.max() >= len(vertices):
+        raise PlacementError("the mesh's faces use vertices it does not have")
+    return vertices, triangles
+
+
+def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
+    """Generator: yields the fraction done (0..1), returns the Placement (see the module's doc)."""
+    vertices, triangles = _validate(vertices, triangles)
+    template = load_template()
+    labels = loose_parts(len(vertices), triangles)
+    area = np.bincount(labels[triangles[:, 0]], weights=triangle_areas(vertices, triangles), minlength=labels.max() + 1)
+    if area.max() <= 0:
+        raise PlacementError("the mesh has no area: its faces are all flat slivers")
+    skin_labels = np.flatnonzero(area >= SKIN_SHARE * area.max())
+    on_skin = np.isin(labels[triangles[:, 0]], skin_labels)
+    skin_triangles = triangles[on_skin]
+    yield 0.02
+
+    points, normals = area_samples(vertices, skin_triangles, SAMPLES)
+    similarity, score = yield from _scaled(
+        align(template.coarse_vertices, template.coarse_normals, points, normals), 0.02, 0.3
+    )
+
+    # the skin in the template's frame, cut to the head the template covers
+    local = similarity.inverse_apply(vertices)
+    lo, hi = template.vertices.min(axis=0), template.vertices.max(axis=0)
+    grow = CROP * (hi - lo)
+    inside = np.all((local >= lo - grow) & (local <= hi + grow), axis=1)
+    kept = skin_triangles[inside[skin_triangles].all(axis=1)]
+    if len(kept) < MIN_VERTICES:
+        raise PlacementError("no head was found: the mesh has no part shaped like the template head")
+    surface = Surface(local, kept)
+    features = _features(template, local, kept)
+    yield 0.35
+
+    coarse, _affine = yield from _scaled(
+        register(template.coarse_vertices, template.coarse_triangles, surface, features=features), 0.35, 0.9
+    )
+
+    placed, confidence, estimated = _transfer(template, coarse, surface)
+    parts = _parts(local, triangles, labels, skin_labels)
+    placed, confidence, estimated = _on_parts(template, placed, confidence, estimated, parts)
+    _check_head(template, placed, score)
+    yield 1.0
+    return Placement(
+        positions=similarity.apply(placed),
+        confidence=confidence,
+        estimated=tuple(estimated),
+        axes=TEMPLATE_AXES @ similarity.rotation.T,
+        scale=similarity.scale,
+    )
+
+
+def carry_on_surface(points: np.ndarray, rest: Surface, deformed: np.ndarray) -> np.ndarray:
+    """Points on or near the template's skin moved with the registration: each is embedded in the decimated
+    template (closest triangle, barycentric weights, offset along the normal) and rebuilt on the same
+    triangle of the `deformed` vertices."""
+    on_rest, triangle, weights = rest.locate(points)
+    corners = rest.triangles[triangle]
+    offset = ((points - on_rest) * _triangle_normals(rest.vertices, corners)).sum(1)
+    moved = np.einsum("kj,kjd->kd", weights, deformed[corners])
+    return moved + offset[:, None] * _triangle_normals(deformed, corners)
+
+
+def _triangle_normals(vertices: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    a, b, c = (vertices[corners[:, j]] for j in range(3))
+    normals = np.cross(b - a, c - a)
+    return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+
+
+def carry_inside(points: np.ndarray, rest: np.ndarray, deformed: np.ndarray) -> np.ndarray:
+    """Points away from the skin (7.1, the pupils, teeth and tongue) moved by the affine map that best takes
+    the template's vertices around them to their registered places (weighted least squares, the weights
+    falling off over twice the point's distance to the skin), not by any one vertex's transform."""
+    tree = cKDTree(rest)
+    moved = np.empty_like(points)
+    homogeneous = np.hstack([rest, np.ones((len(rest), 1))])
+    for k, point in enumerate(points):
+        depth, _i = tree.query(point)
+        sigma = max(2.0 * depth, INSIDE_REACH)
+        weights = np.sqrt(np.exp(-((rest - point) ** 2).sum(1) / (2.0 * sigma * sigma)))
+        affine, *_rest = np.linalg.lstsq(homogeneous * weights[:, None], deformed * weights[:, None], rcond=None)
+        moved[k] = np.append(point, 1.0) @ affine
+    return moved
+
+
+def _features(template, local: np.ndarray, kept: np.ndarray):
+    """Local heights of the template's decimated vertices and of the user's skin, both over area samples
+    of the same density, and the matcher that pairs them (see `features`)."""
+    template_samples, _n = area_samples(template.vertices, template.triangles, FEATURE_SAMPLES)
+    template_heights = local_height(template.coarse_vertices, template.coarse_normals, template_samples, FEATURE_RADIUS)
+    area = triangle_areas(local, kept).sum()
+    template_area = triangle_areas(template.vertices, template.triangles).sum()
+    count = int(np.clip(FEATURE_SAMPLES * area / template_area, FEATURE_SAMPLES // 4, 4 * FEATURE_SAMPLES))
+    samples, normals = area_samples(local, kept, count, seed=1)
+    heights = local_height(samples, normals, samples, FEATURE_RADIUS)
+    return template_heights, FeatureMatcher(samples, normals, heights, FEATURE_WEIGHT)
+
+
+def _scaled(steps, start: float, end: float):
+    """Run a stage's generator, its fractions mapped onto [start, end] of the whole; returns its result."""
+    while True:
+        try:
+            fraction = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield start + (end - start) * fraction
+
+
+def _transfer(template, coarse, surface):
+    """Skin FPs: their template vertex carried by the registration and snapped onto the skin; the others
+    carried alone. Confidence from how well the skin around each FP was fitted (the residual distance of
+    the decimated template's vertices around it)."""
+    on_vertex = template.fp_vertices >= 0
+    placed = np.empty_like(template.fp_positions)
+    rest = Surface(template.coarse_vertices, template.coarse_triangles)
+    carried = carry_on_surface(template.fp_positions[on_vertex], rest, coarse)
+    placed[on_vertex], _normals = surface.closest(carried)
+    placed[~on_vertex] = carry_inside(template.fp_positions[~on_vertex], template.coarse_vertices, coarse)
+    on_surface, _n = surface.closest(coarse)
+    residual = np.linalg.norm(on_surface - coarse, axis=1)
+    _d, around = cKDTree(template.coarse_vertices).query(template.fp_positions, k=NEIGHBOURS)
+    confidence = np.exp(-((residual[around].mean(axis=1) / CONFIDENCE_RESIDUAL) ** 2))
+    return placed, confidence, []
+
+
+def _parts(local, triangles, labels, skin_labels):
+    """The loose pieces that are not skin, each as (vertices, triangles) in the template's frame."""
+    parts = []
+    for label in np.setdiff1d(np.unique(labels[triangles[:, 0]]), skin_labels):
+        own = triangles[labels[triangles[:, 0]] == label]
+        used, renumbered = np.unique(own, return_inverse=True)
+        parts.append((local[used], renumbered.reshape(-1, 3)))
+    return parts
+
+
+def _on_parts(template, placed, confidence, estimated, parts):
+    """Pupils onto eyeballs, teeth and tongue points onto the pieces in the mouth; where there is no such
+    piece the carried estimate stays, with a low confidence, and is named in `estimated`."""
+    forward = TEMPLATE_AXES[2]
+    eyeballs = find_eyeballs(parts, placed[[fp_index("3.5"), fp_index("3.6")]])
+    for fp_id, eyeball in zip(("3.5", "3.6"), eyeballs, strict=True):
+        row = fp_index(fp_id)
+        if eyeball is None:
+            estimated.append(fp_id)
+            confidence[row] = min(confidence[row], ESTIMATE_CONFIDENCE)
+        else:
+            placed[row] = pupil_on_eyeball(eyeball, forward)
+    used = {id(e) for e in eyeballs if e is not None}
+    mouth_parts = [p for p in parts if id(p) not in used]
+    for fp in FEATURE_POINTS:
+        if fp.surface not in ("teeth", "tongue"):
+            continue
+        row = fp_index(fp.id)
+        best = None
+        for vertices, triangles in mouth_parts:
+            q, _n = Surface(vertices, triangles).closest(placed[row : row + 1])
+            distance = float(np.linalg.norm(q[0] - placed[row]))
+            if distance < PART_REACH and (best is None or distance < best[0]):
+                best = (distance, q[0])
+        if best is None:
+            estimated.append(fp.id)
+            confidence[row] = min(confidence[row], ESTIMATE_CONFIDENCE)
+        else:
+            placed[row] = best[1]
+    row = fp_index("7.1")
+    confidence[row] = min(confidence[row], 0.6)  # inside the neck: no surface says where it is
+    return placed, confidence, estimated
+
+
+def _recesses(points: np.ndarray) -> dict[str, float]:
+    """How far (template metres, along forward) each inner eye corner lies behind the inner end of its brow
+    (the eye socket: 11 mm on the template, 13 to 17 mm on the development heads, 4 mm on a sphere)."""
+    depth = points @ TEMPLATE_AXES[2]
+
+    def d(fp_id):
+        return depth[fp_index(fp_id)]
+
+    return {
+        "left eye": d("4.1") - d("3.11"),
+        "right eye": d("4.2") - d("3.8"),
+    }
+
+
+def _check_head(template, placed: np.ndarray, fit_score: float) -> None:
+    """Refuse what is not a head, saying what was not found: a shape far from any head's (a sphere, a box),
+    or no eye socket below the brow where the registered template has them."""
+    if fit_score > FIT_LIMIT:
+        raise PlacementError(
+            "this mesh does not look like a human head: no nose, eyes or mouth were found (its shape stays "
+            f"{1000 * fit_score:.0f} mm from the template head's after the best fit; heads fit within "
+            f"{1000 * FIT_LIMIT:.0f} mm); nothing was placed"
+        )
+    reference = _recesses(template.fp_positions)
+    found = _recesses(placed)
+    missing = [name for name, depth in found.items() if depth < RECESS_SHARE * reference[name]]
+    if missing:
+        raise PlacementError(
+            "this mesh does not look like a human head: no "
+            + " and no ".join(f"{name} (socket below the brow)" for name in missing)
+            + " was found where the template head has them; nothing was placed"
+        )

@@ -1,0 +1,95 @@
+"""Accuracy of automatic feature point placement against known FPs.
+
+    .venv/bin/python -m scripts.bench.evaluate_placement --heads DIR [--json OUT]
+
+Every .blend in DIR holds a face mesh named Head whose 84 FP empties are the truth (the development heads
+of `scripts.bench.placement_heads`). Its meshes are read as the operator reads them, placement runs on them
+(the empties themselves are not read), and each FP's error is its distance to the truth in millimetres of
+the head as made (a head scaled by `placement_heads.BENCH_SCALE` is measured back at its own size).
+Prints the mean, 95th percentile and maximum error per FP and overall, and the time each head took.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import addon
+from addon.blender import auto_placement
+from addon.mpeg4.feature_points import FP_IDS
+from addon.placement.pipeline import place_feature_points
+from scripts.bench.placement_heads import BENCH_SCALE
+
+HEAD = "Head"
+
+
+def measure(path: Path) -> dict:
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    face = bpy.data.objects[HEAD]
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(False)
+    truth_empties = {ob["mpeg4_fp"]: ob for ob in bpy.data.objects if ob.type == "EMPTY" and "mpeg4_fp" in ob}
+    truth = np.array([truth_empties[fp_id].matrix_world.translation for fp_id in FP_IDS])
+    hidden = [ob for ob in truth_empties.values()]
+    objects = [ob for ob in auto_placement.head_objects(bpy.context, face) if ob not in hidden]
+    vertices, triangles = auto_placement.world_arrays(objects)
+    start = time.perf_counter()
+    placement = place_feature_points(vertices, triangles)
+    seconds = time.perf_counter() - start
+    factor = float(face.get(BENCH_SCALE, 1.0))
+    errors = np.linalg.norm(placement.positions - truth, axis=1) * 1000.0 / factor
+    return {
+        "head": path.name,
+        "vertices": int(len(vertices)),
+        "seconds": seconds,
+        "errors_mm": errors.tolist(),
+        "low_confidence": placement.low_confidence(),
+        "estimated": list(placement.estimated),
+    }
+
+
+def summary(errors: np.ndarray) -> dict:
+    return {"mean": float(errors.mean()), "p95": float(np.percentile(errors, 95)), "max": float(errors.max())}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--heads", type=Path, required=True, help="folder of .blend heads with truth FPs")
+    parser.add_argument("--json", type=Path, help="write the figures here")
+    args = parser.parse_args()
+    paths = sorted(args.heads.glob("*.blend"))
+    if not paths:
+        print(f"evaluate_placement: no .blend files in {args.heads}", file=sys.stderr)
+        return 1
+    addon.register()
+    try:
+        heads = [measure(path) for path in paths]
+    finally:
+        addon.unregister()
+    errors = np.array([head["errors_mm"] for head in heads])  # (heads, 84)
+    per_fp = {fp_id: summary(errors[:, i]) for i, fp_id in enumerate(FP_IDS)}
+    overall = summary(errors.ravel())
+    print(f"{'head':32s} {'verts':>7s} {'s':>6s} {'mean':>6s} {'p95':>6s} {'max':>6s}  low confidence")
+    for head in heads:
+        s = summary(np.array(head["errors_mm"]))
+        print(
+            f"{head['head']:32s} {head['vertices']:7d} {head['seconds']:6.2f} {s['mean']:6.2f} {s['p95']:6.2f} "
+            f"{s['max']:6.2f}  {', '.join(head['low_confidence'])}"
+        )
+    print(f"\n{'FP':6s} {'mean':>6s} {'p95':>6s} {'max':>6s}   (mm, over {len(heads)} heads)")
+    for fp_id, s in per_fp.items():
+        print(f"{fp_id:6s} {s['mean']:6.2f} {s['p95']:6.2f} {s['max']:6.2f}")
+    print(f"{'all':6s} {overall['mean']:6.2f} {overall['p95']:6.2f} {overall['max']:6.2f}")
+    if args.json:
+        args.json.write_text(json.dumps({"overall": overall, "per_fp": per_fp, "heads": heads}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,94 @@
+"""Automatic placement's core without Blender: closest points, the similarity fit, the registration, the
+pipeline on the shipped template itself and its refusal of shapes that are not heads."""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("scipy")
+
+from addon.placement.errors import PlacementError
+from addon.placement.nicp import register
+from addon.placement.pipeline import place_feature_points
+from addon.placement.rigid import Similarity, umeyama
+from addon.placement.surface import Surface, closest_on_triangles
+from addon.placement.template import load_template
+
+
+def _run(steps):
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+def test_closest_point_on_a_triangle_matches_a_dense_search():
+    rng = np.random.default_rng(0)
+    a, b, c = np.array([0.0, 0, 0]), np.array([1.0, 0, 0]), np.array([0.2, 0.8, 0])
+    points = rng.uniform(-1, 2, (200, 3))
+    found = closest_on_triangles(points, *(np.tile(v, (200, 1)) for v in (a, b, c)))
+    u, v = np.meshgrid(np.linspace(0, 1, 401), np.linspace(0, 1, 401))
+    inside = u + v <= 1
+    dense = a + np.outer(u[inside], b - a) + np.outer(v[inside], c - a)
+    best = np.sqrt(((points[:, None, :] - dense[None]) ** 2).sum(2)).min(1)
+    assert np.allclose(np.linalg.norm(found - points, axis=1), best, atol=3e-3)
+
+
+def test_umeyama_recovers_a_similarity():
+    rng = np.random.default_rng(1)
+    q, _r = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    truth = Similarity(q, 2.5, np.array([1.0, -2.0, 0.5]))
+    source = rng.normal(size=(50, 3))
+    fit = umeyama(source, truth.apply(source))
+    assert (
+        np.allclose(fit.rotation, q)
+        and fit.scale == pytest.approx(2.5)
+        and np.allclose(fit.translation, truth.translation)
+    )
+
+
+def test_registration_of_the_template_onto_itself_moves_nothing():
+    t = load_template()
+    surface = Surface(t.coarse_vertices, t.coarse_triangles)
+    deformed, _affine = _run(register(t.coarse_vertices, t.coarse_triangles, surface))
+    assert np.abs(deformed - t.coarse_vertices).max() < 1e-4
+
+
+def _template_mesh(transform: Similarity):
+    t = load_template()
+    return transform.apply(t.vertices), t.triangles
+
+
+def test_the_template_turned_y_up_and_scaled_gets_its_own_points_within_a_millimetre():
+    t = load_template()
+    y_up = np.array([[1.0, 0, 0], [0, 0, 1], [0, -1, 0]])  # Z up -> Y up, facing +Z
+    transform = Similarity(y_up, 10.0, np.array([3.0, -1.0, 2.0]))
+    vertices, triangles = _template_mesh(transform)
+    placement = place_feature_points(vertices, triangles)
+    on_skin = t.fp_vertices >= 0
+    errors = np.linalg.norm(placement.positions - transform.apply(t.fp_positions), axis=1) / 10.0 * 1000.0
+    assert errors[on_skin].mean() < 1.0
+    assert np.allclose(placement.axes[1], [0, 1, 0], atol=0.05)  # the face's up found on +Y
+    assert placement.scale == pytest.approx(10.0, rel=0.02)
+
+
+def _sphere(n=40):
+    theta, phi = np.meshgrid(np.linspace(0, np.pi, n), np.linspace(0, 2 * np.pi, 2 * n, endpoint=False))
+    vertices = 0.1 * np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], -1)
+    vertices = vertices.reshape(-1, 3)
+    index = np.arange(len(vertices)).reshape(2 * n, n)
+    a, b = index, np.roll(index, -1, axis=0)
+    quads = np.stack([a[:, :-1], b[:, :-1], b[:, 1:], a[:, 1:]], -1).reshape(-1, 4)
+    return vertices, np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+
+
+def test_a_sphere_is_refused_saying_what_was_not_found():
+    vertices, triangles = _sphere()
+    with pytest.raises(PlacementError, match="does not look like a human head: no"):
+        place_feature_points(vertices, triangles)
+
+
+def test_too_small_a_mesh_is_refused():
+    with pytest.raises(PlacementError, match="too few"):
+        place_feature_points(np.zeros((8, 3)), np.array([[0, 1, 2]]))
