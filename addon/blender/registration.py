@@ -2,13 +2,14 @@
 
 import bpy
 
-from . import elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
+from . import elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops, voice_ops
 
 CLASSES = (
     *properties.CLASSES,
     *ops.CLASSES,
     *elastic_ops.CLASSES,
     *speech_ops.CLASSES,
+    *voice_ops.CLASSES,
     *fitting_ops.CLASSES,
     *menus.CLASSES,
     *panel.CLASSES,

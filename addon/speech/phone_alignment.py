@@ -35,7 +35,7 @@ import numpy as np
 from . import SpeechError
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
-from .tables import DATA, PhonemeTable, load_phonemes, read_json, read_text
+from .tables import DATA, cmu_phones, read_json, read_text
 
 FRAME_SECONDS = 0.01
 BOUNDARY_OFFSET = (410 / 2 - 160 / 2) / RATE  # seconds, see the module docstring
@@ -76,17 +76,11 @@ def _pocketsphinx():
 
 
 @functools.cache
-def phone_visemes() -> PhonemeTable:
-    """CMU phone (lower case) -> visemes, from `data/phones_cmu.json`."""
-    return load_phonemes(DATA / "phones_cmu.json")
-
-
-@functools.cache
 def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
     """espeak-ng English mnemonic -> CMU phones, from `data/espeak_to_cmu.json` (checked)."""
     source = str(DATA / "espeak_to_cmu.json")
     doc = read_json(DATA / "espeak_to_cmu.json", "espeak-ng to CMU table")
-    known = phone_visemes().visemes
+    known = cmu_phones().visemes
     table: dict[str, tuple[str, ...]] = {}
     for k, group in enumerate(doc["groups"]):
         if set(group) != {"cmu", "espeak", "why"} or not group["why"].strip():
@@ -103,7 +97,7 @@ def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
 
 def phone_segments(phones: list[TimedLabel], source: str = "the recording") -> list[Segment]:
     """Timed CMU phones -> viseme segments, as text's phonemes become them."""
-    return segments_from_labels(phones, phone_visemes(), source=source)
+    return segments_from_labels(phones, cmu_phones(), source=source)
 
 
 # ----------------------------------------------------------------------------- transcript

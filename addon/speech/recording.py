@@ -110,9 +110,9 @@ def decode_wav(data: bytes, source: str) -> tuple[np.ndarray, int]:
 # ----------------------------------------------------------------------------- other formats
 
 
-def decode_with_aud(path: Path, max_seconds: float) -> tuple[np.ndarray, int]:
-    """(frames, 1) float samples at RATE through Blender's audio library; RecordingError where there is none
-    or it cannot read the file."""
+def open_with_aud(path: Path):
+    """An `aud.Sound` of a file, through Blender's audio library; RecordingError where there is none or it
+    cannot read the file."""
     try:
         import aud
     except ImportError:
@@ -122,19 +122,27 @@ def decode_with_aud(path: Path, max_seconds: float) -> tuple[np.ndarray, int]:
         ) from None
     try:
         sound = aud.Sound(str(path))
-        rate, channels = sound.specs
-        length = sound.length
     except Exception as exc:  # aud.error, and whatever its decoders raise on a broken file
         raise RecordingError(f"{path}: not a sound file Blender can read ({exc})") from None
+    return sound
+
+
+def decode_aud_sound(sound, source: str, max_seconds: float = DEFAULT_MAX_SECONDS) -> np.ndarray:
+    """(N,) float samples at RATE of an `aud.Sound` (a file, or a sound strip's `sound.factory`)."""
+    try:
+        rate, channels = sound.specs
+        length = sound.length
+    except Exception as exc:
+        raise RecordingError(f"{source}: not a sound Blender can read ({exc})") from None
     if rate <= 0 or channels <= 0 or length < 0:
-        raise RecordingError(f"{path}: not a sound file Blender can read")
+        raise RecordingError(f"{source}: not a sound Blender can read")
     if length / rate > max_seconds:
-        raise RecordingError(_too_long(str(path), length / rate, max_seconds))
+        raise RecordingError(_too_long(source, length / rate, max_seconds))
     try:
         data = sound.rechannel(1).resample(RATE, 2).data()
     except Exception as exc:
-        raise RecordingError(f"{path}: Blender could not decode the sound ({exc})") from None
-    return np.asarray(data, dtype=np.float64).reshape(-1, 1), RATE
+        raise RecordingError(f"{source}: Blender could not decode the sound ({exc})") from None
+    return np.asarray(data, dtype=np.float64).ravel()
 
 
 # ----------------------------------------------------------------------------- resampling
@@ -215,20 +223,24 @@ def read_recording(path, max_seconds: float = DEFAULT_MAX_SECONDS) -> Recording:
         raise RecordingError(f"the length cap {max_seconds!r} is not a positive number of seconds")
     path = Path(path)
     source = str(path)
-    if path.suffix.lower() in WAV_NAMES or _looks_like_wav(path):
-        data = read_regular_file(path, MAX_FILE_BYTES, RecordingError, source, "larger than 2 GiB")
-        frames, rate = decode_wav(data, source)
-        if len(frames) / rate > max_seconds:
-            raise RecordingError(_too_long(source, len(frames) / rate, max_seconds))
-        check_samples(frames.ravel(), source)  # clipping shows in a channel, before channels average
-        mono = resample(frames.mean(axis=1), rate)
-    else:
+    if path.suffix.lower() not in WAV_NAMES and not _looks_like_wav(path):
         if not path.is_file():
-            raise RecordingError(f"{source}: no such file")
-        frames, rate = decode_with_aud(path, max_seconds)
-        check_samples(frames.ravel(), source)
-        mono = frames.ravel().astype(np.float32)
-    return Recording(np.clip(mono, -1.0, 1.0), source)
+            raise RecordingError(f"{source}: no such file (or not a regular file)")
+        return from_aud_sound(open_with_aud(path), source, max_seconds)
+    data = read_regular_file(path, MAX_FILE_BYTES, RecordingError, source, "larger than 2 GiB")
+    frames, rate = decode_wav(data, source)
+    if len(frames) / rate > max_seconds:
+        raise RecordingError(_too_long(source, len(frames) / rate, max_seconds))
+    check_samples(frames.ravel(), source)  # clipping shows in a channel, before channels average
+    mono = resample(frames.mean(axis=1), rate)
+    return Recording(np.clip(mono, -1.0, 1.0).astype(np.float32), source)
+
+
+def from_aud_sound(sound, source: str, max_seconds: float = DEFAULT_MAX_SECONDS) -> Recording:
+    """A recording from an `aud.Sound` (e.g. a sound strip's `sound.factory`, packed or not), checked."""
+    mono = decode_aud_sound(sound, source, max_seconds)
+    check_samples(mono, source)
+    return Recording(np.clip(mono, -1.0, 1.0).astype(np.float32), source)
 
 
 def _looks_like_wav(path: Path) -> bool:
