@@ -25,14 +25,17 @@ end, and Blender's modal operator one step per timer tick so that Esc can stop i
 
 from __future__ import annotations
 
+import bisect
+import contextlib
 import functools
 import os
 import re
 from collections.abc import Callable, Generator
+from dataclasses import dataclass
 
 import numpy as np
 
-from . import SpeechError
+from . import SpeechError, espeak
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, cmu_phones, read_json, read_text
@@ -46,6 +49,16 @@ FEED_SAMPLES = RATE  # samples per decoding step (one progress step)
 MAX_WORDS_PER_SECOND = 10.0  # faster than any speaker: such a transcript does not belong to the recording
 VAD_MODES = (0, 1, 2, 3)  # PocketSphinx's voice-activity aggressiveness, loose to strict
 DEFAULT_VAD_MODE = 2
+# The search's beams (beam, wbeam, pbeam: how far below the best a path may score and stay) per task and
+# accuracy. Alignment follows one linear grammar, so even a nearly exhaustive beam costs little (13 s of
+# speech: 1.72 s at 1e-80, 1.80 s at 1e-200), while PocketSphinx's default (1e-48) loses the only path on
+# accented or synthetic voices ("plum jam", en-us, 150 words a minute) and the alignment fails.
+BEAMS = {
+    ("align", "STANDARD"): 1e-200,
+    ("align", "HIGH"): 1e-300,
+    ("recognise", "STANDARD"): 1e-20,
+    ("recognise", "HIGH"): 1e-50,
+}
 ACCURACY = ("STANDARD", "HIGH")
 OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
@@ -96,25 +109,35 @@ def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
 
 
 def phone_segments(phones: list[TimedLabel], source: str = "the recording") -> list[Segment]:
-    """Timed CMU phones -> viseme segments, as text's phonemes become them."""
-    return segments_from_labels(phones, cmu_phones(), source=source)
+    """Timed phones (espeak-ng's names, or CMU phones in lower case) -> viseme segments, through the same
+    tables as text."""
+    return segments_from_labels(phones, source=source)
 
 
 # ----------------------------------------------------------------------------- transcript
 
 
+_WORD = re.compile(r"[\w']+")
+
+
 def transcript_words(text: str) -> list[str]:
     """The words of a transcript, lower case, as the dictionary spells them ("Don't!" -> "don't")."""
+    return [word for word, _ in _words_with_spans(text)]
+
+
+def _words_with_spans(text: str) -> list[tuple[str, tuple[int, int]]]:
     if not isinstance(text, str):
         raise AlignmentError(f"the transcript must be text, not {type(text).__name__}")
-    words = [w.strip("'_") for w in re.findall(r"[\w']+", text.lower())]
-    return [w for w in words if w]
+    out = []
+    for match in _WORD.finditer(text):
+        word = match[0].lower().strip("'_")
+        if word:
+            out.append((word, match.span()))
+    return out
 
 
 def _pronunciation(word: str) -> str:
     """The model's phones for a word missing from the dictionary, from espeak-ng's phonemes of it."""
-    from . import espeak
-
     table = espeak_to_cmu()
     phones: list[str] = []
     for phoneme in espeak.synthesize(word, OOV_VOICE).phonemes:
@@ -132,30 +155,96 @@ def _pronunciation(word: str) -> str:
     return " ".join(phones).upper()  # the model's phone names are upper case
 
 
-def _add_missing_words(decoder, words: list[str]) -> list[str]:
-    """Give the decoder a pronunciation of every word it lacks; returns the words added."""
-    missing = sorted({w for w in words if decoder.lookup_word(w) is None})
-    for k, word in enumerate(missing):
-        decoder.add_word(word, _pronunciation(word), k == len(missing) - 1)  # one update, after the last
-    return missing
+@dataclass(frozen=True)
+class _Word:
+    """A transcript word as the decoder aligns it: its dictionary entry, the model's phones of that entry and,
+    for each phone, the espeak-ng phoneme it stands for (index in the word, name), or None to label the phones
+    with their own CMU names."""
+
+    text: str
+    key: str
+    phones: tuple[str, ...]
+    labels: tuple[tuple[int, str], ...] | None = None
 
 
-def _phone_count(decoder, word: str) -> int:
-    return len((decoder.lookup_word(word) or "x").split())
+def _espeak_words(decoder, text: str) -> list[_Word]:
+    """Each word pronounced as espeak-ng says it in this sentence (its phonemes mapped to the model's phones),
+    so the aligned phones carry the text path's phoneme names and visemes; a word without phonemes of its
+    own keeps the dictionary's pronunciation."""
+    text = text.strip()
+    words = _words_with_spans(text)
+    speech = espeak.synthesize(text, OOV_VOICE)
+    starts = [span[0] for _, span in words]
+    table = espeak_to_cmu()
+    parts: list[list[tuple[str, tuple[str, ...]]]] = [[] for _ in words]
+    for phoneme in speech.phonemes:
+        name = phoneme.label.lstrip("',%=!")
+        position = phoneme.text_position - 1  # espeak-ng's is 1-based
+        k = bisect.bisect_right(starts, position) - 1
+        if name.startswith("_") or k < 0 or position >= words[k][1][1]:
+            continue
+        if name not in table:
+            raise AlignmentError(f"espeak-ng's phoneme {name!r} in {words[k][0]!r} has no CMU phone")
+        parts[k].append((phoneme.label, table[name]))
+    out = []
+    for (word, _), phonemes in zip(words, parts, strict=True):
+        phones = tuple(p.upper() for _, cmu in phonemes for p in cmu)
+        if not phones:
+            out.extend(_dictionary_words(decoder, [word]))
+            continue
+        labels = tuple((i, label) for i, (label, cmu) in enumerate(phonemes) for _ in cmu)
+        out.append(_Word(word, f"{word}__{'_'.join(phones).lower()}", phones, labels))
+    _add_words(decoder, out)
+    return out
+
+
+def _dictionary_words(decoder, texts: list[str]) -> list[_Word]:
+    """Words as the CMU dictionary pronounces them (a missing one from espeak-ng's phonemes)."""
+    missing = [_Word(w, w, tuple(_pronunciation(w).split())) for w in sorted(set(texts)) if not _known(decoder, w)]
+    _add_words(decoder, missing)
+    return [_Word(w, w, tuple(decoder.lookup_word(w).split())) for w in texts]
+
+
+def _known(decoder, key: str) -> bool:
+    return decoder.lookup_word(key) is not None
+
+
+def _add_words(decoder, words: list[_Word]) -> None:
+    new = {w.key: w.phones for w in words if not _known(decoder, w.key)}
+    for k, (key, phones) in enumerate(new.items()):
+        decoder.add_word(key, " ".join(phones), k == len(new) - 1)  # one update, after the last
 
 
 # ----------------------------------------------------------------------------- decoding
 
 
-def _decoder(accuracy: str, **options):
+def _new_decoder(task: str, accuracy: str):
     if accuracy not in ACCURACY:
         raise SpeechError(f"accuracy {accuracy!r} is not one of {', '.join(ACCURACY)}")
-    if accuracy == "HIGH":  # wider beams: fewer search errors on noisy or unusual speech, slower
-        options.update(beam=1e-80, wbeam=1e-60, pbeam=1e-80)
+    beam = BEAMS[task, accuracy]
+    options = {"lm": None, "beam": beam, "wbeam": beam, "pbeam": beam}
+    if task == "recognise":
+        # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
+        # search keeps only a few long phones
+        model = _pocketsphinx().get_model_path()
+        options.update(allphone=os.path.join(model, "en-us", "en-us-phone.lm.bin"), lw=2.0, pip=0.3)
     try:
         return _pocketsphinx().Decoder(samprate=RATE, bestpath=False, loglevel="FATAL", **options)
     except (RuntimeError, ValueError) as exc:
         raise SpeechError(f"PocketSphinx could not start: {exc}") from None
+
+
+_idle_decoders: dict[tuple[str, str], list] = {}
+
+
+@contextlib.contextmanager
+def _decoder(task: str, accuracy: str):
+    """A decoder for `task` ("align", "recognise") from a pool: loading the model takes about as long as
+    aligning two seconds of speech. One left by an error or by closing the steps midway (Esc) is dropped."""
+    idle = _idle_decoders.setdefault((task, accuracy), [])
+    decoder = idle.pop() if idle else _new_decoder(task, accuracy)
+    yield decoder
+    idle.append(decoder)
 
 
 def _pcm(samples: np.ndarray) -> bytes:
@@ -215,9 +304,9 @@ def pieces(samples: np.ndarray, vad_mode: int = DEFAULT_VAD_MODE) -> tuple[list[
     return ranges, voiced
 
 
-def _share_words(words: list[str], weights: list[int], voiced: list[float]) -> list[list[str]]:
+def _share_words(words: list[_Word], voiced: list[float]) -> list[list[_Word]]:
     """Words for each piece: the piece's share of the voiced time picks the same share of the phones."""
-    cumulative = np.cumsum(weights) / sum(weights)
+    cumulative = np.cumsum([len(w.phones) for w in words]) / sum(len(w.phones) for w in words)
     shares = np.cumsum(voiced) / max(sum(voiced), 1e-9)
     out, first = [], 0
     for k, share in enumerate(shares):
@@ -228,11 +317,47 @@ def _share_words(words: list[str], weights: list[int], voiced: list[float]) -> l
 
 
 def _phones_of(entries, offset: float) -> list[TimedLabel]:
+    """(label, first frame, frames, word: "" between words, None when recognised) of a padded piece starting
+    at `offset` s -> timed labels whose `where` names the word."""
     out = []
-    for name, first, frames in entries:
+    for label, first, frames, word in entries:
         start = max(0.0, offset + first * FRAME_SECONDS + BOUNDARY_OFFSET - PAD_SECONDS)
         end = max(start, offset + (first + frames) * FRAME_SECONDS + BOUNDARY_OFFSET - PAD_SECONDS)
-        out.append(TimedLabel(start, end, name.lower(), f"PocketSphinx phone at {start:.2f} s"))
+        where = "recognised phone" if word is None else f"word {word!r}" if word else "between words"
+        out.append(TimedLabel(start, end, label, f"{where} at {start:.2f} s"))
+    return out
+
+
+def _aligned_entries(alignment, words: list[_Word]) -> list[tuple[str, int, int, str]]:
+    """The alignment's phones as (label, first frame, frames, word): an espeak-ng-pronounced word's phones
+    named after its phonemes (the phones of one phoneme joined), others by their CMU names."""
+    spans = []  # (first frame, end frame, word) of the transcript's words, in order
+    queue = iter(words)
+    for entry in alignment.words():
+        if not entry.name.startswith("<") and not entry.name.startswith("+"):
+            spans.append((entry.start, entry.start + entry.duration, next(queue)))
+    out: list[tuple[str, int, int, str]] = []
+    seen: dict[int, int] = {}  # span index -> phones of it so far
+    last_key = None
+    for phone in alignment.phones():
+        k = next((i for i, (a, b, _) in enumerate(spans) if a <= phone.start < b), None)
+        if k is None or phone.name == "SIL":
+            out.append(("sil", phone.start, phone.duration, ""))
+            last_key = None
+            continue
+        word = spans[k][2]
+        n = seen[k] = seen.get(k, -1) + 1
+        if word.labels is None or n >= len(word.labels):
+            out.append((phone.name.lower(), phone.start, phone.duration, word.text))
+            last_key = None
+            continue
+        index, label = word.labels[n]
+        if last_key == (k, index):  # a second phone of the same phoneme (a diphthong with r, syllabic l)
+            previous = out[-1]
+            out[-1] = (label, previous[1], phone.start + phone.duration - previous[1], word.text)
+        else:
+            out.append((label, phone.start, phone.duration, word.text))
+        last_key = (k, index)
     return out
 
 
@@ -253,7 +378,11 @@ def _join(pieces_phones: list[list[TimedLabel]], duration: float) -> list[TimedL
 def alignment_steps(
     recording: Recording, transcript: str, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
 ) -> ProgressSteps:
-    """Forced alignment of `transcript` with `recording`: yields progress, returns the timed phones."""
+    """Forced alignment of `transcript` with `recording`: yields progress, returns the timed phones.
+
+    The words are pronounced as espeak-ng says them in the sentence (`_espeak_words`), so that the phones and
+    visemes match what Speak Text gives for the same text; if that alignment fails (a speaker whose accent
+    differs), or espeak-ng is missing, with the dictionary's pronunciations."""
     words = transcript_words(transcript)
     if not words:
         raise AlignmentError("the transcript has no words")
@@ -262,10 +391,19 @@ def alignment_steps(
             f"the transcript has {len(words)} words, more than anyone says in {recording.duration:.1f} s: is it the "
             "transcript of this recording?"
         )
-    decoder = _decoder(accuracy, lm=None)
-    _add_missing_words(decoder, words)
     ranges, voiced = pieces(recording.samples, vad_mode)
-    shares = _share_words(words, [_phone_count(decoder, w) for w in words], voiced)
+    with _decoder("align", accuracy) as decoder:
+        try:
+            spoken = _espeak_words(decoder, transcript)
+            results = yield from _align_pieces(decoder, recording, ranges, _share_words(spoken, voiced))
+        except (AlignmentError, espeak.EspeakMissingError):
+            listed = _dictionary_words(decoder, words)
+            results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
+    return _join(results, recording.duration)
+
+
+def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
+    """Align each piece with its words (a piece that fails is tried again together with the next one)."""
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -279,18 +417,18 @@ def alignment_steps(
         pcm = _pcm(recording.samples[first:end])
         entries = None
         try:
-            decoder.set_align_text(" ".join(piece_words))
+            decoder.set_align_text(" ".join(w.key for w in piece_words))
             yield from _decode_pass(decoder, pcm, done, total)
             if decoder.hyp() is not None:
                 decoder.set_alignment()
                 yield from _decode_pass(decoder, pcm, done + len(pcm) / 2, total)
                 alignment = decoder.get_alignment()
-                entries = [(p.name, p.start, p.duration) for p in alignment.phones()] if alignment else None
+                entries = _aligned_entries(alignment, piece_words) if alignment else None
         except RuntimeError:
             entries = None
         done += len(pcm)  # two passes of len(pcm) / 2 samples
         if not entries:
-            if end < len(recording.samples):  # try again together with the next piece
+            if end < len(recording.samples):
                 pending_range, pending_words = (first, end), piece_words
                 continue
             raise AlignmentError(
@@ -300,28 +438,24 @@ def alignment_steps(
             )
         results.append(_phones_of(entries, first / RATE))
         pending_range, pending_words = None, []
-    return _join(results, recording.duration)
+    return results
 
 
 def recognition_steps(
     recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
 ) -> ProgressSteps:
     """Phone recognition without a transcript (less accurate): yields progress, returns the timed phones."""
-    model = _pocketsphinx().get_model_path()
-    phone_lm = os.path.join(model, "en-us", "en-us-phone.lm.bin")
-    # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
-    # search keeps only a few long phones
-    decoder = _decoder(accuracy, lm=None, allphone=phone_lm, lw=2.0, pip=0.3, beam=1e-20, pbeam=1e-20)
     ranges, _ = pieces(recording.samples, vad_mode)
     total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
     done = 0.0
     results = []
-    for first, end in ranges:
-        pcm = _pcm(recording.samples[first:end])
-        yield from _decode_pass(decoder, pcm, done, total)
-        done += len(pcm) / 2
-        entries = [(s.word, s.start_frame, s.end_frame - s.start_frame + 1) for s in decoder.seg()]
-        results.append(_phones_of(entries, first / RATE))
+    with _decoder("recognise", accuracy) as decoder:
+        for first, end in ranges:
+            pcm = _pcm(recording.samples[first:end])
+            yield from _decode_pass(decoder, pcm, done, total)
+            done += len(pcm) / 2
+            entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
+            results.append(_phones_of(entries, first / RATE))
     return _join(results, recording.duration)
 
 
