@@ -60,6 +60,12 @@ BEAMS = {
     ("recognise", "HIGH"): 1e-50,
 }
 ACCURACY = ("STANDARD", "HIGH")
+# With beams this wide any transcript "aligns"; whether it is what is said shows in the alignment's acoustic
+# score per frame (PocketSphinx scores each frame against its best senone, so the level of the recording does
+# not enter). Measured (docs/voice.md, "Refusing a wrong transcript"): the right transcript -9 to -15 on the
+# human recordings of pocketsphinx-testdata, -13 to -37 on espeak-ng voices (clean and at 20 dB SNR); another
+# sentence's transcript -45 to -64.
+MIN_SCORE_PER_FRAME = -42.0
 OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
@@ -328,6 +334,11 @@ def _phones_of(entries, offset: float) -> list[TimedLabel]:
     return out
 
 
+def _score_per_frame(alignment) -> float:
+    phones = list(alignment.phones())
+    return sum(p.score for p in phones) / max(sum(p.duration for p in phones), 1)
+
+
 def _aligned_entries(alignment, words: list[_Word]) -> list[tuple[str, int, int, str]]:
     """The alignment's phones as (label, first frame, frames, word): an espeak-ng-pronounced word's phones
     named after its phonemes (the phones of one phoneme joined), others by their CMU names."""
@@ -423,7 +434,8 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 decoder.set_alignment()
                 yield from _decode_pass(decoder, pcm, done + len(pcm) / 2, total)
                 alignment = decoder.get_alignment()
-                entries = _aligned_entries(alignment, piece_words) if alignment else None
+                if alignment is not None and _score_per_frame(alignment) >= MIN_SCORE_PER_FRAME:
+                    entries = _aligned_entries(alignment, piece_words)
         except RuntimeError:
             entries = None
         done += len(pcm)  # two passes of len(pcm) / 2 samples
