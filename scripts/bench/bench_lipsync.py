@@ -38,7 +38,7 @@ import numpy as np
 
 from addon.mpeg4.faps import Viseme
 from addon.speech import espeak, phone_alignment, recording
-from addon.speech.segments import segments_from_labels
+from addon.speech.segments import TimedLabel, segments_from_labels
 
 SENTENCES = Path(__file__).with_name("speech_sentences.txt")
 TESTDATA = Path("/usr/share/pocketsphinx/test/data")
@@ -145,10 +145,15 @@ def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcrip
     samples = with_noise(speech.samples, SNR_DB, seed) if noisy else speech.samples
     began = time.perf_counter()
     take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
-    phones = phone_alignment.phones_from_recording(take, text if transcript else None)
+    try:
+        phones = phone_alignment.phones_from_recording(take, text if transcript else None)
+    except phone_alignment.AlignmentError:  # refused: scored as a mouth that never moves
+        phones = [TimedLabel(0.0, speech.duration, "sil")]
+    refused = len(phones) == 1
     seconds = time.perf_counter() - began
     found = phone_alignment.phone_segments(phones)
     return {
+        "refused": refused,
         "espeak": score(espeak.speech_segments(speech), found, speech.duration),
         "closure": score(closure_truth(speech), found, speech.duration),
         "duration": speech.duration,
@@ -160,6 +165,7 @@ def summary(cases: list[dict]) -> dict:
     out = {truth: summary_of([c[truth] for c in cases]) for truth in TRUTHS}
     for truth in TRUTHS:
         out[truth]["speed"] = sum(c["duration"] for c in cases) / max(sum(c["seconds"] for c in cases), 1e-9)
+        out[truth]["refused"] = sum(c["refused"] for c in cases)
     return out
 
 
@@ -250,9 +256,9 @@ def real(transcript: bool) -> dict | None:
 def table(report: dict, truth: str) -> str:
     head = (
         "| set | transcript | noise | recordings | frame agreement (speech) | closure recall | closure precision "
-        "| onset median / p90 ms | × real time |"
+        "| onset median / p90 ms | × real time | refused |"
     )
-    lines = [head, "|" + "---|" * 9]
+    lines = [head, "|" + "---|" * 10]
     for name in ("dev", "held-out", "long take"):
         for mode, conditions in report[name].items():
             items = conditions.items() if "espeak" not in conditions else [("clean", conditions)]
@@ -262,7 +268,7 @@ def table(report: dict, truth: str) -> str:
                     f"| {name} | {mode} | {noise} | {s['recordings']} | {s['agreement']:.1%} "
                     f"({s['speech_agreement']:.1%}) | {s['closure_recall']:.1%} of {s['closures']} | "
                     f"{s['closure_precision']:.1%} | {s['onset_median_ms']:.0f} / {s['onset_p90_ms']:.0f} | "
-                    f"{s['speed']:.1f} |"
+                    f"{s['speed']:.1f} | {s['refused']} |"
                 )
     real_ = report.get("real")
     if real_ and truth == TRUTHS[-1]:
