@@ -15,8 +15,6 @@ left alone.
 
 from __future__ import annotations
 
-import contextlib
-import time
 from pathlib import Path
 
 import bpy
@@ -25,9 +23,9 @@ from bpy_extras.io_utils import ImportHelper
 
 from ..errors import Mpeg4Error
 from ..speech import coarticulation, phone_alignment, recording
-from . import face_data, fap_io, poll
-from .ops import NAVIGATION_EVENTS
-from .reporting import Mpeg4Operator, progress, report_outside_operator
+from . import fap_io, poll
+from .modal_job import ModalJob
+from .reporting import Mpeg4Operator
 from .speech_ops import _play, _SpeechOptions, frame_budget, scene_fps
 
 AUDIO_GLOB = "*.wav;*.wave;*.flac;*.ogg;*.oga;*.mp3;*.m4a;*.aac;*.opus"
@@ -108,10 +106,11 @@ class LipSyncJob:
         return notes
 
 
-class _LipSyncOperator(_SpeechOptions, Mpeg4Operator):
+class _LipSyncOperator(ModalJob, _SpeechOptions, Mpeg4Operator):
     """Options and the modal run shared by the file and the strip operators."""
 
     TICK_SECONDS = 0.05
+    CANCELLED_MESSAGE = "Lip-sync cancelled: nothing changed"
 
     transcript: StringProperty(
         name="Transcript",
@@ -141,8 +140,6 @@ class _LipSyncOperator(_SpeechOptions, Mpeg4Operator):
         default="STANDARD",
     )
 
-    _job = None
-
     def draw(self, _context):
         layout = self.layout
         layout.use_property_split = True
@@ -162,70 +159,28 @@ class _LipSyncOperator(_SpeechOptions, Mpeg4Operator):
                 return phone_alignment.read_transcript_file(beside)
         return ""
 
-    def _job_for(self, context) -> LipSyncJob:
+    def _make_job(self, context) -> LipSyncJob:
         raise NotImplementedError
 
     def run(self, context):
-        job = self._job or self._job_for(context)
+        job = self._job or self._make_job(context)
         self._job = None
         while not job.done:
             job.step()
         return job.finish(context)
 
-    # in a window: a timer decodes a second of audio per step, with progress in the status bar; Esc cancels
+    # in a window (after the file browser): a timer decodes a second of audio per step, Esc cancels
     def execute(self, context):
         if bpy.app.background or context.window is None or self._job is not None:
             return Mpeg4Operator.execute(self, context)
-        try:
-            self._job = self._job_for(context)
-        except Exception as exc:
-            if not isinstance(exc, Mpeg4Error):
-                report_outside_operator(face_data.active_face(context), exc)
-                return {"CANCELLED"}
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
-        wm = context.window_manager
-        self._ui = contextlib.ExitStack()
-        self._update = self._ui.enter_context(progress(context, 100))
-        timer = wm.event_timer_add(0.01, window=context.window)
-        self._ui.callback(wm.event_timer_remove, timer)
-        self._texts = [context.workspace.status_text_set]
-        for show in self._texts:
-            self._ui.callback(show, None)
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return self.start_job(context)
 
-    def modal(self, context, event):
-        if event.type == "ESC" and event.value == "PRESS":
-            self.cancel(context)
-            self.report({"WARNING"}, "Lip-sync cancelled: nothing changed")
-            return {"CANCELLED"}
-        if event.type in NAVIGATION_EVENTS:
-            return {"PASS_THROUGH"}
-        if event.type != "TIMER":
-            return {"RUNNING_MODAL"}
+    def _progress_total(self) -> int:
+        return 100
+
+    def _show_progress(self):
         job = self._job
-        try:
-            deadline = time.perf_counter() + self.TICK_SECONDS
-            while not job.done and time.perf_counter() < deadline:
-                job.step()
-        except Exception as exc:
-            self.cancel(context)
-            report_outside_operator(bpy.data.objects.get(job.face_name), exc)
-            return {"CANCELLED"}
-        if job.done:
-            self._ui.close()
-            return self.execute(context)
-        for show in self._texts:
-            show(f"Lip-sync {job.name}: {job.fraction:.0%}   Esc: cancel")
-        self._update(int(job.fraction * 100))
-        return {"RUNNING_MODAL"}
-
-    def cancel(self, _context):
-        if self._job is not None:
-            self._ui.close()
-            self._job.cancel()
-            self._job = None
+        self._show_text(f"{job.name}: {job.fraction:.0%} decoded   Esc: cancel", int(job.fraction * 100))
 
 
 class MPEG4_OT_lipsync_audio(_LipSyncOperator, bpy.types.Operator, ImportHelper):
@@ -243,7 +198,7 @@ class MPEG4_OT_lipsync_audio(_LipSyncOperator, bpy.types.Operator, ImportHelper)
         self._start(context)
         return ImportHelper.invoke(self, context, event)
 
-    def _job_for(self, context) -> LipSyncJob:
+    def _make_job(self, context) -> LipSyncJob:
         face = poll.face(context)
         fap_io.require_setup(face)
         path = Path(bpy.path.abspath(self.filepath)).resolve()
@@ -290,7 +245,7 @@ class MPEG4_OT_lipsync_strip(_LipSyncOperator, bpy.types.Operator):
             self.start_frame = int(strip.frame_start)
         return context.window_manager.invoke_props_dialog(self, width=420)
 
-    def _job_for(self, context) -> LipSyncJob:
+    def _make_job(self, context) -> LipSyncJob:
         face = poll.face(context)
         strip = _active_sound_strip(context)
         if strip is None:

@@ -145,11 +145,11 @@ def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcrip
     samples = with_noise(speech.samples, SNR_DB, seed) if noisy else speech.samples
     began = time.perf_counter()
     take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
+    refused = False
     try:
         phones = phone_alignment.phones_from_recording(take, text if transcript else None)
     except phone_alignment.AlignmentError:  # refused: scored as a mouth that never moves
-        phones = [TimedLabel(0.0, speech.duration, "sil")]
-    refused = len(phones) == 1
+        phones, refused = [TimedLabel(0.0, speech.duration, "sil")], True
     seconds = time.perf_counter() - began
     found = phone_alignment.phone_segments(phones)
     return {

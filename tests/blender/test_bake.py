@@ -251,6 +251,8 @@ class _Window:
     execute = ops.MPEG4_OT_bake.execute
     run = ops.MPEG4_OT_bake.run
     _show_progress = ops.MPEG4_OT_bake._show_progress
+    _show_text = ops.MPEG4_OT_bake._show_text
+    CANCELLED_MESSAGE = ops.MPEG4_OT_bake.CANCELLED_MESSAGE
 
     def __init__(self, job):
         self._job, self.reports, self.texts, self.progress = job, [], [], []
