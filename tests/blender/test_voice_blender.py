@@ -2,9 +2,6 @@
 sound strip at the start frame, the lips closing on b/p/m; bad recordings refused with the scene unchanged;
 Remove taking it all away."""
 
-import contextlib
-import types
-
 import bpy
 import numpy as np
 import pytest
@@ -13,7 +10,7 @@ from addon.blender import face_data, fap_io, speech_ops, voice_ops
 from addon.speech import espeak, recording, wav
 from tests.markers import needs_espeak
 
-from .helpers import select
+from .helpers import ModalWindow, event, select
 from .test_hardening import unset_sample
 from .test_speech_blender import gap, saved_sample, scene_state, strips
 
@@ -137,37 +134,22 @@ def test_remove_after_lipsync_leaves_the_file_as_before_set_up(tmp_path):
     assert scene_state(tmp_path) == before and path.is_file()  # the user's recording is kept
 
 
-class _Window:
-    """Lip-Sync from Audio's modal methods on a plain object (background mode has no window for a timer)."""
-
-    bl_idname, bl_label = voice_ops.MPEG4_OT_lipsync_audio.bl_idname, voice_ops.MPEG4_OT_lipsync_audio.bl_label
-    TICK_SECONDS = 0.0  # one step (a second of audio) per tick
-    CANCELLED_MESSAGE = voice_ops.MPEG4_OT_lipsync_audio.CANCELLED_MESSAGE
-    modal = voice_ops.MPEG4_OT_lipsync_audio.modal
-    cancel = voice_ops.MPEG4_OT_lipsync_audio.cancel
-    execute = voice_ops.MPEG4_OT_lipsync_audio.execute
-    run = voice_ops.MPEG4_OT_lipsync_audio.run
-    _show_progress = voice_ops.MPEG4_OT_lipsync_audio._show_progress
-    _show_text = voice_ops.MPEG4_OT_lipsync_audio._show_text
-
-    def __init__(self, path, transcript=SENTENCE):
-        head = bpy.data.objects["Head"]
-        take = recording.read_recording(path)
-        options = fap_io.ImportOptions(start_frame=1)
-        self._job = voice_ops.LipSyncJob(
-            bpy.context, head, take, transcript, options, speech_ops.Layer(), 2, "STANDARD", path, "Lip-Sync: take"
-        )
-        self.reports, self.texts, self.progress = [], [], []
-        self._ui = contextlib.ExitStack()
-        self._ui.callback(self.texts.append, None)
-        self._texts, self._update = [self.texts.append], self.progress.append
-
-    def report(self, level, message):
-        self.reports.append((level.pop(), message))
-
-
-def _event(kind):
-    return types.SimpleNamespace(type=kind, value="PRESS")
+def _window(path, transcript=SENTENCE):
+    take = recording.read_recording(path)
+    options = fap_io.ImportOptions(start_frame=1)
+    job = voice_ops.LipSyncJob(
+        bpy.context,
+        bpy.data.objects["Head"],
+        take,
+        transcript,
+        options,
+        speech_ops.Layer(),
+        2,
+        "STANDARD",
+        path,
+        "Lip-Sync: take",
+    )
+    return ModalWindow(voice_ops.MPEG4_OT_lipsync_audio, job)
 
 
 @needs_espeak
@@ -176,10 +158,10 @@ def test_the_timer_decodes_in_steps_with_progress_and_then_keys_the_take(tmp_pat
     text = "Maybe Bob bought a map, and Pam made a bumpy plum pie by the lamp."
     path, _ = voice(tmp_path, text)
     actions = set(bpy.data.actions)
-    window = _Window(path, text)
+    window = _window(path, text)
     results = []
     while {"FINISHED"} not in results and len(results) < 60:
-        results.append(window.modal(bpy.context, _event("TIMER")))
+        results.append(window.modal(bpy.context, event("TIMER")))
     assert {"FINISHED"} in results and results.index({"FINISHED"}) >= 4  # several ticks, then the result
     assert results[: results.index({"FINISHED"})] == [{"RUNNING_MODAL"}] * results.index({"FINISHED"})
     assert window.progress == sorted(window.progress) and window.progress[-1] == 100
@@ -192,8 +174,8 @@ def test_esc_cancels_the_lipsync_and_changes_nothing(tmp_path):
     saved_sample(tmp_path)
     path, _ = voice(tmp_path)
     before = scene_state(tmp_path)
-    window = _Window(path)
-    assert window.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
-    assert window.modal(bpy.context, _event("ESC")) == {"CANCELLED"}
+    window = _window(path)
+    assert window.modal(bpy.context, event("TIMER")) == {"RUNNING_MODAL"}
+    assert window.modal(bpy.context, event("ESC")) == {"CANCELLED"}
     assert window.reports == [("WARNING", "Lip-sync cancelled: nothing changed")] and window.texts[-1] is None
     assert scene_state(tmp_path) == before
