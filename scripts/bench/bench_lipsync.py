@@ -198,7 +198,7 @@ def synthetic(sentences: list[str], voices, rates, transcript: bool) -> dict:
 
 def long_take(sentences: list[str], transcript: bool) -> dict:
     text = " ".join(sentences)
-    result = run_case(text, HELD_OUT["voices"][0], 175, False, 0, transcript)
+    result = run_case(text, HELD_OUT["voices"][0], HELD_OUT["rates"][0], False, 0, transcript)
     return summary([result])
 
 
