@@ -26,7 +26,7 @@ from ..speech import coarticulation, phone_alignment, recording
 from . import fap_io, poll
 from .modal_job import ModalJob
 from .reporting import Mpeg4Operator
-from .speech_ops import _play, _SpeechOptions, frame_budget, scene_fps
+from .speech_ops import FACE_PROP, _play, _SpeechOptions, frame_budget, scene_fps
 
 AUDIO_GLOB = "*.wav;*.wave;*.flac;*.ogg;*.oga;*.mp3;*.m4a;*.aac;*.opus"
 
@@ -54,8 +54,10 @@ class LipSyncJob:
         accuracy,
         sound_file: Path | None,
         name: str,
+        strip_name: str | None = None,
     ):
         self.face_name = face.name
+        self.strip_name = strip_name  # the sound strip the take comes from, kept whatever Replace removes
         self.take = take
         self.transcript = transcript
         self.options = options
@@ -88,21 +90,28 @@ class LipSyncJob:
         face = bpy.data.objects[self.face_name]
         segments = phone_alignment.phone_segments(self.phones, self.take.source)
         audio = None if self.sound_file is None else (lambda: (self.sound_file, False))  # never written or deleted
-        notes = _play(
-            context,
-            face,
-            segments,
-            self.take.duration,
-            self.name,
-            self.take.source,
-            self.options,
-            self.layer,
-            self.max_frames,
-            audio,
-        )
-        how = "aligned with the transcript" if self.transcript else "recognised without a transcript"
-        spoken = sum(1 for p in self.phones if phone_alignment.cmu_phones().lookup(p.label) != ())
-        notes.insert(0, f"{self.take.duration:.2f} s of voice: {len(self.phones)} phones {how} ({spoken} voiced)")
+        editor = context.scene.sequence_editor
+        source = None if self.strip_name is None or editor is None else editor.strips_all.get(self.strip_name)
+        owner = source.pop(FACE_PROP, None) if source is not None else None  # a strip an earlier take added
+        try:
+            notes = _play(
+                context,
+                face,
+                segments,
+                self.take.duration,
+                self.name,
+                self.take.source,
+                self.options,
+                self.layer,
+                self.max_frames,
+                audio,
+            )
+        finally:
+            if owner is not None:
+                source[FACE_PROP] = owner
+        how = "aligned with the transcript" if self.transcript else "recognised without a transcript (less exact)"
+        phones, visemes = len(self.phones), len(segments)
+        notes.insert(0, f"{self.take.duration:.2f} s of voice: {phones} phones {how}, {visemes} visemes")
         return notes
 
 
@@ -274,6 +283,7 @@ class MPEG4_OT_lipsync_strip(_LipSyncOperator, bpy.types.Operator):
             self.accuracy,
             None,
             f"Lip-Sync: {strip.name}",
+            strip.name,
         )
 
 

@@ -179,3 +179,16 @@ def test_esc_cancels_the_lipsync_and_changes_nothing(tmp_path):
     assert window.modal(bpy.context, event("ESC")) == {"CANCELLED"}
     assert window.reports == [("WARNING", "Lip-sync cancelled: nothing changed")] and window.texts[-1] is None
     assert scene_state(tmp_path) == before
+
+
+@needs_espeak
+def test_lipsync_again_from_the_strip_a_take_added_keeps_that_strip(tmp_path):
+    saved_sample(tmp_path)
+    path, _ = voice(tmp_path)
+    assert bpy.ops.mpeg4.lipsync_audio(filepath=str(path), start_frame=4) == {"FINISHED"}
+    (strip,) = strips()
+    bpy.context.scene.sequence_editor.active_strip = strip
+    actions = set(bpy.data.actions)
+    assert bpy.ops.mpeg4.lipsync_strip(transcript=SENTENCE) == {"FINISHED"}
+    assert strips() == [strip] and strip.sound is not None and len(set(bpy.data.actions) - actions) == 1
+    assert strip[speech_ops.FACE_PROP] == "Head"  # still the face's: Remove takes it away
