@@ -277,3 +277,14 @@ def test_missing_pocketsphinx_says_how_to_install_it(monkeypatch):
     with pytest.raises(phone_alignment.PocketSphinxMissingError, match=r"pip install pocketsphinx==5\.1\.1"):
         phone_alignment.speech_frames(np.zeros(1600, np.float32))
     assert issubclass(phone_alignment.PocketSphinxMissingError, SpeechError)
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_a_take_gives_the_same_phones_whatever_was_decoded_before():
+    take, _ = _take("Maybe Bob bought a map.")
+    other, _ = _take(SENTENCE, voice="en")
+    for transcript in (None, "Maybe Bob bought a map."):
+        first = phone_alignment.phones_from_recording(take, transcript)
+        phone_alignment.phones_from_recording(other, transcript and SENTENCE)
+        assert phone_alignment.phones_from_recording(take, transcript) == first
