@@ -247,18 +247,17 @@ _idle_decoders: dict[tuple[str, str], list] = {}
 @contextlib.contextmanager
 def _decoder(task: str, accuracy: str):
     """A decoder for `task` ("align", "recognise") from a pool: loading the model takes about as long as
-    aligning two seconds of speech. Its cepstral mean, which PocketSphinx adapts from utterance to utterance,
-    is set back to the model's first one, so a take gives the same phones whatever was decoded before. One
-    left by an error or by closing the steps midway (Esc) is dropped."""
+    aligning two seconds of speech. Its front end, which adapts from utterance to utterance (the cepstral
+    mean, the noise estimate), starts each take afresh, so a take gives the same phones whatever was decoded
+    before. One left by an error or by closing the steps midway (Esc) is dropped."""
     idle = _idle_decoders.setdefault((task, accuracy), [])
     if idle:
-        decoder, initial_mean = idle.pop()
-        decoder.set_cmn(initial_mean)
+        decoder = idle.pop()
+        decoder.reinit_feat()
     else:
         decoder = _new_decoder(task, accuracy)
-        initial_mean = decoder.get_cmn()
     yield decoder
-    idle.append((decoder, initial_mean))
+    idle.append(decoder)
 
 
 def _pcm(samples: np.ndarray) -> bytes:
