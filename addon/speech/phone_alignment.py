@@ -2,11 +2,14 @@
 
 With a transcript, forced alignment: `Decoder(samprate=16000, lm=None, bestpath=False)` (bestpath would
 truncate the alignment), `set_align_text(words)`, one decoding pass for the words, `set_alignment()`, a second
-pass for the phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. A word
-missing from the CMU dictionary gets its pronunciation from espeak-ng's phonemes, mapped to the dictionary's
-phone set by `data/espeak_to_cmu.json`. Without a transcript, phone recognition: the `allphone` search with
-the phone language model that ships with the model. Both give phones in the dictionary's set, written in
-lower case (`data/phones_cmu.json` maps them to visemes).
+pass for the phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. Each word
+is pronounced as espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the model's
+phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's
+visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
+by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
+(`MIN_SCORE_PER_FRAME`). Without a transcript, phone recognition: the `allphone` search with the phone
+language model that ships with the model, giving CMU phones. CMU phones are written in lower case
+(`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
