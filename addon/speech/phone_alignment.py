@@ -250,9 +250,9 @@ _idle_decoders: dict[tuple[str, str], list] = {}
 @contextlib.contextmanager
 def _decoder(task: str, accuracy: str):
     """A decoder for `task` ("align", "recognise") from a pool: loading the model takes about as long as
-    aligning two seconds of speech. Its front end, which adapts from utterance to utterance (the cepstral
-    mean, the noise estimate), starts each take afresh, so a take gives the same phones whatever was decoded
-    before. One left by an error or by closing the steps midway (Esc) is dropped."""
+    aligning two seconds of speech. Its front end, which adapts from utterance to utterance (the noise
+    estimate; the cepstral mean is set per piece, `_piece_mean`), starts each take afresh, so a take gives the
+    same phones whatever was decoded before. One left by an error or by closing the steps midway (Esc) is dropped."""
     idle = _idle_decoders.setdefault((task, accuracy), [])
     if idle:
         decoder = idle.pop()
@@ -272,8 +272,20 @@ def _pcm(samples: np.ndarray) -> bytes:
     return np.clip(np.round(noise * 32767), -32768, 32767).astype("<i2").tobytes()
 
 
-def _decode_pass(decoder, pcm: bytes, done: float, total: float) -> Generator[float, None, None]:
-    """One decoding pass over a piece, FEED_SAMPLES at a time; yields (done + samples fed) / total."""
+def _piece_mean(decoder, pcm: bytes) -> str:
+    """The piece's own cepstral mean, from its features alone (no search): the model's feat.params ask for
+    batch normalisation (`-cmn batch`), which decoding a second at a time cannot do by itself, and a
+    mean carried over from other takes, or the model's initial one, misleads the first seconds."""
+    decoder.start_utt()
+    decoder.process_raw(pcm, no_search=True, full_utt=False)
+    decoder.end_utt()
+    return decoder.get_cmn(True)
+
+
+def _decode_pass(decoder, pcm: bytes, mean: str, done: float, total: float) -> Generator[float, None, None]:
+    """One decoding pass over a piece from its cepstral mean, FEED_SAMPLES at a time; yields
+    (done + samples fed) / total."""
+    decoder.set_cmn(mean)
     decoder.start_utt()
     step = 2 * FEED_SAMPLES  # bytes
     for first in range(0, len(pcm), step):
@@ -439,10 +451,11 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
         entries = None
         try:
             decoder.set_align_text(" ".join(w.key for w in piece_words))
-            yield from _decode_pass(decoder, pcm, done, total)
+            mean = _piece_mean(decoder, pcm)  # once the decoder has a search to start
+            yield from _decode_pass(decoder, pcm, mean, done, total)
             if decoder.hyp() is not None:
                 decoder.set_alignment()
-                yield from _decode_pass(decoder, pcm, done + len(pcm) / 2, total)
+                yield from _decode_pass(decoder, pcm, mean, done + len(pcm) / 2, total)
                 alignment = decoder.get_alignment()
                 if alignment is not None and _score_per_frame(alignment) >= MIN_SCORE_PER_FRAME:
                     entries = _aligned_entries(alignment, piece_words)
@@ -474,7 +487,7 @@ def recognition_steps(
     with _decoder("recognise", accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
-            yield from _decode_pass(decoder, pcm, done, total)
+            yield from _decode_pass(decoder, pcm, _piece_mean(decoder, pcm), done, total)
             done += len(pcm) / 2
             entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
             results.append(_phones_of(entries, first / RATE))
