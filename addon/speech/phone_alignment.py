@@ -63,12 +63,13 @@ BEAMS = {
     ("recognise", "HIGH"): 1e-50,
 }
 ACCURACY = ("STANDARD", "HIGH")
-# With beams this wide any transcript "aligns"; whether it is what is said shows in the alignment's acoustic
+# With beams this wide most transcripts "align"; whether it is what is said shows in the alignment's acoustic
 # score per frame (PocketSphinx scores each frame against its best senone, so the level of the recording does
-# not enter). Measured (docs/voice.md, "A transcript that is not what is said"): the right transcript -9 to
-# -15 on the human recordings of pocketsphinx-testdata and down to -38.5 on espeak-ng voices at 120-300 words
-# a minute and 20 dB SNR; another sentence's transcript -40 to -64. The cut is set where no right transcript
-# comes near, so some wrong ones (those scoring -40 to -50) pass.
+# not enter). Measured (docs/voice.md, "A transcript that is not what is said"): the right transcript -10.6 to
+# -16.1 on the human recordings of pocketsphinx-testdata and down to -46.2 on espeak-ng voices (8 dev sentences,
+# en-us and en, 120 and 300 words a minute, clean and at 20 dB SNR); the next sentence's transcript fails to
+# align in 12 of those 64 takes and scores -40.1 to -71.3 in the others. The cut refuses 26 of those 52 and no
+# right transcript; the other wrong ones pass.
 MIN_SCORE_PER_FRAME = -50.0
 OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
