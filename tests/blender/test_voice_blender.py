@@ -192,3 +192,21 @@ def test_lipsync_again_from_the_strip_a_take_added_keeps_that_strip(tmp_path):
     assert bpy.ops.mpeg4.lipsync_strip(transcript=SENTENCE) == {"FINISHED"}
     assert strips() == [strip] and strip.sound is not None and len(set(bpy.data.actions) - actions) == 1
     assert strip[speech_ops.FACE_PROP] == "Head"  # still the face's: Remove takes it away
+
+
+@needs_espeak
+@pytest.mark.parametrize("container", ["FLAC", "OGG"])
+def test_flac_and_ogg_are_read_through_blenders_audio_library(tmp_path, container):
+    import aud
+
+    saved_sample(tmp_path)
+    path, speech = voice(tmp_path)
+    encoded = tmp_path / f"take.{container.lower()}"
+    codec = {"FLAC": aud.CODEC_FLAC, "OGG": aud.CODEC_VORBIS}[container]
+    aud.Sound(str(path)).write(str(encoded), 22050, 1, aud.FORMAT_S16, getattr(aud, f"CONTAINER_{container}"), codec)
+    before = strips()
+    assert bpy.ops.mpeg4.lipsync_audio(filepath=str(encoded), start_frame=2) == {"FINISHED"}
+    (strip,) = [s for s in strips() if s not in before]
+    assert bpy.path.abspath(strip.sound.filepath) == str(encoded)
+    take = recording.read_recording(encoded)
+    assert abs(take.duration - speech.duration) < 0.01
