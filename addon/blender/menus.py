@@ -3,7 +3,7 @@ a .fap file dropped on the 3D viewport."""
 
 import bpy
 
-from . import arkit_ops, auto_placement_ops, fitting_ops, ops, speech_ops
+from . import arkit_ops, auto_placement_ops, fitting_ops, ops, speech_ops, voice_ops
 
 
 class MPEG4_MT_object(bpy.types.Menu):
@@ -20,6 +20,8 @@ class MPEG4_MT_object(bpy.types.Menu):
         layout.operator(ops.MPEG4_OT_export_fap.bl_idname)
         layout.operator(speech_ops.MPEG4_OT_speak_text.bl_idname, text="Speak Text…")
         layout.operator(speech_ops.MPEG4_OT_import_cues.bl_idname, text="Import Lip-Sync Cues…")
+        layout.operator(voice_ops.MPEG4_OT_lipsync_audio.bl_idname, text="Lip-Sync from Audio…")
+        layout.operator(voice_ops.MPEG4_OT_lipsync_strip.bl_idname, text="Lip-Sync from Sound Strip…")
         layout.separator()
         layout.operator(fitting_ops.MPEG4_OT_fit_to_feature_points.bl_idname)
         layout.operator(fitting_ops.MPEG4_OT_import_fdp.bl_idname, text="Import FDP…")

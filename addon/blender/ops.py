@@ -1,8 +1,6 @@
 """Operators. Each is thin: it says when it can run (`unavailable`), gathers its inputs and calls a service."""
 
-import contextlib
 import os
-import time
 
 import bpy
 from bpy.props import BoolProperty, CollectionProperty, EnumProperty, IntProperty, StringProperty
@@ -12,8 +10,9 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
 from . import auto_placement, bake, face_data, face_setup, fap_io, fp_empties, poll
+from .modal_job import ModalJob
 from .motion_options import GainAndClamp
-from .reporting import Mpeg4Operator, progress, report_outside_operator
+from .reporting import Mpeg4Operator, report_outside_operator
 
 
 class MPEG4_OT_setup_face(Mpeg4Operator, bpy.types.Operator):
@@ -245,18 +244,7 @@ class MPEG4_OT_export_fap(Mpeg4Operator, bpy.types.Operator, ExportHelper):
         return fap_io.export_fap(context, poll.face(context), self.filepath, start, end)
 
 
-NAVIGATION_EVENTS = {
-    "MOUSEMOVE",
-    "INBETWEEN_MOUSEMOVE",
-    "MIDDLEMOUSE",
-    "WHEELUPMOUSE",
-    "WHEELDOWNMOUSE",
-    "TRACKPADPAN",
-    "TRACKPADZOOM",
-}
-
-
-class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
+class MPEG4_OT_bake(ModalJob, Mpeg4Operator, bpy.types.Operator):
     """Bake the deformation over a frame range so the animation plays without this extension (Esc cancels)"""
 
     bl_idname = "mpeg4.bake"
@@ -283,8 +271,7 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
     frame_start: IntProperty(name="Start", description="First frame to bake (not set: the scene's start)")
     frame_end: IntProperty(name="End", description="Last frame to bake (not set: the scene's end)")
 
-    TICK_SECONDS = 0.1  # frames baked per timer tick: as many as fit, so the window stays responsive
-    _job = None  # the bake a modal run steps
+    CANCELLED_MESSAGE = "Bake cancelled"
 
     @classmethod
     def unavailable(cls, context):
@@ -293,7 +280,7 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
             return "Turn Deform on before baking"
         return reason
 
-    def _bake(self, context) -> bake.Bake:
+    def _make_job(self, context) -> bake.Bake:
         face = poll.face(context)
         scene = context.scene
         start = self.frame_start if self.properties.is_property_set("frame_start") else scene.frame_start
@@ -307,69 +294,23 @@ class MPEG4_OT_bake(Mpeg4Operator, bpy.types.Operator):
 
     # without a window (background mode, scripts) the whole bake at once; after a modal run its end
     def run(self, context):
-        return bake.run(context, self._job or self._bake(context))
+        return bake.run(context, self._job or self._make_job(context))
 
     # in a window: a timer bakes a few frames per tick, with progress in the status bar; Esc cancels
     def invoke(self, context, event):
         if context.window is None:
             return self.execute(context)
-        try:
-            self._job = self._bake(context)
-        except Exception as exc:
-            report_outside_operator(face_data.active_face(context), exc)
-            return {"CANCELLED"}
-        wm = context.window_manager
-        self._ui = contextlib.ExitStack()
-        self._update = self._ui.enter_context(progress(context, len(self._job.frames)))
-        timer = wm.event_timer_add(0.01, window=context.window)
-        self._ui.callback(wm.event_timer_remove, timer)
-        self._texts = [context.workspace.status_text_set]
-        if context.area is not None:
-            self._texts.append(context.area.header_text_set)
-        for show in self._texts:
-            self._ui.callback(show, None)
-        self._show_progress()
-        wm.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return self.start_job(context)
+
+    def _progress_total(self) -> int:
+        return len(self._job.frames)
 
     def _show_progress(self):
         job = self._job
         text = f"Baking {job.face_name}: frame {job.baked} of {len(job.frames)}   Esc: cancel"
         if job.done:
             text = f"Baking {job.face_name}: {job.finishing}"
-        for show in self._texts:
-            show(text)
-        self._update(job.baked)
-
-    def modal(self, context, event):
-        if event.type == "ESC" and event.value == "PRESS":
-            self.cancel(context)
-            self.report({"WARNING"}, "Bake cancelled")
-            return {"CANCELLED"}
-        if event.type in NAVIGATION_EVENTS:
-            return {"PASS_THROUGH"}
-        if event.type != "TIMER":
-            return {"RUNNING_MODAL"}  # nothing else: the scene must not change under the bake
-        job = self._job
-        if job.done:  # a tick after the last frame, so the window says what happens meanwhile
-            self._ui.close()
-            return self.execute(context)  # stores the result and reports like any run
-        try:
-            deadline = time.perf_counter() + self.TICK_SECONDS
-            job.step()
-            while not job.done and time.perf_counter() < deadline:
-                job.step()
-        except Exception as exc:
-            self.cancel(context)
-            report_outside_operator(bpy.data.objects.get(job.face_name), exc)
-            return {"CANCELLED"}
-        self._show_progress()
-        return {"RUNNING_MODAL"}
-
-    def cancel(self, context):
-        """Esc, an error, or Blender ending the operator (a file loaded): the bake is taken back."""
-        self._ui.close()
-        self._job.cancel()
+        self._show_text(text, job.baked)
 
 
 CLASSES = (

@@ -104,6 +104,7 @@ class MPEG4_PT_face(bpy.types.Panel):
             col.operator("mpeg4.export_fap", icon="EXPORT")
             col.operator("mpeg4.speak_text", text="Speak Text", icon="PLAY_SOUND")
             col.operator("mpeg4.import_cues", text="Import Lip-Sync Cues", icon="SPEAKER")
+            col.operator("mpeg4.lipsync_audio", text="Lip-Sync from Audio", icon="SOUND")
             col.prop(context.scene.mpeg4, "fill_partners")
             arkit_ops.draw(layout)
             col = layout.column(align=True)

@@ -2,13 +2,26 @@
 
 import bpy
 
-from . import arkit_ops, auto_placement_ops, elastic_ops, fitting_ops, live, menus, ops, panel, properties, speech_ops
+from . import (
+    arkit_ops,
+    auto_placement_ops,
+    elastic_ops,
+    fitting_ops,
+    live,
+    menus,
+    ops,
+    panel,
+    properties,
+    speech_ops,
+    voice_ops,
+)
 
 CLASSES = (
     *properties.CLASSES,
     *ops.CLASSES,
     *elastic_ops.CLASSES,
     *speech_ops.CLASSES,
+    *voice_ops.CLASSES,
     *fitting_ops.CLASSES,
     *arkit_ops.CLASSES,
     *auto_placement_ops.CLASSES,

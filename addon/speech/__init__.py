@@ -6,6 +6,11 @@ The data path, one function per arrow:
          --espeak.speech_segments / segments.segments_from_labels--> viseme segments
          --coarticulation.fap_tracks--> (F, 68) low-level FAP values at the frame rate --> the playback path
 
+A voice recording enters before it (docs/voice.md):
+
+    recording --recording.read_recording--> 16 kHz samples --phone_alignment (+ transcript)--> timed phones
+              --phone_alignment.phone_segments--> viseme segments
+
 Timed label files (our JSON/TSV) and Rhubarb Lip Sync cue files enter at the segment arrow (`cue_files`).
 `high_level.apply_high_level` plays FAP 1 (viseme) and FAP 2 (expression) of an imported `.fap` stream
 through the same tables. The tables live in `data/*.json`, and `tables` loads and checks them.

@@ -1,9 +1,10 @@
 """Timed viseme segments, the input of co-articulation, and how timed labels (phonemes, visemes) become them.
 
 A label is, in this order: a viseme name of the standard's table as `Viseme` spells it (NONE, PP, FF, TH, DD,
-KK, CH, SS, NN, RR, AA, E, IH, OH, OU), a viseme number 0..14, or a phoneme of the phoneme table (English
-espeak-ng names by default, stress marks allowed, '_...' = pause). The only name both could mean is `E`, and
-both readings give viseme 11.
+KK, CH, SS, NN, RR, AA, E, IH, OH, OU), a viseme number 0..14, a phoneme of the phoneme table (English
+espeak-ng names by default, stress marks allowed, '_...' = pause), or a CMU phone in lower case as
+PocketSphinx gives them for a recording (`tables.cmu_phones`; where a name is both, the two mean the same
+sound). The only name both a viseme and a phoneme could mean is `E`, and both readings give viseme 11.
 
 Timing rules, checked for the whole list before anything is built: times are finite seconds >= 0, a segment
 does not end before it starts (zero length is allowed: espeak-ng reports 0 ms pauses), starts are sorted, and
@@ -19,7 +20,7 @@ from typing import NamedTuple
 
 from ..mpeg4.faps import Viseme
 from . import SpeechError
-from .tables import PhonemeTable, load_phonemes
+from .tables import PhonemeTable, cmu_phones, load_phonemes
 
 # Slack for "starts before the previous one ends": cue files write the same decimal for both, but a time
 # computed as a sum may differ from it in the last bits.
@@ -89,7 +90,8 @@ def resolve_label(label: str, phonemes: PhonemeTable) -> tuple[Viseme, ...] | No
         return (Viseme[label],)
     if label.isascii() and label.isdigit() and int(label) < len(Viseme):
         return (Viseme(int(label)),)
-    return phonemes.lookup(label)
+    visemes = phonemes.lookup(label)
+    return cmu_phones().lookup(label) if visemes is None else visemes
 
 
 def segments_from_labels(
@@ -108,8 +110,8 @@ def segments_from_labels(
         if visemes is None:
             raise SpeechError(
                 f"{describe(item)}: unknown phoneme or viseme (use a viseme name "
-                f"{'/'.join(Viseme.__members__)}, a viseme number 0-14, or an English espeak-ng phoneme "
-                "such as p, @, aI)"
+                f"{'/'.join(Viseme.__members__)}, a viseme number 0-14, an English espeak-ng phoneme "
+                "such as p, @, aI, or a lower-case CMU phone such as dh, aa, ay)"
             )
         resolved.append(visemes)
     segments = []

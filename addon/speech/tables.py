@@ -359,5 +359,11 @@ def _default_phonemes() -> PhonemeTable:
 
 
 @functools.cache
+def cmu_phones() -> PhonemeTable:
+    """PocketSphinx's CMU phone (lower case) -> visemes, from the bundled `data/phones_cmu.json`."""
+    return load_phonemes(DATA / "phones_cmu.json")
+
+
+@functools.cache
 def _default_rhubarb() -> tuple[tuple[str, Viseme], ...]:
     return tuple(load_rhubarb(DATA / "rhubarb.json").items())

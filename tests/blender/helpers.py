@@ -1,5 +1,7 @@
 """Shared steps for the Blender tests: open the sample, set it up, read meshes."""
 
+import contextlib
+import types
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -78,3 +80,28 @@ def bound_sample() -> BoundSample:
     triangles = template_indices(ids)
     binding = bind_face(rest, neutral[rows], triangles, es0=fapu.ES0, vertex_masks=masks, triangle_masks=TRIANGLE_MASKS)
     return BoundSample(head, rest, neutral, fapu, ids, rows, masks, binding)
+
+
+class ModalWindow:
+    """A `ModalJob` operator's modal methods on a plain object that steps `job`, one step per tick, and keeps
+    the reports, status texts and progress (background mode has no window to run a timer)."""
+
+    TICK_SECONDS = 0.0
+
+    def __init__(self, operator, job):
+        for name in ("bl_idname", "bl_label", "CANCELLED_MESSAGE"):
+            setattr(self, name, getattr(operator, name))
+        for name in ("modal", "cancel", "execute", "run", "_show_progress", "_show_text"):
+            setattr(self, name, getattr(operator, name).__get__(self))
+        self._job, self.reports, self.texts, self.progress = job, [], [], []
+        self._ui = contextlib.ExitStack()
+        self._ui.callback(self.texts.append, None)
+        self._texts, self._update = [self.texts.append], self.progress.append
+
+    def report(self, level, message):
+        self.reports.append((level.pop(), message))
+
+
+def event(kind):
+    """A key press or timer event for `ModalWindow.modal`."""
+    return types.SimpleNamespace(type=kind, value="PRESS")

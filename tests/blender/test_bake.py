@@ -1,10 +1,8 @@
 """Streaming bakes: memory that does not grow with the frame count, no half-written files, frame ranges,
 Alembic after a point cache, and the stepping (and cancelling) the bake operator's timer does."""
 
-import contextlib
 import resource
 import tracemalloc
-import types
 
 import bpy
 import numpy as np
@@ -14,7 +12,7 @@ from addon.blender import bake, ops, rest_shape
 from addon.errors import Mpeg4Error
 from addon.formats.pc2 import HEADER, read_pc2
 
-from .helpers import DEMO_FAP, evaluated_positions, positions, set_up_sample
+from .helpers import DEMO_FAP, ModalWindow, evaluated_positions, event, positions, set_up_sample
 
 
 def _demo(first=20, last=26):
@@ -241,35 +239,14 @@ def test_stepping_to_the_end_gives_what_a_bake_in_one_go_gives(tmp_path):
     assert not head.mpeg4_face.enabled and head.modifiers[0].name == bake.CACHE_MODIFIER
 
 
-class _Window:
-    """The bake operator's modal methods on a plain object (background mode has no window to run a timer)."""
-
-    bl_idname, bl_label = ops.MPEG4_OT_bake.bl_idname, ops.MPEG4_OT_bake.bl_label
-    TICK_SECONDS = 0.0  # one frame per tick
-    modal = ops.MPEG4_OT_bake.modal
-    cancel = ops.MPEG4_OT_bake.cancel
-    execute = ops.MPEG4_OT_bake.execute
-    run = ops.MPEG4_OT_bake.run
-    _show_progress = ops.MPEG4_OT_bake._show_progress
-
-    def __init__(self, job):
-        self._job, self.reports, self.texts, self.progress = job, [], [], []
-        self._ui = contextlib.ExitStack()
-        self._ui.callback(self.texts.append, None)
-        self._texts, self._update = [self.texts.append], self.progress.append
-
-    def report(self, level, message):
-        self.reports.append((level.pop(), message))
-
-
-def _event(kind):
-    return types.SimpleNamespace(type=kind, value="PRESS")
+def _window(job):
+    return ModalWindow(ops.MPEG4_OT_bake, job)
 
 
 def test_the_timer_steps_the_bake_and_finishes_it(tmp_path):
     head, _scene = _demo()
-    window = _Window(bake.PointCacheBake(bpy.context, head, range(20, 27), str(tmp_path / "head.pc2")))
-    results = [window.modal(bpy.context, _event(kind)) for kind in ["TIMER", "LEFTMOUSE", "MOUSEMOVE"] + ["TIMER"] * 7]
+    window = _window(bake.PointCacheBake(bpy.context, head, range(20, 27), str(tmp_path / "head.pc2")))
+    results = [window.modal(bpy.context, event(kind)) for kind in ["TIMER", "LEFTMOUSE", "MOUSEMOVE"] + ["TIMER"] * 7]
     assert results == [{"RUNNING_MODAL"}, {"RUNNING_MODAL"}, {"PASS_THROUGH"}] + [{"RUNNING_MODAL"}] * 6 + [
         {"FINISHED"}
     ]
@@ -283,9 +260,9 @@ def test_the_timer_steps_the_bake_and_finishes_it(tmp_path):
 def test_esc_cancels_the_bake(tmp_path):
     head, scene = _demo()
     scene.frame_set(5)
-    window = _Window(bake.ShapeKeyBake(bpy.context, head, range(20, 27)))
-    assert window.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
-    assert window.modal(bpy.context, _event("ESC")) == {"CANCELLED"}
+    window = _window(bake.ShapeKeyBake(bpy.context, head, range(20, 27)))
+    assert window.modal(bpy.context, event("TIMER")) == {"RUNNING_MODAL"}
+    assert window.modal(bpy.context, event("ESC")) == {"CANCELLED"}
     assert window.reports == [("WARNING", "Bake cancelled")] and window.texts[-1] is None
     assert head.data.shape_keys is None and not bpy.data.actions.get("Head MPEG-4 bake")
     assert head.mpeg4_face.enabled and scene.frame_current == 5
@@ -293,10 +270,10 @@ def test_esc_cancels_the_bake(tmp_path):
 
 def test_an_error_in_a_tick_becomes_a_report(tmp_path, monkeypatch):
     head, _scene = _demo()
-    window = _Window(bake.PointCacheBake(bpy.context, head, range(20, 27), str(tmp_path / "head.pc2")))
+    window = _window(bake.PointCacheBake(bpy.context, head, range(20, 27), str(tmp_path / "head.pc2")))
     _failing_at(monkeypatch, call=2)
-    assert window.modal(bpy.context, _event("TIMER")) == {"RUNNING_MODAL"}
-    assert window.modal(bpy.context, _event("TIMER")) == {"CANCELLED"}
+    assert window.modal(bpy.context, event("TIMER")) == {"RUNNING_MODAL"}
+    assert window.modal(bpy.context, event("TIMER")) == {"CANCELLED"}
     assert head.mpeg4_face.status == "the disk caught fire"  # shown in the panel
     assert list(tmp_path.iterdir()) == [] and window.texts[-1] is None
 

@@ -1,0 +1,525 @@
+"""A voice recording (+ its transcript) -> phones with times, by PocketSphinx (no bpy).
+
+With a transcript, forced alignment: `Decoder(samprate=16000, lm=None, bestpath=False)` (bestpath would
+truncate the alignment), `set_align_text(words)`, one decoding pass for the words, `set_alignment()`, a second
+pass for the phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. Each word
+is pronounced as espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the model's
+phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's
+visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
+by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
+(`MIN_SCORE_PER_FRAME`). Without a transcript, phone recognition: the `allphone` search with the phone
+language model that ships with the model, giving CMU phones. CMU phones are written in lower case
+(`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
+
+Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
+decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
+words whose share of the transcript's phones matches the piece's share of the voiced time; a piece that then
+fails to align is merged with the next one and tried again. Each piece is decoded with `PAD_SECONDS` of faint
+noise on both sides: the alignment grammar starts and ends in silence, and a piece cut right at a word
+would not match it.
+
+Timing: PocketSphinx's frame k analyses samples [160 k, 160 k + 410) (10 ms shift, 25.6 ms window), so its
+centre lies 12.8 ms after 10 k ms. A phone starting at frame k starts half-way between the centres of frames
+k - 1 and k, at 10 k + 7.8 ms: `BOUNDARY_OFFSET`.
+
+The work runs as a generator of progress fractions (0..1) that returns the phones: `run` drives it to the
+end, and Blender's modal operator one step per timer tick so that Esc can stop it between steps.
+"""
+
+from __future__ import annotations
+
+import bisect
+import contextlib
+import functools
+import os
+import re
+from collections.abc import Callable, Generator
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import SpeechError, espeak
+from .recording import RATE, Recording, RecordingError
+from .segments import Segment, TimedLabel, segments_from_labels
+from .tables import DATA, cmu_phones, read_json, read_text
+
+FRAME_SECONDS = 0.01
+BOUNDARY_OFFSET = (410 / 2 - 160 / 2) / RATE  # seconds, see the module docstring
+PAD_SECONDS = 0.3
+PIECE_SECONDS = 30.0  # longer recordings are cut at pauses into pieces of about this length
+MIN_PAUSE_SECONDS = 0.25  # a pause where a long recording may be cut
+FEED_SAMPLES = RATE  # samples per decoding step (one progress step)
+MAX_WORDS_PER_SECOND = 10.0  # faster than any speaker: such a transcript does not belong to the recording
+VAD_MODES = (0, 1, 2, 3)  # PocketSphinx's voice-activity aggressiveness, loose to strict
+DEFAULT_VAD_MODE = 2
+# The search's beams (beam, wbeam, pbeam: how far below the best a path may score and stay) per task and
+# accuracy. Alignment follows one linear grammar, so even a nearly exhaustive beam costs little (13 s of
+# speech: 1.72 s at 1e-80, 1.80 s at 1e-200), while PocketSphinx's default (1e-48) loses the only path on
+# accented or synthetic voices ("plum jam", en-us, 150 words a minute) and the alignment fails.
+BEAMS = {
+    ("align", "STANDARD"): 1e-200,
+    ("align", "HIGH"): 1e-300,
+    ("recognise", "STANDARD"): 1e-20,
+    ("recognise", "HIGH"): 1e-50,
+}
+ACCURACY = ("STANDARD", "HIGH")
+# With beams this wide most transcripts "align"; whether it is what is said shows in the alignment's acoustic
+# score per frame (PocketSphinx scores each frame against its best senone, so the level of the recording does
+# not enter). Measured (docs/voice.md, "A transcript that is not what is said"): the right transcript -10.6 to
+# -16.1 on the human recordings of pocketsphinx-testdata and down to -46.2 on espeak-ng voices (8 dev sentences,
+# en-us and en, 120 and 300 words a minute, clean and at 20 dB SNR); the next sentence's transcript fails to
+# align in 12 of those 64 takes and scores -40.1 to -71.3 in the others. The cut refuses 26 of those 52 and no
+# right transcript; the other wrong ones pass.
+MIN_SCORE_PER_FRAME = -50.0
+OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
+_NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
+
+ProgressSteps = Generator[float, None, list[TimedLabel]]
+
+
+class PocketSphinxMissingError(SpeechError):
+    """The pocketsphinx package is not installed."""
+
+
+class AlignmentError(SpeechError):
+    """The transcript cannot be aligned with the recording."""
+
+
+def _pocketsphinx():
+    try:
+        import pocketsphinx
+    except ImportError:
+        raise PocketSphinxMissingError(
+            "PocketSphinx is not installed: install it with `python -m pip install pocketsphinx==5.1.1` into the "
+            "Python that runs this (for Blender: its own python binary with `-m pip install`)"
+        ) from None
+    return pocketsphinx
+
+
+# ----------------------------------------------------------------------------- tables
+
+
+@functools.cache
+def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
+    """espeak-ng English mnemonic -> CMU phones, from `data/espeak_to_cmu.json` (checked)."""
+    source = str(DATA / "espeak_to_cmu.json")
+    doc = read_json(DATA / "espeak_to_cmu.json", "espeak-ng to CMU table")
+    known = cmu_phones().visemes
+    table: dict[str, tuple[str, ...]] = {}
+    for k, group in enumerate(doc["groups"]):
+        if set(group) != {"cmu", "espeak", "why"} or not group["why"].strip():
+            raise SpeechError(f"{source}: groups entry {k + 1}: expected cmu, espeak and why")
+        for phone in group["cmu"]:
+            if phone not in known:
+                raise SpeechError(f"{source}: groups entry {k + 1}: {phone!r} is not a phone of phones_cmu.json")
+        for name in group["espeak"]:
+            if name in table:
+                raise SpeechError(f"{source}: espeak-ng phoneme {name!r} is listed twice")
+            table[name] = tuple(group["cmu"])
+    return table
+
+
+def phone_segments(phones: list[TimedLabel], source: str = "the recording") -> list[Segment]:
+    """Timed phones (espeak-ng's names, or CMU phones in lower case) -> viseme segments, through the same
+    tables as text."""
+    return segments_from_labels(phones, source=source)
+
+
+# ----------------------------------------------------------------------------- transcript
+
+
+_WORD = re.compile(r"[\w']+")
+
+
+def transcript_words(text: str) -> list[str]:
+    """The words of a transcript, lower case, as the dictionary spells them ("Don't!" -> "don't")."""
+    return [word for word, _ in _words_with_spans(text)]
+
+
+def _words_with_spans(text: str) -> list[tuple[str, tuple[int, int]]]:
+    if not isinstance(text, str):
+        raise AlignmentError(f"the transcript must be text, not {type(text).__name__}")
+    out = []
+    for match in _WORD.finditer(text):
+        word = match[0].lower().strip("'_")
+        if word:
+            out.append((word, match.span()))
+    return out
+
+
+def _pronunciation(word: str) -> str:
+    """The model's phones for a word missing from the dictionary, from espeak-ng's phonemes of it."""
+    table = espeak_to_cmu()
+    phones: list[str] = []
+    for phoneme in espeak.synthesize(word, OOV_VOICE).phonemes:
+        name = phoneme.label.lstrip("',%=!")
+        if name.startswith("_"):
+            continue
+        if name not in table:
+            raise AlignmentError(
+                f"the word {word!r} is not in the dictionary and espeak-ng's phoneme {name!r} has no CMU phone: "
+                "spell it as it sounds in the transcript"
+            )
+        phones.extend(table[name])
+    if not phones:
+        raise AlignmentError(f"the word {word!r} has no pronunciation: spell it as it sounds in the transcript")
+    return " ".join(phones).upper()  # the model's phone names are upper case
+
+
+@dataclass(frozen=True)
+class _Word:
+    """A transcript word as the decoder aligns it: its dictionary entry, the model's phones of that entry and,
+    for each phone, the espeak-ng phoneme it stands for (index in the word, name), or None to label the phones
+    with their own CMU names."""
+
+    text: str
+    key: str
+    phones: tuple[str, ...]
+    labels: tuple[tuple[int, str], ...] | None = None
+
+
+def _espeak_words(decoder, text: str) -> list[_Word]:
+    """Each word pronounced as espeak-ng says it in this sentence (its phonemes mapped to the model's phones),
+    so the aligned phones carry the text path's phoneme names and visemes; a word without phonemes of its
+    own keeps the dictionary's pronunciation."""
+    text = text.strip()
+    words = _words_with_spans(text)
+    speech = espeak.synthesize(text, OOV_VOICE)
+    starts = [span[0] for _, span in words]
+    table = espeak_to_cmu()
+    parts: list[list[tuple[str, tuple[str, ...]]]] = [[] for _ in words]
+    for phoneme in speech.phonemes:
+        name = phoneme.label.lstrip("',%=!")
+        position = phoneme.text_position - 1  # espeak-ng's is 1-based
+        k = bisect.bisect_right(starts, position) - 1
+        if name.startswith("_") or k < 0 or position >= words[k][1][1]:
+            continue
+        if name not in table:
+            raise AlignmentError(f"espeak-ng's phoneme {name!r} in {words[k][0]!r} has no CMU phone")
+        parts[k].append((phoneme.label, table[name]))
+    out = []
+    for (word, _), phonemes in zip(words, parts, strict=True):
+        phones = tuple(p.upper() for _, cmu in phonemes for p in cmu)
+        if not phones:
+            out.extend(_dictionary_words(decoder, [word]))
+            continue
+        labels = tuple((i, label) for i, (label, cmu) in enumerate(phonemes) for _ in cmu)
+        out.append(_Word(word, f"{word}__{'_'.join(phones).lower()}", phones, labels))
+    _add_words(decoder, out)
+    return out
+
+
+def _dictionary_words(decoder, texts: list[str]) -> list[_Word]:
+    """Words as the CMU dictionary pronounces them (a missing one from espeak-ng's phonemes)."""
+    missing = [_Word(w, w, tuple(_pronunciation(w).split())) for w in sorted(set(texts)) if not _known(decoder, w)]
+    _add_words(decoder, missing)
+    return [_Word(w, w, tuple(decoder.lookup_word(w).split())) for w in texts]
+
+
+def _known(decoder, key: str) -> bool:
+    return decoder.lookup_word(key) is not None
+
+
+def _add_words(decoder, words: list[_Word]) -> None:
+    new = {w.key: w.phones for w in words if not _known(decoder, w.key)}
+    for k, (key, phones) in enumerate(new.items()):
+        decoder.add_word(key, " ".join(phones), k == len(new) - 1)  # one update, after the last
+
+
+# ----------------------------------------------------------------------------- decoding
+
+
+def _new_decoder(task: str, accuracy: str):
+    if accuracy not in ACCURACY:
+        raise SpeechError(f"accuracy {accuracy!r} is not one of {', '.join(ACCURACY)}")
+    beam = BEAMS[task, accuracy]
+    options = {"lm": None, "beam": beam, "wbeam": beam, "pbeam": beam}
+    if task == "recognise":
+        # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
+        # search keeps only a few long phones
+        model = _pocketsphinx().get_model_path()
+        options.update(allphone=os.path.join(model, "en-us", "en-us-phone.lm.bin"), lw=2.0, pip=0.3)
+    try:
+        return _pocketsphinx().Decoder(samprate=RATE, bestpath=False, loglevel="FATAL", **options)
+    except (RuntimeError, ValueError) as exc:
+        raise SpeechError(f"PocketSphinx could not start: {exc}") from None
+
+
+_idle_decoders: dict[tuple[str, str], list] = {}
+
+
+@contextlib.contextmanager
+def _decoder(task: str, accuracy: str):
+    """A decoder for `task` ("align", "recognise") from a pool: loading the model takes about as long as
+    aligning two seconds of speech. Its front end, which adapts from utterance to utterance (the noise
+    estimate; the cepstral mean is set per piece, `_piece_mean`), starts each take afresh, so a take gives the
+    same phones whatever was decoded before. One left by an error or by closing the steps midway (Esc) is dropped."""
+    idle = _idle_decoders.setdefault((task, accuracy), [])
+    if idle:
+        decoder = idle.pop()
+        decoder.reinit_feat()
+    else:
+        decoder = _new_decoder(task, accuracy)
+    yield decoder
+    idle.append(decoder)
+
+
+def _pcm(samples: np.ndarray) -> bytes:
+    """int16 PCM of a piece with PAD_SECONDS of faint noise on both sides (fixed seed: the same result each
+    run)."""
+    pad = int(PAD_SECONDS * RATE)
+    noise = np.random.default_rng(0).normal(0.0, _NOISE_LEVEL, len(samples) + 2 * pad)
+    noise[pad : pad + len(samples)] += samples
+    return np.clip(np.round(noise * 32767), -32768, 32767).astype("<i2").tobytes()
+
+
+def _piece_mean(decoder, pcm: bytes) -> str:
+    """The piece's own cepstral mean, from its features alone (no search): the model's feat.params ask for
+    batch normalisation (`-cmn batch`), which decoding a second at a time cannot do by itself, and a
+    mean carried over from other takes, or the model's initial one, misleads the first seconds."""
+    decoder.start_utt()
+    decoder.process_raw(pcm, no_search=True, full_utt=False)
+    decoder.end_utt()
+    return decoder.get_cmn(True)
+
+
+def _decode_pass(decoder, pcm: bytes, mean: str, done: float, total: float) -> Generator[float, None, None]:
+    """One decoding pass over a piece from its cepstral mean, FEED_SAMPLES at a time; yields
+    (done + samples fed) / total."""
+    decoder.set_cmn(mean)
+    decoder.start_utt()
+    step = 2 * FEED_SAMPLES  # bytes
+    for first in range(0, len(pcm), step):
+        decoder.process_raw(pcm[first : first + step], full_utt=False)
+        yield min(1.0, (done + min(first + step, len(pcm)) / 2) / total)
+    decoder.end_utt()
+
+
+def speech_frames(samples: np.ndarray, vad_mode: int = DEFAULT_VAD_MODE) -> tuple[np.ndarray, float]:
+    """(frames,) True where PocketSphinx's voice-activity detector hears speech, and the frame length (s)."""
+    if vad_mode not in VAD_MODES:
+        raise SpeechError(f"voice-activity mode {vad_mode!r} is not one of 0..3")
+    vad = _pocketsphinx().Vad(vad_mode, RATE)
+    n = vad.frame_bytes // 2
+    pcm = np.clip(np.round(samples * 32767), -32768, 32767).astype("<i2")
+    frames = len(pcm) // n
+    return np.array([vad.is_speech(pcm[k * n : (k + 1) * n].tobytes()) for k in range(frames)], bool), vad.frame_length
+
+
+def pieces(samples: np.ndarray, vad_mode: int = DEFAULT_VAD_MODE) -> tuple[list[tuple[int, int]], list[float]]:
+    """A recording cut at pauses into (first, end) sample ranges of about PIECE_SECONDS (one range if it is
+    shorter), and each range's seconds of voiced frames."""
+    speech, frame_seconds = speech_frames(samples, vad_mode)
+    if not speech.any():
+        raise RecordingError("no speech found in the recording (the voice-activity detector heard none)")
+    total = len(samples)
+    if total <= PIECE_SECONDS * RATE:
+        return [(0, total)], [float(speech.sum() * frame_seconds)]
+    # the middle of every pause long enough, as a sample index
+    padded = np.concatenate([[True], speech, [True]])
+    edges = np.flatnonzero(np.diff(padded.astype(np.int8)))
+    starts, ends = edges[::2], edges[1::2]  # runs of non-speech
+    long_enough = (ends - starts) * frame_seconds >= MIN_PAUSE_SECONDS
+    cuts = ((starts + ends)[long_enough] * frame_seconds / 2 * RATE).astype(int)
+    bounds = [0]
+    candidate = 0
+    for cut in [*cuts.tolist(), total]:  # cut at the last pause before a piece would pass PIECE_SECONDS
+        if cut - bounds[-1] > PIECE_SECONDS * RATE and candidate > bounds[-1]:
+            bounds.append(candidate)
+        candidate = cut
+    ranges = list(zip(bounds, [*bounds[1:], total], strict=True))
+    frame = int(round(frame_seconds * RATE))
+    voiced = [float(speech[a // frame : b // frame].sum() * frame_seconds) for a, b in ranges]
+    return ranges, voiced
+
+
+def _share_words(words: list[_Word], voiced: list[float]) -> list[list[_Word]]:
+    """Words for each piece: the piece's share of the voiced time picks the same share of the phones."""
+    cumulative = np.cumsum([len(w.phones) for w in words]) / sum(len(w.phones) for w in words)
+    shares = np.cumsum(voiced) / max(sum(voiced), 1e-9)
+    out, first = [], 0
+    for k, share in enumerate(shares):
+        last = len(words) if k == len(shares) - 1 else int(np.argmin(np.abs(cumulative - share))) + 1
+        out.append(words[first:last])
+        first = max(first, last)
+    return out
+
+
+def _phones_of(entries, offset: float) -> list[TimedLabel]:
+    """(label, first frame, frames, word: "" between words, None when recognised) of a padded piece starting
+    at `offset` s -> timed labels whose `where` names the word."""
+    out = []
+    for label, first, frames, word in entries:
+        start = max(0.0, offset + first * FRAME_SECONDS + BOUNDARY_OFFSET - PAD_SECONDS)
+        end = max(start, offset + (first + frames) * FRAME_SECONDS + BOUNDARY_OFFSET - PAD_SECONDS)
+        where = "recognised phone" if word is None else f"word {word!r}" if word else "between words"
+        out.append(TimedLabel(start, end, label, f"{where} at {start:.2f} s"))
+    return out
+
+
+def _score_per_frame(alignment) -> float:
+    phones = list(alignment.phones())
+    return sum(p.score for p in phones) / max(sum(p.duration for p in phones), 1)
+
+
+def _aligned_entries(alignment, words: list[_Word]) -> list[tuple[str, int, int, str]]:
+    """The alignment's phones as (label, first frame, frames, word): an espeak-ng-pronounced word's phones
+    named after its phonemes (the phones of one phoneme joined), others by their CMU names."""
+    spans = []  # (first frame, end frame, word) of the transcript's words, in order
+    queue = iter(words)
+    for entry in alignment.words():
+        if not entry.name.startswith("<") and not entry.name.startswith("+"):
+            spans.append((entry.start, entry.start + entry.duration, next(queue)))
+    out: list[tuple[str, int, int, str]] = []
+    seen: dict[int, int] = {}  # span index -> phones of it so far
+    last_key = None
+    for phone in alignment.phones():
+        k = next((i for i, (a, b, _) in enumerate(spans) if a <= phone.start < b), None)
+        if k is None or phone.name == "SIL":
+            out.append(("sil", phone.start, phone.duration, ""))
+            last_key = None
+            continue
+        word = spans[k][2]
+        n = seen[k] = seen.get(k, -1) + 1
+        if word.labels is None or n >= len(word.labels):
+            out.append((phone.name.lower(), phone.start, phone.duration, word.text))
+            last_key = None
+            continue
+        index, label = word.labels[n]
+        if last_key == (k, index):  # a second phone of the same phoneme (a diphthong with r, syllabic l)
+            previous = out[-1]
+            out[-1] = (label, previous[1], phone.start + phone.duration - previous[1], word.text)
+        else:
+            out.append((label, phone.start, phone.duration, word.text))
+        last_key = (k, index)
+    return out
+
+
+def _join(pieces_phones: list[list[TimedLabel]], duration: float) -> list[TimedLabel]:
+    """One sorted, non-overlapping list: each piece's phones clipped to the gap the previous one left, and to
+    the recording; a silence before the first phone."""
+    out: list[TimedLabel] = []
+    for phones in pieces_phones:
+        for phone in phones:
+            start = min(max(phone.start, out[-1].end if out else 0.0), duration)
+            end = min(max(phone.end, start), duration)
+            out.append(phone._replace(start=start, end=end))
+    if out and out[0].start > 0:
+        out.insert(0, TimedLabel(0.0, out[0].start, "sil", "before the first phone"))
+    return out
+
+
+def alignment_steps(
+    recording: Recording, transcript: str, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
+) -> ProgressSteps:
+    """Forced alignment of `transcript` with `recording`: yields progress, returns the timed phones.
+
+    The words are pronounced as espeak-ng says them in the sentence (`_espeak_words`), so that the phones and
+    visemes match what Speak Text gives for the same text; if that alignment fails (a speaker whose accent
+    differs), or espeak-ng is missing, with the dictionary's pronunciations."""
+    words = transcript_words(transcript)
+    if not words:
+        raise AlignmentError("the transcript has no words")
+    if len(words) > MAX_WORDS_PER_SECOND * max(recording.duration, 1.0):
+        raise AlignmentError(
+            f"the transcript has {len(words)} words, more than anyone says in {recording.duration:.1f} s: is it the "
+            "transcript of this recording?"
+        )
+    ranges, voiced = pieces(recording.samples, vad_mode)
+    with _decoder("align", accuracy) as decoder:
+        try:
+            spoken = _espeak_words(decoder, transcript)
+            results = yield from _align_pieces(decoder, recording, ranges, _share_words(spoken, voiced))
+        except (AlignmentError, espeak.EspeakMissingError):
+            listed = _dictionary_words(decoder, words)
+            results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
+    return _join(results, recording.duration)
+
+
+def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
+    """Align each piece with its words (a piece that fails is tried again together with the next one)."""
+    total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
+    done = 0.0
+    results = []
+    pending_range, pending_words = None, []
+    for (first, end), piece_words in zip(ranges, shares, strict=True):
+        if pending_range is not None:
+            first, piece_words = pending_range[0], pending_words + piece_words
+        if not piece_words:
+            pending_range, pending_words = (first, end), []
+            continue
+        pcm = _pcm(recording.samples[first:end])
+        entries = None
+        try:
+            decoder.set_align_text(" ".join(w.key for w in piece_words))
+            mean = _piece_mean(decoder, pcm)  # once the decoder has a search to start
+            yield from _decode_pass(decoder, pcm, mean, done, total)
+            if decoder.hyp() is not None:
+                decoder.set_alignment()
+                yield from _decode_pass(decoder, pcm, mean, done + len(pcm) / 2, total)
+                alignment = decoder.get_alignment()
+                if alignment is not None and _score_per_frame(alignment) >= MIN_SCORE_PER_FRAME:
+                    entries = _aligned_entries(alignment, piece_words)
+        except RuntimeError:
+            entries = None
+        done += len(pcm)  # two passes of len(pcm) / 2 samples
+        if not entries:
+            if end < len(recording.samples):
+                pending_range, pending_words = (first, end), piece_words
+                continue
+            raise AlignmentError(
+                f"{recording.source}: the transcript could not be aligned with the recording"
+                + (f" after {first / RATE:.1f} s" if first else "")
+                + ": check that it is what is said (every word, in order), or lip-sync without it"
+            )
+        results.append(_phones_of(entries, first / RATE))
+        pending_range, pending_words = None, []
+    return results
+
+
+def recognition_steps(
+    recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
+) -> ProgressSteps:
+    """Phone recognition without a transcript (less accurate): yields progress, returns the timed phones."""
+    ranges, _ = pieces(recording.samples, vad_mode)
+    total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
+    done = 0.0
+    results = []
+    with _decoder("recognise", accuracy) as decoder:
+        for first, end in ranges:
+            pcm = _pcm(recording.samples[first:end])
+            yield from _decode_pass(decoder, pcm, _piece_mean(decoder, pcm), done, total)
+            done += len(pcm) / 2
+            entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
+            results.append(_phones_of(entries, first / RATE))
+    return _join(results, recording.duration)
+
+
+def run(steps: ProgressSteps, progress: Callable[[float], None] | None = None) -> list[TimedLabel]:
+    """Drive a step generator to its end; `progress(fraction)` after each step."""
+    while True:
+        try:
+            fraction = next(steps)
+        except StopIteration as stop:
+            return stop.value
+        if progress is not None:
+            progress(fraction)
+
+
+def phones_from_recording(
+    recording: Recording,
+    transcript: str | None = None,
+    *,
+    vad_mode: int = DEFAULT_VAD_MODE,
+    accuracy: str = "STANDARD",
+    progress: Callable[[float], None] | None = None,
+) -> list[TimedLabel]:
+    """The recording's timed phones: aligned with `transcript` when given (not blank), else recognised."""
+    if transcript is not None and transcript.strip():
+        return run(alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy), progress)
+    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy), progress)
+
+
+def read_transcript_file(path) -> str:
+    """A transcript .txt file (UTF-8)."""
+    return read_text(path, "transcript")

@@ -1,0 +1,312 @@
+"""Lip-sync from a recording against the text path (docs/voice.md's figures).
+
+    .venv/bin/python -m scripts.bench.bench_lipsync [--json OUT.json] [--quick]
+
+Test recordings are made with espeak-ng, whose synthesis reports each phoneme's time in the same output as its
+audio: the text path's visemes of that synthesis (`espeak.speech_segments`, what Speak Text keys) are the truth.
+The audio path gets only the samples (resampled to 16 kHz like a user's file) and, for the "with transcript"
+rows, the sentence; its visemes are `phone_alignment.phone_segments` of the phones PocketSphinx finds. Each
+recording is scored clean and with white noise at 20 dB SNR (against the speech's RMS, fixed seed).
+
+Per set and condition:
+  agreement    share of 10 ms frames (100 Hz, over the whole recording) where both paths hold the same viseme
+               (a gap holds the previous segment's viseme, as `coarticulation.viseme_track` reads them);
+               "speech" counts only frames where the truth is not silence
+  closure      bilabial closures (runs of PP) of the truth found by the audio path within +-1 video frame (25
+               fps): recall = found / truth closures, precision = audio-path closures that meet a truth one
+  onset        |start of the audio path's run - start of the truth's run| for every truth viseme run that the
+               audio path has within 150 ms (same viseme), median and 90th percentile in ms
+  speed        seconds of speech per second of wall time (reading the samples at 16 kHz and finding the phones),
+               and per second of this process's CPU time (what one free core gives: the machine is shared)
+
+Sets: "dev" (the first 12 sentences of speech_sentences.txt, voices en-us and en, 150 and 200 words a minute),
+the sets this was developed on; "held-out" (the last 12 sentences, voices en-us+f3 and en-029, 130 and 240 words
+a minute), looked at only to report. A long take (the held-out sentences in one recording, over PIECE_SECONDS)
+checks the cutting at pauses. Last, real human recordings with transcripts from Debian's
+pocketsphinx-testdata (LibriVox "Sense and Sensibility", and card names), where only a word-level check is
+possible: every word with /p b m/ must get a closure (a PP segment) inside its aligned span.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import time
+from pathlib import Path
+
+import numpy as np
+
+from addon.mpeg4.faps import Viseme
+from addon.speech import espeak, phone_alignment, recording
+from addon.speech.segments import TimedLabel, segments_from_labels
+
+SENTENCES = Path(__file__).with_name("speech_sentences.txt")
+TESTDATA = Path("/usr/share/pocketsphinx/test/data")
+FPS = 25
+STEP = 0.01  # s, 100 Hz
+ONSET_WINDOW = 0.15  # s
+SNR_DB = 20.0
+DEV = {"voices": ("en-us", "en"), "rates": (150, 200)}
+HELD_OUT = {"voices": ("en-us+f3", "en-029"), "rates": (130, 240)}
+N_SENTENCES = 12
+STOPS = {"p", "b", "t", "d", "k", "g", "t#", "t2", "d#", "t[", "d[", "tS", "dZ"}
+MAX_CLOSURE = 0.12  # s
+TRUTHS = ("espeak", "closure")
+
+
+def read_sentences() -> list[str]:
+    lines = (line.strip() for line in SENTENCES.read_text(encoding="utf-8").splitlines())
+    return [line for line in lines if line and not line.startswith("#")]
+
+
+def viseme_frames(segments, duration: float) -> np.ndarray:
+    """The viseme at each 10 ms frame centre (before the first segment: its viseme; in a gap: the previous)."""
+    times = np.arange(0.0, duration, STEP) + STEP / 2
+    starts = np.array([s.start for s in segments])
+    index = np.clip(np.searchsorted(starts, times, side="right") - 1, 0, None)
+    return np.array([int(s.viseme) for s in segments])[index]
+
+
+def runs(frames: np.ndarray) -> list[tuple[int, float, float]]:
+    """(viseme, start s, end s) of each run of equal frames."""
+    edges = np.flatnonzero(np.diff(frames)) + 1
+    starts = np.concatenate([[0], edges])
+    ends = np.concatenate([edges, [len(frames)]])
+    return [(int(frames[a]), a * STEP, b * STEP) for a, b in zip(starts, ends, strict=True)]
+
+
+def score(truth, found, duration: float) -> dict:
+    t, f = viseme_frames(truth, duration), viseme_frames(found, duration)
+    speech = t != Viseme.NONE
+    truth_runs, found_runs = runs(t), runs(f)
+    slack = 1.0 / FPS
+    closures = [(a, b) for v, a, b in truth_runs if v == Viseme.PP]
+    found_closures = [(a, b) for v, a, b in found_runs if v == Viseme.PP]
+
+    def meets(run, others):
+        return any(a < run[1] + slack and b > run[0] - slack for a, b in others)
+
+    onsets = []
+    for v, a, _ in truth_runs:
+        if v == Viseme.NONE:
+            continue
+        near = [abs(fa - a) for fv, fa, _ in found_runs if fv == v and abs(fa - a) <= ONSET_WINDOW]
+        if near:
+            onsets.append(min(near) * 1000)
+    return {
+        "frames": len(t),
+        "agree": int(np.sum(t == f)),
+        "speech_frames": int(speech.sum()),
+        "speech_agree": int(np.sum((t == f) & speech)),
+        "closures": len(closures),
+        "closures_found": sum(meets(c, found_closures) for c in closures),
+        "found_closures": len(found_closures),
+        "found_closures_true": sum(meets(c, closures) for c in found_closures),
+        "onsets_ms": onsets,
+    }
+
+
+def closure_truth(speech) -> list:
+    """The text path's segments with each stop starting where its closure does: espeak-ng reports a stop at
+    its burst and counts the silent closure before it to the phoneme ahead, so the lips of the text path close
+    only at the burst. Here a stop starts at the onset of the quiet run (40 dB below the loudest 5 ms frame)
+    just before it, at most MAX_CLOSURE earlier and not before the phoneme ahead starts."""
+    labels = espeak.phoneme_labels(speech)
+    x = speech.samples.astype(np.float64)
+    n = int(0.005 * speech.sample_rate)
+    envelope = np.sqrt(np.mean(x[: len(x) // n * n].reshape(-1, n) ** 2, axis=1))
+    quiet = envelope < envelope.max() * 10 ** (-40 / 20)
+    for i in range(1, len(labels)):
+        if labels[i].label.lstrip("',%=!") not in STOPS:
+            continue
+        k = min(int(round(labels[i].start / 0.005)), len(quiet))
+        floor = max(int(np.ceil(labels[i - 1].start / 0.005)) + 1, k - int(MAX_CLOSURE / 0.005))
+        j = k
+        while j - 1 >= floor and quiet[j - 1]:
+            j -= 1
+        if j < k:
+            labels[i - 1] = labels[i - 1]._replace(end=j * 0.005)
+            labels[i] = labels[i]._replace(start=j * 0.005)
+    if labels[0].start > 0:
+        labels.insert(0, labels[0]._replace(start=0.0, end=labels[0].start, label="_"))
+    return segments_from_labels(labels)
+
+
+def with_noise(samples: np.ndarray, snr_db: float, seed: int) -> np.ndarray:
+    x = samples.astype(np.float64) / 32768.0
+    voiced = np.abs(x) > 0.01
+    rms = np.sqrt(np.mean(x[voiced] ** 2)) if voiced.any() else 0.0
+    noise = np.random.default_rng(seed).normal(0.0, rms / 10 ** (snr_db / 20), len(x))
+    return np.clip(x + noise, -1.0, 1.0)
+
+
+def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcript: bool) -> dict:
+    speech = espeak.synthesize(text, voice, rate=rate)
+    samples = with_noise(speech.samples, SNR_DB, seed) if noisy else speech.samples
+    began, cpu = time.perf_counter(), time.process_time()
+    take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
+    refused = False
+    try:
+        phones = phone_alignment.phones_from_recording(take, text if transcript else None)
+    except phone_alignment.AlignmentError:  # refused: scored as a mouth that never moves
+        phones, refused = [TimedLabel(0.0, speech.duration, "sil")], True
+    seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
+    found = phone_alignment.phone_segments(phones)
+    return {
+        "cpu_seconds": cpu,
+        "refused": refused,
+        "espeak": score(espeak.speech_segments(speech), found, speech.duration),
+        "closure": score(closure_truth(speech), found, speech.duration),
+        "duration": speech.duration,
+        "seconds": seconds,
+    }
+
+
+def summary(cases: list[dict]) -> dict:
+    out = {truth: summary_of([c[truth] for c in cases]) for truth in TRUTHS}
+    for truth in TRUTHS:
+        out[truth]["speed"] = sum(c["duration"] for c in cases) / max(sum(c["seconds"] for c in cases), 1e-9)
+        out[truth]["refused"] = sum(c["refused"] for c in cases)
+        out[truth]["speed_cpu"] = sum(c["duration"] for c in cases) / max(sum(c["cpu_seconds"] for c in cases), 1e-9)
+    return out
+
+
+def summary_of(results: list[dict]) -> dict:
+    onsets = np.concatenate([r["onsets_ms"] for r in results]) if results else np.zeros(0)
+    total = lambda key: sum(r[key] for r in results)  # noqa: E731
+    return {
+        "recordings": len(results),
+        "agreement": total("agree") / max(total("frames"), 1),
+        "speech_agreement": total("speech_agree") / max(total("speech_frames"), 1),
+        "closure_recall": total("closures_found") / max(total("closures"), 1),
+        "closure_precision": total("found_closures_true") / max(total("found_closures"), 1),
+        "closures": total("closures"),
+        "onset_median_ms": float(np.median(onsets)) if len(onsets) else float("nan"),
+        "onset_p90_ms": float(np.percentile(onsets, 90)) if len(onsets) else float("nan"),
+    }
+
+
+def synthetic(sentences: list[str], voices, rates, transcript: bool) -> dict:
+    out = {}
+    for noisy in (False, True):
+        cases = [(t, v, r) for t in sentences for v in voices for r in rates]
+        results = [run_case(t, v, r, noisy, seed, transcript) for seed, (t, v, r) in enumerate(cases)]
+        out["20 dB" if noisy else "clean"] = summary(results)
+    return out
+
+
+def long_take(sentences: list[str], transcript: bool) -> dict:
+    text = " ".join(sentences)
+    result = run_case(text, HELD_OUT["voices"][0], HELD_OUT["rates"][0], False, 0, transcript)
+    return summary([result])
+
+
+# ----------------------------------------------------------------------------- real recordings
+
+
+def real_recordings() -> list[tuple[Path, str]]:
+    """(WAV, transcript) of pocketsphinx-testdata's LibriVox and cards recordings, where installed."""
+    out = []
+    for folder, listing in (("librivox", "transcription"), ("cards", "cards.transcription")):
+        path = TESTDATA / folder / listing
+        if not path.is_file():
+            continue
+        for line in path.read_text().splitlines():
+            match = re.fullmatch(r"\s*<s>(.*)</s>\s*\((\S+)\)\s*", line)
+            if match and (TESTDATA / folder / f"{match[2]}.wav").is_file():
+                out.append((TESTDATA / folder / f"{match[2]}.wav", match[1].strip()))
+    return out
+
+
+def word_closures(wav: Path, text: str) -> dict:
+    """Words of the transcript with /p b m/ and whether a PP segment falls inside each one's aligned span."""
+    began, cpu = time.perf_counter(), time.process_time()
+    take = recording.read_recording(wav)
+    phones = phone_alignment.phones_from_recording(take, text)
+    seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
+    segments = phone_alignment.phone_segments(phones)
+    spans: list[tuple[str, list]] = []  # (word, its phones), in order; a repeated word starts a new span
+    for phone in phones:
+        word = phone.where.rsplit(" at ", 1)[0]
+        if not word.startswith("word "):
+            continue
+        if spans and spans[-1][0] == word and spans[-1][1][-1].end >= phone.start - 1e-6:
+            spans[-1][1].append(phone)
+        else:
+            spans.append((word, [phone]))
+    bilabial = [(name, g) for name, g in spans if any(p.label in ("p", "b", "m") for p in g)]
+    closed = 0
+    for _, group in bilabial:
+        a, b = group[0].start, group[-1].end
+        closed += any(s.viseme == Viseme.PP and s.start < b and s.end > a for s in segments)
+    return {"words": len(bilabial), "closed": closed, "duration": take.duration, "seconds": seconds, "cpu": cpu}
+
+
+def real(transcript: bool) -> dict | None:
+    recordings = real_recordings()
+    if not recordings or not transcript:
+        return None
+    results = [word_closures(wav, text) for wav, text in recordings]
+    return {
+        "recordings": len(results),
+        "bilabial_words": sum(r["words"] for r in results),
+        "closed_inside_word": sum(r["closed"] for r in results),
+        "speed": sum(r["duration"] for r in results) / sum(r["seconds"] for r in results),
+        "speed_cpu": sum(r["duration"] for r in results) / sum(r["cpu"] for r in results),
+    }
+
+
+def table(report: dict, truth: str) -> str:
+    head = (
+        "| set | transcript | noise | recordings | frame agreement (speech) | closure recall | closure precision "
+        "| onset median / p90 ms | × real time (CPU time) | refused |"
+    )
+    lines = [head, "|" + "---|" * 10]
+    for name in ("dev", "held-out", "long take"):
+        for mode, conditions in report[name].items():
+            items = conditions.items() if "espeak" not in conditions else [("clean", conditions)]
+            for noise, both in items:
+                s = both[truth]
+                lines.append(
+                    f"| {name} | {mode} | {noise} | {s['recordings']} | {s['agreement']:.1%} "
+                    f"({s['speech_agreement']:.1%}) | {s['closure_recall']:.1%} of {s['closures']} | "
+                    f"{s['closure_precision']:.1%} | {s['onset_median_ms']:.0f} / {s['onset_p90_ms']:.0f} | "
+                    f"{s['speed']:.1f} ({s['speed_cpu']:.1f}) | {s['refused']} |"
+                )
+    real_ = report.get("real")
+    if real_ and truth == TRUTHS[-1]:
+        lines.append("")
+        lines.append(
+            f"Real recordings (pocketsphinx-testdata, {real_['recordings']} with transcripts): "
+            f"{real_['closed_inside_word']} of {real_['bilabial_words']} words with /p b m/ close inside the word; "
+            f"{real_['speed']:.1f}× real time ({real_['speed_cpu']:.1f}× in CPU time)."
+        )
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument("--quick", action="store_true", help="3 sentences a set (a smoke run)")
+    args = parser.parse_args(argv)
+    sentences = read_sentences()
+    count = 3 if args.quick else N_SENTENCES
+    dev, held_out = sentences[:count], sentences[-count:]
+    report = {"dev": {}, "held-out": {}, "long take": {}}
+    for mode, transcript in (("with", True), ("without", False)):
+        report["dev"][mode] = synthetic(dev, DEV["voices"], DEV["rates"], transcript)
+        report["held-out"][mode] = synthetic(held_out, HELD_OUT["voices"], HELD_OUT["rates"], transcript)
+        report["long take"][mode] = long_take(held_out, transcript)
+    report["real"] = real(True)
+    print("Truth: the text path's visemes, stops at espeak-ng's reported (burst) times")
+    print(table(report, "espeak"))
+    print("\nTruth: the same, each stop from the onset of its closure (the silence before its burst)")
+    print(table(report, "closure"))
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
