@@ -176,7 +176,9 @@ def _positions(face, empties, values: np.ndarray, has_head: bool, source: str):
     head = values[:, HEAD_FAPS] * AU
     values[:, HEAD_FAPS] = 0.0
     neutral = face_data.neutral_positions(empties)
-    points = fap_to_fp(neutral, values, fapu, eye_pivots=eye_pivots(face))
+    points = fap_to_fp(neutral, values, fapu, axes=face_data.face_axes(face), eye_pivots=eye_pivots(face))
+    # an FP whose FAPs move it relative to an FP the face lacks (6.1 from 6.2) comes out NaN: it stays still
+    points = np.where(np.isfinite(points), points, neutral[None])
     _check_reach(face, points, neutral, source)
     head_delta = head_motion.to_delta(face, head, head_pivot(neutral)) if has_head else None
     return points, neutral, head_delta
@@ -343,7 +345,7 @@ def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[st
             for axis in range(3):
                 positions[:, fp_index(fp_id), axis] = animation.sample(ob, "location", axis, frames, ob.location[axis])
             step(i)
-    values = fp_to_fap(neutral, positions, fapu, eye_pivots=eye_pivots(face))
+    values = fp_to_fap(neutral, positions, fapu, axes=face_data.face_axes(face), eye_pivots=eye_pivots(face))
     mask = np.zeros((len(frames), N_FAPS), dtype=bool)
     mask[:, [n - 1 for n in recoverable_faps(set(empties))]] = True
 

@@ -14,9 +14,8 @@ import numpy as np
 from mathutils import Euler, Matrix, Quaternion
 
 from ..errors import Mpeg4Error
-from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import head_angles, head_rotation
-from . import animation
+from . import animation, face_data
 
 DELTA_REST_PROP = "mpeg4_delta_rest"  # on the face: its delta transform before the first import
 
@@ -44,7 +43,7 @@ def user_rotation(face) -> np.ndarray:
 def to_delta(face, angles: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(F, 3) head pitch/yaw/roll in radians -> per-frame delta rotation values and (F, 3) delta location."""
     check_rotation_mode(face)
-    axes = BLENDER_FACE_AXES
+    axes = face_data.face_axes(face)
     r_mesh = axes.T @ head_rotation(angles) @ axes
     r_user = user_rotation(face)
     scale = float(np.mean(face.scale))
@@ -67,7 +66,7 @@ def from_delta(face, rotation: np.ndarray) -> np.ndarray:
         r_delta = np.array([np.array(Euler(e.tolist(), face.rotation_mode).to_matrix()) for e in rotation])
     r_user = user_rotation(face)
     r_mesh = r_user.T @ r_delta @ r_user
-    axes = BLENDER_FACE_AXES
+    axes = face_data.face_axes(face)
     return head_angles(axes @ r_mesh @ axes.T)
 
 

@@ -124,12 +124,13 @@ def _state(face) -> _State:
 
 
 LIP_FPS = {"2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9"}
+MOUTH_BOX_ROWS = [fp_index("8.1"), fp_index("8.2")]  # the outer lip contour bounds the lips' vertices (`mouth_sides`)
 
 
 def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]:
     """The lip guard for the face's rest shape and the control points that move what it guards (the lips'
     skin, the seam between them); (None, None) when it is off or the face lacks inner-lip FPs or lip masks
-    (nothing then keeps the lips' skin apart but the FPs' order)."""
+    (nothing then keeps the lips' skin apart but the FPs' order), or the masks leave a lip without a vertex."""
     control_ids = state.control_ids
     if not face.mpeg4_face.keep_lips_apart or not LIP_FPS <= set(control_ids):
         return None, None
@@ -138,14 +139,19 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
         return None, None
     binding = state.binding
     neutral = face_data.neutral_positions(face_data.fp_empties(face))
-    upper, lower = mouth_sides(binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral)
+    if not np.isfinite(neutral[MOUTH_BOX_ROWS]).all():
+        return None, None
+    axes = face_data.face_axes(face)
+    upper, lower = mouth_sides(binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral, axes=axes)
+    if not (upper.any() and lower.any()):
+        return None, None
     triangles = face_data.mesh_fans(face.data)[0]
-    inputs = (binding.rest_vertices, binding.control_rest, np.array(control_ids), triangles, upper, lower)
+    inputs = (binding.rest_vertices, binding.control_rest, np.array(control_ids), triangles, upper, lower, axes)
     made = state.guard_made
     if made is not None and binding_store.same_inputs(made[0], inputs):
         guard = made[1]  # 0.3 s at 68k vertices (the skin beside the lips, along the mesh): not again
     else:
-        guard = bind_lip_guard(*inputs[:2], tuple(control_ids), *inputs[3:])
+        guard = bind_lip_guard(*inputs[:2], tuple(control_ids), *inputs[3:6], axes=axes)
         state.guard_made = inputs, guard
     moving = np.unique(binding.pair_triangle[np.isin(binding.pair_vertex, guard.vertices)])
     seam = [k for k, fp_id in enumerate(control_ids) if fp_id in LIP_FPS]

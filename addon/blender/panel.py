@@ -66,6 +66,9 @@ class MPEG4_PT_face(bpy.types.Panel):
                 col = sub.column(align=True)
                 col.label(text="Masks made from the feature points:", icon="GROUP_VERTEX")
                 col.label(text=settings.made_masks.replace(",", ", ") + " (vertex groups: edit to refine)")
+                filled = face.get(face_data.FILLED_MASKS_PROP)
+                if filled:
+                    col.label(text=f"{', '.join(filled)}: the groups had no weights", icon="INFO")
 
             box = layout.box()
             box.label(text="Face Parts", icon="OUTLINER_OB_GROUP_INSTANCE")
