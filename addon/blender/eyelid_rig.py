@@ -16,7 +16,7 @@ from ..deform.planar_bones import Binding
 from ..mpeg4.decode import eye_centres
 from ..mpeg4.fapu import Fapu
 from ..mpeg4.feature_points import fp_index
-from . import binding_store, face_data, followers
+from . import binding_store, face_data, followers, inner_parts
 
 WATCHED = [fp_id for eye in EYE_FPS for fp_id in (eye[0], eye[1], eye[4])]  # the FPs whose motion the lids show
 _WATCHED_ROWS = [fp_index(fp_id) for fp_id in WATCHED]
@@ -48,9 +48,12 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     settings = face.mpeg4_face
     axes = face_data.face_axes(face)
     centres = eye_centres(neutral @ axes.T, Fapu(*settings.fapu), None, axes) @ axes
-    for k, eye in enumerate((settings.left_eye, settings.right_eye)):
+    inside = inner_parts.eye_centres(face, binding.rest_vertices)
+    for k, (eye, role) in enumerate(((settings.left_eye, "left_eye"), (settings.right_eye, "right_eye"))):
         if eye is not None:
             centres[k] = followers.eye_centre(face, eye)
+        elif role in inside:
+            centres[k] = inside[role]
     pupils = neutral[[fp_index(eye[4]) for eye in EYE_FPS]]
     radii = np.linalg.norm(pupils - centres, axis=1)
     if not np.all(np.isfinite(radii) & (radii > 0)):

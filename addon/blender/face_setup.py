@@ -30,6 +30,7 @@ from . import (
     followers,
     fp_empties,
     head_motion,
+    inner_parts,
     live,
     rest_shape,
 )
@@ -58,6 +59,7 @@ class Plan:
     notes: list[str]
     made_masks: dict[str, np.ndarray]  # mask vertex groups to make (the face has none of these, or only empty ones)
     axes: np.ndarray  # (3, 3) the face frame read from the FPs, rows in mesh coordinates
+    made_parts: dict[str, np.ndarray]  # part vertex groups to make (the loose parts found inside the face)
 
 
 def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
@@ -161,7 +163,10 @@ def plan(face) -> Plan:
             f"the feature points cannot bind {face.name} ({exc}): check for points placed on top of each other"
         ) from exc
     key = inputs.key
-    return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes, made, axes)
+    parts = inner_parts.plan_parts(face, rest, _edges(face), neutral, axes, notes)
+    return Plan(
+        empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes, made, axes, parts
+    )
 
 
 def _edges(face) -> np.ndarray:
@@ -304,6 +309,7 @@ def set_up(face) -> list[str]:
     mesh = face.data
     rest_shape.store_rest(mesh, p.rest)
     _write_masks(face, p.made_masks)
+    inner_parts.write_parts(face, p.made_parts)
     binding_store.save(face, p.binding, p.key)
     settings["enabled"] = False  # the handlers leave the face at rest while lashes and brows bind to it
     notes.extend(hook_followers(face, p.empties))
@@ -367,6 +373,8 @@ def remove(face) -> list[str]:
         notes.append(f"removed {removed_actions} imported FAP stream(s)")
     for name in followers.PARTS:
         followers.remove_follow(getattr(settings, name))
+    if inner_parts.remove_parts(face):
+        notes.append("removed the part vertex groups set-up had made")
     made = _remove_made_masks(face)
     if made:
         notes.append(f"removed the {made} mask vertex groups set-up had made")

@@ -31,7 +31,7 @@ from ..mpeg4.fapu import AU, Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
 from ..mpeg4.stream_timing import check_values, gain_and_clamp, scene_frames
 from ..speech.high_level import apply_high_level
-from . import animation, binding_store, elastic_rig, face_data, followers, head_motion
+from . import animation, binding_store, elastic_rig, face_data, followers, head_motion, inner_parts, rest_shape
 from .reporting import Warn, progress
 
 HEAD_FAPS = slice(47, 50)
@@ -60,9 +60,13 @@ def face_fapu(face) -> Fapu:
 def eye_pivots(face) -> np.ndarray | None:
     """(2, 3) face-local centres of the left and right eyeballs (fitted spheres), or None without both eyes."""
     settings = face.mpeg4_face
-    if settings.left_eye is None or settings.right_eye is None:
-        return None
-    return np.array([followers.eye_centre(face, settings.left_eye), followers.eye_centre(face, settings.right_eye)])
+    objects = (settings.left_eye, settings.right_eye)
+    inside = {} if all(objects) else inner_parts.eye_centres(face, rest_shape.reference_positions(face.data))
+    centres = [
+        followers.eye_centre(face, eye) if eye is not None else inside.get(role)
+        for eye, role in zip(objects, ("left_eye", "right_eye"), strict=True)
+    ]
+    return None if any(c is None for c in centres) else np.array(centres)
 
 
 def group_gains(face) -> dict[str, float]:
@@ -91,7 +95,8 @@ def missing_parts(face, mask: np.ndarray) -> list[str]:
     present = np.asarray(mask, dtype=bool).any(axis=0)
     notes = []
     for name, (numbers, what) in PART_FAPS.items():
-        if getattr(settings, name) is None and present[[n - 1 for n in numbers]].any():
+        inside = face.vertex_groups.get(inner_parts.GROUPS.get(name, "")) is not None
+        if getattr(settings, name) is None and not inside and present[[n - 1 for n in numbers]].any():
             label = settings.bl_rna.properties[name].name
             text = f"no {label} set in Face Parts: {what} will not show (set it, then run Set Up Face)"
             notes.append(Warn(text) if name in WARN_PARTS else text)

@@ -128,3 +128,50 @@ def test_lips_fused_in_the_mesh_are_named():
     head.data.update()
     notes = face_setup.set_up(head)
     assert any("no opening at the lips (FP 2.2, 2.3)" in note for note in notes), notes
+
+
+def _part_positions(objects) -> np.ndarray:
+    """World positions of the part objects' vertices, as evaluated now (their drivers applied)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    rows = []
+    for ob in objects:
+        matrix = np.array(ob.evaluated_get(depsgraph).matrix_world)
+        rows.append(positions(ob.data) @ matrix[:3, :3].T + matrix[:3, 3])
+    return np.concatenate(rows)
+
+
+def test_parts_joined_into_the_face_move_as_the_separate_objects_do():
+    frames = range(1, 398, 12)
+    head = unset_sample()
+    objects = [
+        ob
+        for ob in head.children
+        if ob.type == "MESH" and ob.name in ("Eye L", "Eye R", "Teeth Lower", "Teeth Upper", "Tongue")
+    ]
+    assert len(objects) == 5
+    face_setup.set_up(head)
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    bpy.context.scene.frame_set(0)
+    at_rest = _part_positions(objects)
+    expected = []
+    for frame in frames:
+        bpy.context.scene.frame_set(frame)
+        expected.append(_part_positions(objects))
+    assert np.abs(np.array(expected) - at_rest).max() > 0.004  # the eyes turn and the jaw opens
+
+    head = unset_sample()
+    variants.join_parts(head)
+    notes = face_setup.set_up(head)
+    found = next(note for note in notes if note.startswith("found loose parts"))
+    for what in ("left eyeball (72", "right eyeball (72", "upper teeth (68", "lower teeth (68", "tongue (226"):
+        assert what in found
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    bpy.context.scene.frame_set(0)
+    rest = _world_pose(head, 0)
+    # each part vertex's counterpart in the joined face: the vertex at its rest position
+    match = np.array([int(np.argmin(np.linalg.norm(rest - p, axis=1))) for p in at_rest])
+    assert np.linalg.norm(rest[match] - at_rest, axis=1).max() < 1e-6
+    for frame, pose in zip(frames, expected, strict=True):
+        assert np.abs(_world_pose(head, frame)[match] - pose).max() < 1e-4, frame
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert not any(g.name.startswith("part_") for g in head.vertex_groups)
