@@ -60,6 +60,7 @@ class Plan:
     made_masks: dict[str, np.ndarray]  # mask vertex groups to make (the face has none of these, or only empty ones)
     axes: np.ndarray  # (3, 3) the face frame read from the FPs, rows in mesh coordinates
     made_parts: dict[str, np.ndarray]  # part vertex groups to make (the loose parts found inside the face)
+    head_turn: np.ndarray | None  # the head-turn weights to write (a head on a body without them)
 
 
 def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
@@ -164,8 +165,24 @@ def plan(face) -> Plan:
         ) from exc
     key = inputs.key
     parts = inner_parts.plan_parts(face, rest, _edges(face), neutral, axes, notes)
+    neck = head_motion.plan_head_turn(face, rest, neutral, axes, notes)
     return Plan(
-        empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes, made, axes, parts
+        empties,
+        planned,
+        neutral,
+        ids,
+        points,
+        tris,
+        tri_masks,
+        fapu,
+        rest,
+        binding,
+        key,
+        notes,
+        made,
+        axes,
+        parts,
+        neck,
     )
 
 
@@ -310,6 +327,7 @@ def set_up(face) -> list[str]:
     rest_shape.store_rest(mesh, p.rest)
     _write_masks(face, p.made_masks)
     inner_parts.write_parts(face, p.made_parts)
+    head_motion.write_head_turn(face, p.head_turn)
     binding_store.save(face, p.binding, p.key)
     settings["enabled"] = False  # the handlers leave the face at rest while lashes and brows bind to it
     notes.extend(hook_followers(face, p.empties))
@@ -375,6 +393,8 @@ def remove(face) -> list[str]:
         followers.remove_follow(getattr(settings, name))
     if inner_parts.remove_parts(face):
         notes.append("removed the part vertex groups set-up had made")
+    if head_motion.remove_head_turn(face):
+        notes.append(f"removed the {head_motion.HEAD_TURN_GROUP} vertex group set-up had made")
     made = _remove_made_masks(face)
     if made:
         notes.append(f"removed the {made} mask vertex groups set-up had made")

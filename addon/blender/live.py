@@ -26,10 +26,12 @@ from ..deform import fused, unfold
 from ..deform.folds import fan_triangles
 from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides
 from ..deform.loose_parts import DRIVERS, RigidParts, move_parts
+from ..deform.neck import turn_back
 from ..deform.planar_bones import Binding, evaluate, playback, prepare_playback
 from ..errors import Mpeg4Error
+from ..mpeg4.decode import head_pivot
 from ..mpeg4.feature_points import FP_IDS, fp_index
-from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, inner_parts, rest_shape
+from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, head_motion, inner_parts, rest_shape
 
 log = logging.getLogger(__name__)
 
@@ -65,6 +67,10 @@ class _State:
     part_rows: np.ndarray | None = None  # the rows of `fps` that drive them
     parts_last: np.ndarray | None = None  # those rows at the last frame
     part_groups: np.ndarray | None = None  # the playback's groups holding their vertices
+    body: tuple[np.ndarray, np.ndarray] | None = None  # a head on a body: (vertices, share of the head turn undone)
+    body_groups: np.ndarray | None = None  # the playback's groups holding them
+    pivot: np.ndarray | None = None  # FP 7.1 at rest: what the head turns about
+    turn: np.ndarray | None = None  # the head turn at the last frame (mesh coordinates)
 
     @functools.cached_property
     def control_ids(self) -> tuple[str, ...]:
@@ -126,6 +132,9 @@ def _state(face) -> _State:
     reader = face_data.FpReader(ids + watched)  # one read a frame serves the deformer and the eyelids
     rows = np.array([fp_index(fp_id) for fp_id in reader.fp_ids], dtype=np.intp)
     state = _State(key, binding, reader, len(ids), rows, out, mesh.shape_keys is not None, parts=parts)
+    state.body = head_motion.body_share(face)
+    if state.body is not None:
+        state.pivot = head_pivot(face_data.neutral_positions(present))
     if parts is not None:
         state.part_rows = np.array([fp_index(DRIVERS[role]) for role in parts.vertices if role in DRIVERS], np.intp)
     earlier = _states.get(face.session_uid)
@@ -238,6 +247,8 @@ def _start_playback(face, state: _State, mode: str) -> None:
     state.lip_skin_groups = None if skin is None else state.playback.groups_of(skin)
     parts = None if state.parts is None or state.playback is None else state.parts.all_vertices
     state.part_groups = None if parts is None else state.playback.groups_of(parts)
+    body = None if state.body is None or state.playback is None else state.body[0]
+    state.body_groups = None if body is None else state.playback.groups_of(body)
 
 
 def control_positions(face, state: _State) -> np.ndarray:
@@ -349,7 +360,10 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
         parts_still = state.parts is None or (
             state.parts_last is not None and np.array_equal(fps[state.part_rows], state.parts_last, equal_nan=True)
         )
-        if not force and state.mode == mode and same and parts_still and eyelid_rig.still(face, state.binding, fps):
+        turn = None if state.body is None else head_motion.mesh_turn(face)
+        turn_still = turn is None or (state.turn is not None and np.array_equal(turn, state.turn))
+        still = same and parts_still and turn_still
+        if not force and state.mode == mode and still and eyelid_rig.still(face, state.binding, fps):
             _show_control(settings.control_object, state)
             return True
         control_ids = state.control_ids
@@ -390,6 +404,13 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                 state.playback.changed(state.part_groups)  # the next frame writes them afresh
                 if off_rest is not None:
                     off_rest[state.part_groups] = 1
+        state.turn = turn
+        if turn is not None and not np.array_equal(turn, np.eye(3)):  # the body stays as the head turns
+            turn_back(state.out, *state.body, turn, state.pivot)
+            if state.playback is not None:
+                state.playback.changed(state.body_groups)
+                if off_rest is not None:
+                    off_rest[state.body_groups] = 1
         if settings.unfold_skin:  # no face shows its back
             skin = _skin_mesh(face, state)
             # at rest no face is turned over: only faces with a corner off its rest can be (0.1 ms of a look at

@@ -175,3 +175,32 @@ def test_parts_joined_into_the_face_move_as_the_separate_objects_do():
         assert np.abs(_world_pose(head, frame)[match] - pose).max() < 1e-4, frame
     assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
     assert not any(g.name.startswith("part_") for g in head.vertex_groups)
+
+
+def test_a_head_on_a_body_turns_while_the_shoulders_stay():
+    head = unset_sample()
+    face_setup.set_up(head)
+    assert head.vertex_groups.get("head_turn") is None  # a head on its own turns whole, as before
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    frames = range(1, 398, 8)
+    alone = [_world_pose(head, frame) for frame in frames]
+    rest_alone = _world_pose(head, 0)
+    n_head = len(rest_alone)
+
+    head = unset_sample()
+    variants.join_body(head)
+    notes = face_setup.set_up(head)
+    assert any("has a body" in note for note in notes)
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    rest = _world_pose(head, 0)
+    shoulders = rest[:, 2] < rest[:, 2].min() + 0.1
+    above_chin = np.flatnonzero(rest[:n_head, 2] > rest_alone[:, 2].min() + 0.05)
+    turned = 0.0
+    for frame, pose in zip(frames, alone, strict=True):
+        now = _world_pose(head, frame)
+        assert np.abs(now[shoulders] - rest[shoulders]).max() < 1e-5
+        assert np.abs(now[above_chin] - pose[above_chin]).max() < 1e-5  # the head as the head on its own
+        turned = max(turned, float(np.abs(pose - rest_alone).max()))
+    assert turned > 0.002
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert head.vertex_groups.get("head_turn") is None
