@@ -48,7 +48,8 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     settings = face.mpeg4_face
     axes = face_data.face_axes(face)
     centres = eye_centres(neutral @ axes.T, Fapu(*settings.fapu), None, axes) @ axes
-    inside = inner_parts.eye_centres(face, binding.rest_vertices)
+    parts = inner_parts.rigid_parts(face, binding.rest_vertices)
+    inside = {} if parts is None else parts.centres
     for k, (eye, role) in enumerate(((settings.left_eye, "left_eye"), (settings.right_eye, "right_eye"))):
         if eye is not None:
             centres[k] = followers.eye_centre(face, eye)
@@ -59,6 +60,8 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     if not np.all(np.isfinite(radii) & (radii > 0)):
         return None
     upper, lower = 1.0 - masks["lower_eyelid"], 1.0 - masks["upper_eyelid"]
+    if parts is not None:  # an eyeball inside the face object is no lid (its masks are 0 there: "the other lid")
+        upper[parts.all_vertices] = lower[parts.all_vertices] = 0.0
     triangles = face_data.mesh_fans(face.data)[0]  # the weights are made so that no face turns over
     inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, axes, triangles)
     made = _made.get(face.session_uid)
