@@ -416,7 +416,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             # at rest no face is turned over: only faces with a corner off its rest can be (0.1 ms of a look at
             # every face at 17k vertices, a third of that at the demo's moving skin)
             look = None if off_rest is None else _look(face, state, skin)
-            moved = unfold.open_folds(skin, state.out, look, unfold.frame_steps(skin.n_vertices)).moved
+            moved = unfold.open_folds(skin, state.out, look, max_steps=unfold.frame_steps(skin.n_vertices)).moved
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh
         rest_shape.write_positions(face.data, state.out)

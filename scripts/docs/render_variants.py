@@ -3,8 +3,9 @@ close-ups of the left eye at the blink and of the mouth mid-stream (Workbench), 
 
     .venv/bin/python -m scripts.docs.render_variants DIR [--out docs/real_meshes_variants.png] [--tile 256]
 
-DIR holds the variants (`python -m scripts.bench.variants DIR`); each row is labelled by the order of the
-variants' names, printed as the rows are made.
+DIR holds the variants (`python -m scripts.bench.variants DIR`), or is one .blend with FP empties placed; the
+face is the object named Head, else the largest mesh. The rows come in the order of the files' names, printed
+as the rows are made.
 """
 
 from __future__ import annotations
@@ -37,7 +38,10 @@ def blink_frame(face) -> int:
 def row(path: Path, tile: int, scratch: Path) -> np.ndarray:
     convert.addon_package()
     bpy.ops.wm.open_mainfile(filepath=str(path))
-    scene, face = bpy.context.scene, bpy.data.objects[HEAD]
+    scene = bpy.context.scene
+    face = bpy.data.objects.get(HEAD) or max(
+        (ob for ob in scene.objects if ob.type == "MESH"), key=lambda ob: len(ob.data.vertices)
+    )
     convert.select_only(face)
     assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
     assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO)) == {"FINISHED"}
@@ -69,12 +73,13 @@ def row(path: Path, tile: int, scratch: Path) -> np.ndarray:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("variants", type=Path, help="folder of variant .blend files")
+    parser.add_argument("variants", type=Path, help="folder of variant .blend files (or one .blend)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "real_meshes_variants.png")
     parser.add_argument("--tile", type=int, default=256)
     parser.add_argument("--only", nargs="*", help="these variants (file stems)")
     args = parser.parse_args(argv)
-    files = [f for f in sorted(args.variants.glob("*.blend")) if not args.only or f.stem in args.only]
+    found = sorted(args.variants.glob("*.blend")) if args.variants.is_dir() else [args.variants]
+    files = [f for f in found if not args.only or f.stem in args.only]
     with tempfile.TemporaryDirectory() as tmp:
         rows = [row(path, args.tile, Path(tmp) / "tile.png") for path in files]
     save_rows(rows, args.out)
