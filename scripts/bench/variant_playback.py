@@ -8,8 +8,8 @@ Each face file (or every .blend in a folder, e.g. what `scripts.bench.variants O
 options and played frame by frame through `scene.frame_set`, as a user plays it. Per face and stream it prints:
 the frames; the median and the largest frame time, and how many frames took more than 3x the median (over all
 frames, and over the frames in which the face moved); the most faces turned over in a frame (`folds`); the most
-crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame); and how far the lids' edges (the open
-boundary loops nearest the pupils) lie off a smooth curve through their neighbours, at rest and at most.
+crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame); and how far the upper lids' edges (the
+vertices along their FPs, `lid_edges`) lie off a smooth curve through their neighbours, at rest and at most.
 """
 
 from __future__ import annotations
@@ -41,44 +41,33 @@ def _face():
     return face
 
 
-def boundary_loops(triangles: np.ndarray) -> list[np.ndarray]:
-    """The open boundaries of a triangle mesh, each an ordered loop of vertex indices."""
-    edges = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    following: dict[int, list[int]] = {}
-    for a, b in unique[counts == 1].tolist():
-        following.setdefault(a, []).append(b)
-        following.setdefault(b, []).append(a)
-    loops, seen = [], set()
-    for start in following:
-        if start in seen:
-            continue
-        loop, previous, here = [start], None, start
-        seen.add(start)
-        while True:
-            ahead = [v for v in following[here] if v != previous and v not in seen]
-            if not ahead:
-                break
-            previous, here = here, ahead[0]
-            seen.add(here)
-            loop.append(here)
-        loops.append(np.array(loop))
-    return loops
+LID_SAMPLES = 24  # points along each upper lid's FP line whose nearest vertices make its edge
 
 
-def lid_edges(face, rest: np.ndarray, triangles: np.ndarray) -> list[np.ndarray]:
-    """The boundary loop nearest each pupil FP (3.5, 3.6) whose centre lies within an eye's width of it."""
+def lid_edges(face, rest: np.ndarray) -> list[np.ndarray]:
+    """Each upper lid's edge at rest: the vertices nearest LID_SAMPLES points along the line through its FPs (inner
+    corner, middle of the upper lid, outer corner: 3.11-3.1-3.7 and 3.8-3.2-3.12), each once, in order."""
     neutral = face_data.neutral_positions(face_data.fp_empties(face))
-    loops = boundary_loops(triangles)
-    chosen = []
-    for pupil, corners in (("3.5", ("3.7", "3.11")), ("3.6", ("3.8", "3.12"))):
-        at = neutral[fp_index(pupil)]
-        a, b = (neutral[fp_index(c)] for c in corners)
-        width = float(np.linalg.norm(a - b))
-        near = [loop for loop in loops if np.linalg.norm(rest[loop].mean(axis=0) - at) < width]
-        if near and np.isfinite(width):
-            chosen.append(min(near, key=lambda loop: np.linalg.norm(rest[loop].mean(axis=0) - at)))
-    return chosen
+    chains = []
+    for ids in (("3.11", "3.1", "3.7"), ("3.8", "3.2", "3.12")):
+        line = np.array([neutral[fp_index(k)] for k in ids])
+        if not np.isfinite(line).all():
+            continue
+        t = np.linspace(0.0, 2.0, LID_SAMPLES)
+        k = np.minimum(t.astype(int), 1)
+        points = line[k] + (t - k)[:, None] * (line[k + 1] - line[k])
+        nearest = np.argmin(np.linalg.norm(rest[None] - points[:, None], axis=2), axis=1)
+        chain = nearest[np.sort(np.unique(nearest, return_index=True)[1])]
+        along = (rest[chain] - line[0]) @ (line[2] - line[0]) / np.linalg.norm(line[2] - line[0])
+        step = 0.25 * np.linalg.norm(line[2] - line[0]) / LID_SAMPLES
+        keep = [0]
+        for k in range(1, len(chain)):  # one vertex across the lid (the row behind a margin vertex is not the edge)
+            if along[k] > along[keep[-1]] + step:
+                keep.append(k)
+        chain = chain[keep]
+        if len(chain) >= 5:
+            chains.append(chain)
+    return chains
 
 
 def play(face, stream: Path, every: int) -> dict:
@@ -86,7 +75,7 @@ def play(face, stream: Path, every: int) -> dict:
     scene, mesh = bpy.context.scene, face.data
     rest = rest_shape.stored_rest(mesh).astype(np.float64)
     fans = face_data.mesh_fans(mesh)
-    lids = lid_edges(face, rest, fans[0])
+    lids = lid_edges(face, rest)
     buffer = np.empty(len(mesh.vertices) * 3, np.float32)
     times, moved, folds, crossed, rough = [], [], [], [], []
     scene.frame_set(scene.frame_start)
@@ -102,10 +91,10 @@ def play(face, stream: Path, every: int) -> dict:
         folds.append(count_inverted(rest, now, *fans))
         if frame % every == 0:
             crossed.append(crossings(now, fans[0], np.any(now != rest, axis=1)))
-        rough.append(max((edge_roughness(now, loop).max() for loop in lids), default=0.0))
+        rough.append(max((edge_roughness(now, loop, closed=False).max() for loop in lids), default=0.0))
         if face.mpeg4_face.status:
             raise SystemExit(f"{stream.name} frame {frame}: {face.mpeg4_face.status}")
-    rest_rough = max((edge_roughness(rest, loop).max() for loop in lids), default=0.0)
+    rest_rough = max((edge_roughness(rest, loop, closed=False).max() for loop in lids), default=0.0)
     return {"times": np.array(times), "moved": np.array(moved), "folds": folds, "crossed": crossed}, rough, rest_rough
 
 
