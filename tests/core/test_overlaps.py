@@ -31,3 +31,12 @@ def test_a_smooth_lid_edge_is_on_its_curve_and_a_zig_zag_is_not():
     circle[10, 2] += 0.001
     rough = edge_roughness(circle, chain)
     assert rough[10] > 0.0005 and np.argmax(rough) == 10
+
+
+def test_unfold_skin_takes_fewer_steps_a_frame_the_finer_the_mesh():
+    from addon.deform.unfold import MAX_STEPS, MIN_FRAME_STEPS, frame_steps
+
+    assert frame_steps(1000) == MAX_STEPS
+    assert frame_steps(4278) == 935  # the sample
+    assert frame_steps(53522) == 74  # the 2 mm voxel remesh: 800 steps took 0.45 s there
+    assert frame_steps(10_000_000) == MIN_FRAME_STEPS
