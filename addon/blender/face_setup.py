@@ -361,7 +361,10 @@ def hook_followers(face, empties) -> list[str]:
             notes.append(f"{ob.name} follows the face's skin")
         elif driver in empties:
             if name.endswith("eye"):
-                followers.follow_gaze(face, ob, empties[driver], followers.eye_centre(face, ob))
+                centre = followers.eye_centre(face, ob)
+                problem = followers.follow_gaze(face, ob, empties[driver], centre, face_data.face_axes(face))
+                if problem:
+                    notes.append(Warn(problem))
             else:
                 followers.follow_location(ob, empties[driver])
             notes.append(f"{ob.name} follows FP {driver}")

@@ -4,6 +4,7 @@ swapped and misplaced FPs. No FP subset and no mask subset may end in an interna
 import bpy
 import numpy as np
 import pytest
+from mathutils import Vector
 
 from addon.blender import face_data, face_setup, live
 from addon.blender.reporting import Warn
@@ -15,6 +16,7 @@ from .test_hardening import snapshot, unset_sample
 
 MASKS = ("upper_lip", "lower_lip", "upper_eyelid", "lower_eyelid")
 FRAMES = (12, 40, 75)  # a blink, speech and a wide jaw in the demo stream
+PART_OBJECTS = ("Eye L", "Eye R", "Teeth Lower", "Teeth Upper", "Tongue")
 
 
 def _play(head) -> None:
@@ -87,21 +89,41 @@ def _world_pose(head, frame: int) -> np.ndarray:
     return positions(head.data) @ matrix[:3, :3].T + matrix[:3, 3]
 
 
+def _parts(head) -> list:
+    return [ob for ob in head.children if ob.type == "MESH" and ob.name in PART_OBJECTS]
+
+
+def _gaze(head) -> np.ndarray:
+    """The eyes' world positions with the left pupil moved 3 mm to the face's left and 2 mm up (world X and Z)."""
+    pupil = face_data.fp_empties(head)["3.5"]
+    pupil.matrix_world.translation += Vector((0.003, 0.0, 0.002))
+    bpy.context.view_layer.update()
+    turned = _part_positions(_parts(head))
+    pupil.matrix_world.translation -= Vector((0.003, 0.0, 0.002))
+    bpy.context.view_layer.update()
+    return turned
+
+
 def test_a_y_up_import_sets_up_and_plays_as_the_z_up_face_does():
     head = unset_sample()
     face_setup.set_up(head)
+    gaze = _gaze(head)
+    assert np.abs(gaze - _part_positions(_parts(head))).max() > 0.001  # the left eye turned
     fapu = np.array(head.mpeg4_face.fapu)
     assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
-    expected = [_world_pose(head, frame) for frame in FRAMES]
+    expected = [(_world_pose(head, frame), _part_positions(_parts(head))) for frame in FRAMES]
 
     head = unset_sample()
     variants.rotate_y_up(head)
-    face_setup.set_up(head)
+    notes = face_setup.set_up(head)
+    assert not any(isinstance(note, Warn) for note in notes), notes
     assert np.allclose(face_data.face_axes(head), np.eye(3))  # x left, y up, z forward: the mesh's own axes
     assert np.allclose(head.mpeg4_face.fapu, fapu, rtol=1e-5)
+    assert np.abs(_gaze(head) - gaze).max() < 1e-5  # about the face's up and left, not the mesh's Z and X
     assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
-    for frame, pose in zip(FRAMES, expected, strict=True):
+    for frame, (pose, parts) in zip(FRAMES, expected, strict=True):
         assert np.abs(_world_pose(head, frame) - pose).max() < 1e-5
+        assert np.abs(_part_positions(_parts(head)) - parts).max() < 1e-5  # the eyes turn about the face's up
 
 
 def test_swapped_eye_corners_and_a_misplaced_fp_are_named():
@@ -143,11 +165,7 @@ def _part_positions(objects) -> np.ndarray:
 def test_parts_joined_into_the_face_move_as_the_separate_objects_do():
     frames = range(1, 398, 12)
     head = unset_sample()
-    objects = [
-        ob
-        for ob in head.children
-        if ob.type == "MESH" and ob.name in ("Eye L", "Eye R", "Teeth Lower", "Teeth Upper", "Tongue")
-    ]
+    objects = _parts(head)
     assert len(objects) == 5
     face_setup.set_up(head)
     assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
