@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -117,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         except RuntimeError as exc:
             print(f"| {path.stem} | set-up refused: {str(exc).splitlines()[0]} |||||||")
             continue
-        saved = ROOT / ".variant_playback.blend"
+        saved = Path(tempfile.mkdtemp()) / "set_up.blend"
         bpy.ops.wm.save_as_mainfile(filepath=str(saved), copy=True)
         for stream in args.streams:
             bpy.ops.wm.open_mainfile(filepath=str(saved))
@@ -132,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{max(rough, default=0.0) * 1000:.2f} |"
             )
         saved.unlink()
+        saved.parent.rmdir()
     return 0
 
 

@@ -51,6 +51,7 @@ def row(path: Path, tile: int, scratch: Path) -> np.ndarray:
     convert.frame_face(scene, face, tile)
     whole = scene.camera.data.ortho_scale
     camera = closeup_camera(scene, face, tile, whole)
+    camera.data.clip_start = 0.001 * whole  # a face a few millimetres tall (modelled in other units) too
     empties = convert._addon("blender.face_data").fp_empties(face)
     pupil, mouth = (empties[k].matrix_world.translation.copy() for k in ("3.5", "2.2"))
     separation = (empties["3.5"].matrix_world.translation - empties["3.6"].matrix_world.translation).length
