@@ -45,12 +45,16 @@ def crossings(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | No
     active = np.arange(len(tris)) if moving is None else np.flatnonzero(np.asarray(moving)[tris].any(axis=1))
     if len(active) == 0:
         return 0
-    tree = cKDTree(centres)
-    reach = radius[active] + radius.max()
-    found = tree.query_ball_point(centres[active], reach)
-    first = np.repeat(active, [len(f) for f in found])
-    second = np.concatenate([np.asarray(f, dtype=np.int64) for f in found]) if len(first) else first
-    pairs = np.unique(np.sort(np.stack([first, second], axis=1), axis=1), axis=0)
+    # triangles in classes of similar size (factors of 2), each class searched within its own largest radius: one
+    # large triangle (a neck's cap) does not widen every search
+    size_class = np.floor(np.log2(np.maximum(radius, radius.max() * 1e-6))).astype(np.int64)
+    firsts, seconds = [], []
+    for size in np.unique(size_class):
+        members = np.flatnonzero(size_class == size)
+        found = cKDTree(centres[members]).query_ball_point(centres[active], radius[active] + radius[members].max())
+        firsts.append(np.repeat(active, [len(f) for f in found]))
+        seconds.append(members[np.concatenate([np.asarray(f, dtype=np.int64) for f in found])])
+    pairs = np.unique(np.sort(np.stack([np.concatenate(firsts), np.concatenate(seconds)], axis=1), axis=1), axis=0)
     pairs = pairs[pairs[:, 0] != pairs[:, 1]]
     shared = (tris[pairs[:, 0], :, None] == tris[pairs[:, 1], None, :]).any(axis=(1, 2))
     pairs = pairs[~shared]
