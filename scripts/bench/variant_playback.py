@@ -24,7 +24,7 @@ import bpy
 import numpy as np
 
 import addon
-from addon.blender import face_data, rest_shape
+from addon.blender import face_data, inner_parts, rest_shape
 from addon.deform.folds import count_inverted
 from addon.deform.overlaps import crossings, edge_roughness
 from addon.mpeg4.feature_points import fp_index
@@ -45,9 +45,9 @@ def _face():
 LID_SAMPLES = 24  # points along each upper lid's FP line whose nearest vertices make its edge
 
 
-def lid_edges(face, rest: np.ndarray) -> list[np.ndarray]:
-    """Each upper lid's edge at rest: the vertices nearest LID_SAMPLES points along the line through its FPs (inner
-    corner, middle of the upper lid, outer corner: 3.11-3.1-3.7 and 3.8-3.2-3.12), each once, in order."""
+def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
+    """Each upper lid's edge at rest: the `skin` (N,) vertices nearest LID_SAMPLES points along the line through its
+    FPs (inner corner, middle of the upper lid, outer corner: 3.11-3.1-3.7 and 3.8-3.2-3.12), each once, in order."""
     neutral = face_data.neutral_positions(face_data.fp_empties(face))
     chains = []
     for ids in (("3.11", "3.1", "3.7"), ("3.8", "3.2", "3.12")):
@@ -57,7 +57,8 @@ def lid_edges(face, rest: np.ndarray) -> list[np.ndarray]:
         t = np.linspace(0.0, 2.0, LID_SAMPLES)
         k = np.minimum(t.astype(int), 1)
         points = line[k] + (t - k)[:, None] * (line[k + 1] - line[k])
-        nearest = np.argmin(np.linalg.norm(rest[None] - points[:, None], axis=2), axis=1)
+        on_skin = np.flatnonzero(skin)
+        nearest = on_skin[np.argmin(np.linalg.norm(rest[on_skin][None] - points[:, None], axis=2), axis=1)]
         chain = nearest[np.sort(np.unique(nearest, return_index=True)[1])]
         along = (rest[chain] - line[0]) @ (line[2] - line[0]) / np.linalg.norm(line[2] - line[0])
         step = 0.25 * np.linalg.norm(line[2] - line[0]) / LID_SAMPLES
@@ -76,7 +77,11 @@ def play(face, stream: Path, every: int) -> dict:
     scene, mesh = bpy.context.scene, face.data
     rest = rest_shape.stored_rest(mesh).astype(np.float64)
     fans = face_data.mesh_fans(mesh)
-    lids = lid_edges(face, rest)
+    parts = np.zeros(len(rest), bool)  # the eyeballs, teeth and tongue inside the face: not skin
+    for members in inner_parts.group_members(face).values():
+        parts[members] = True
+    skin = fans[0][~parts[fans[0]].any(axis=1)]
+    lids = lid_edges(face, rest, ~parts)
     buffer = np.empty(len(mesh.vertices) * 3, np.float32)
     times, moved, folds, crossed, rough = [], [], [], [], []
     scene.frame_set(scene.frame_start)
@@ -91,7 +96,7 @@ def play(face, stream: Path, every: int) -> dict:
         last = now
         folds.append(count_inverted(rest, now, *fans))
         if frame % every == 0:
-            crossed.append(crossings(now, fans[0], np.any(now != rest, axis=1)))
+            crossed.append(crossings(now, skin, np.any(now != rest, axis=1)))
         rough.append(max((edge_roughness(now, loop, closed=False).max() for loop in lids), default=0.0))
         if face.mpeg4_face.status:
             raise SystemExit(f"{stream.name} frame {frame}: {face.mpeg4_face.status}")
