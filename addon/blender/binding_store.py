@@ -185,22 +185,24 @@ def clear(face: bpy.types.Object) -> None:
 
 
 def missing_masks(face) -> list[str]:
-    """The mask names neither the face's mask image nor a vertex group provides."""
+    """The mask names neither the face's mask image nor a vertex group with a weight provides (an empty group,
+    as a Remesh modifier or a re-import leaves it, is no mask)."""
     if face.mpeg4_face.mask_image is not None:
         return []
-    return [name for name in MASK_NAMES if face.vertex_groups.get(name) is None]
+    held = vertex_masks(face)
+    return [name for name in MASK_NAMES if name not in held]
 
 
 def vertex_masks(face) -> dict[str, np.ndarray]:
     """Per-vertex mask weights by mask name.
 
     From the face's mask image when it has one (one channel per mask, sampled at the UVs, paper 000
-    Figure 9), else from the vertex groups named like the masks.
+    Figure 9), else from the vertex groups named like the masks that hold a weight.
     """
     image = face.mpeg4_face.mask_image
     if image is not None:
         return _image_masks(face, image)
-    return face_data.group_weights(face, MASK_NAMES)
+    return {name: w for name, w in face_data.group_weights(face, MASK_NAMES).items() if w.any()}
 
 
 def _image_masks(face, image) -> dict[str, np.ndarray]:

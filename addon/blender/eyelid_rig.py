@@ -13,11 +13,10 @@ import numpy as np
 
 from ..deform.eyelids import EYE_FPS, EyelidRig, apply_eyelids, bind_eyelids, hold_lids
 from ..deform.planar_bones import Binding
-from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import eye_centres
 from ..mpeg4.fapu import Fapu
 from ..mpeg4.feature_points import fp_index
-from . import binding_store, face_data, followers
+from . import binding_store, face_data, followers, inner_parts
 
 WATCHED = [fp_id for eye in EYE_FPS for fp_id in (eye[0], eye[1], eye[4])]  # the FPs whose motion the lids show
 _WATCHED_ROWS = [fp_index(fp_id) for fp_id in WATCHED]
@@ -47,22 +46,28 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     neutral = face_data.neutral_positions(empties)
     _at_rest[face.session_uid] = neutral[_WATCHED_ROWS]
     settings = face.mpeg4_face
-    centres = eye_centres(neutral @ BLENDER_FACE_AXES.T, Fapu(*settings.fapu), None, BLENDER_FACE_AXES)
-    centres = centres @ BLENDER_FACE_AXES
-    for k, eye in enumerate((settings.left_eye, settings.right_eye)):
+    axes = face_data.face_axes(face)
+    centres = eye_centres(neutral @ axes.T, Fapu(*settings.fapu), None, axes) @ axes
+    parts = inner_parts.rigid_parts(face, binding.rest_vertices)
+    inside = {} if parts is None else parts.centres
+    for k, (eye, role) in enumerate(((settings.left_eye, "left_eye"), (settings.right_eye, "right_eye"))):
         if eye is not None:
             centres[k] = followers.eye_centre(face, eye)
+        elif role in inside:
+            centres[k] = inside[role]
     pupils = neutral[[fp_index(eye[4]) for eye in EYE_FPS]]
     radii = np.linalg.norm(pupils - centres, axis=1)
     if not np.all(np.isfinite(radii) & (radii > 0)):
         return None
     upper, lower = 1.0 - masks["lower_eyelid"], 1.0 - masks["upper_eyelid"]
+    if parts is not None:  # an eyeball inside the face object is no lid (its masks are 0 there: "the other lid")
+        upper[parts.all_vertices] = lower[parts.all_vertices] = 0.0
     triangles = face_data.mesh_fans(face.data)[0]  # the weights are made so that no face turns over
-    inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, triangles)
+    inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, axes, triangles)
     made = _made.get(face.session_uid)
     if made is not None and binding_store.same_inputs(made[0], inputs):
         return made[1]  # a setting's rebind: the lids' fold-free weights (0.2 s at 68k vertices) are as they were
-    rig = bind_eyelids(*inputs[:6], triangles=triangles)
+    rig = bind_eyelids(*inputs[:7], triangles=triangles)
     _made[face.session_uid] = inputs, rig
     return rig
 

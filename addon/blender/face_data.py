@@ -16,6 +16,7 @@ import numpy as np
 from mathutils import Matrix
 
 from ..deform.folds import fan_triangles
+from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.feature_points import FP_IDS, fp_index
 
 log = logging.getLogger(__name__)
@@ -24,6 +25,8 @@ FP_PROP = "mpeg4_fp"
 CREATED_PROP = "mpeg4_created"  # on data set-up, import or bake created (and Remove deletes)
 FP_IDS_PROP = "mpeg4_fp_ids"
 TRIANGLE_MASKS_PROP = "mpeg4_triangle_masks"
+FILLED_MASKS_PROP = "mpeg4_filled_masks"  # on the face: its mask groups that had no weight, which set-up filled
+FACE_AXES_PROP = "mpeg4_face_axes"  # on the control mesh's data: the face frame's rows in mesh coordinates
 # "the shape at set-up": on the face's and the control mesh's data the float32 vertex positions, on each
 # FP empty its face-local location (the neutral face)
 REST_PROP = "mpeg4_rest"
@@ -41,6 +44,16 @@ def active_face(context):
     if parent is not None and parent.type == "MESH" and parent.mpeg4_face.control_object is not None:
         return parent
     return ob if ob.type == "MESH" else None
+
+
+def face_axes(face: bpy.types.Object) -> np.ndarray:
+    """(3, 3) the face frame set-up read from the FPs (x left, y up, z forward as rows, in mesh coordinates);
+    a Blender character's frame for a face set up before set-up stored one."""
+    control = face.mpeg4_face.control_object
+    stored = control.data.get(FACE_AXES_PROP) if control is not None and control.type == "MESH" else None
+    if stored is None or len(stored) != 9:
+        return BLENDER_FACE_AXES
+    return np.array(stored, dtype=np.float64).reshape(3, 3)
 
 
 def fp_collection_name(face: bpy.types.Object) -> str:

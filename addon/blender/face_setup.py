@@ -13,10 +13,12 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
+from ..deform import face_checks
 from ..deform.auto_masks import make_masks
 from ..deform.planar_bones import Binding
 from ..errors import Mpeg4Error
 from ..mpeg4 import control_mesh
+from ..mpeg4.face_frame import face_frame
 from ..mpeg4.fapu import FapuError, compute_fapu
 from ..mpeg4.feature_points import feature_point
 from . import (
@@ -29,6 +31,7 @@ from . import (
     followers,
     fp_empties,
     head_motion,
+    inner_parts,
     live,
     rest_shape,
 )
@@ -55,7 +58,10 @@ class Plan:
     binding: Binding
     key: str
     notes: list[str]
-    made_masks: dict[str, np.ndarray]  # mask vertex groups to make (the face has none of these)
+    made_masks: dict[str, np.ndarray]  # mask vertex groups to make (the face has none of these, or only empty ones)
+    axes: np.ndarray  # (3, 3) the face frame read from the FPs, rows in mesh coordinates
+    made_parts: dict[str, np.ndarray]  # part vertex groups to make (the loose parts found inside the face)
+    head_turn: np.ndarray | None  # the head-turn weights to write (a head on a body without them)
 
 
 def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
@@ -67,8 +73,10 @@ def head_centre(face, positions: dict[str, np.ndarray]) -> np.ndarray:
     return np.asarray(centre, dtype=np.float64)
 
 
-def build_control(face, positions: dict[str, np.ndarray]) -> tuple[list[str], np.ndarray, list[str | None]]:
-    """Control FP ids, triangles and triangle masks for the FPs present."""
+def build_control(
+    face, positions: dict[str, np.ndarray], axes: np.ndarray
+) -> tuple[list[str], np.ndarray, list[str | None]]:
+    """Control FP ids, triangles and triangle masks for the FPs present (`axes`: the face frame)."""
     template_ids = {fp_id for tri in control_mesh.CONTROL_TRIANGLES for fp_id in tri}
     if template_ids <= positions.keys():
         ids = sorted(template_ids, key=lambda s: tuple(int(p) for p in s.split(".")))
@@ -78,7 +86,7 @@ def build_control(face, positions: dict[str, np.ndarray]) -> tuple[list[str], np
     skin = {k: v for k, v in positions.items() if feature_point(k).surface == "skin"}
     if len(skin) < 3:
         raise Mpeg4Error(f"only {len(skin)} skin feature points are placed; at least 3 are needed")
-    ids, tris, masks = control_mesh.triangulate_present(skin, head_centre(face, positions))
+    ids, tris, masks = control_mesh.triangulate_present(skin, head_centre(face, positions), axes)
     if len(tris) == 0:
         raise Mpeg4Error("the placed feature points give no usable control triangle")
     return ids, tris, masks
@@ -136,13 +144,15 @@ def plan(face) -> Plan:
     if snapped:
         notes.append(f"snapped {snapped} feature points onto the surface")
     neutral = fp_empties.neutral_locations(empties, planned)
-    ids, tris, tri_masks = build_control(face, neutral)
+    axes = face_frame(neutral)
+    _check_fps(face, rest, now, neutral, axes, notes)
+    ids, tris, tri_masks = build_control(face, neutral, axes)
     points = np.array([neutral[fp_id] for fp_id in ids], dtype=np.float64)
     _check_triangles(ids, points, tris)
     if len(ids) < len(neutral):
         notes.append(f"control mesh over {len(ids)} of {len(neutral)} FPs ({len(tris)} triangles)")
     try:
-        fapu = tuple(compute_fapu(neutral).as_dict().values())
+        fapu = tuple(compute_fapu(neutral, axes).as_dict().values())
     except FapuError as exc:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
@@ -155,7 +165,61 @@ def plan(face) -> Plan:
             f"the feature points cannot bind {face.name} ({exc}): check for points placed on top of each other"
         ) from exc
     key = inputs.key
-    return Plan(empties, planned, neutral, ids, points, tris, tri_masks, fapu, rest, binding, key, notes, made)
+    parts = inner_parts.plan_parts(face, rest, _edges(face), neutral, axes, notes)
+    neck = head_motion.plan_head_turn(face, rest, neutral, axes, notes)
+    return Plan(
+        empties,
+        planned,
+        neutral,
+        ids,
+        points,
+        tris,
+        tri_masks,
+        fapu,
+        rest,
+        binding,
+        key,
+        notes,
+        made,
+        axes,
+        parts,
+        neck,
+    )
+
+
+def _edges(face) -> np.ndarray:
+    edges = np.empty(len(face.data.edges) * 2, dtype=np.int64)
+    face.data.edges.foreach_get("vertices", edges)
+    return edges.reshape(-1, 2)
+
+
+def _check_fps(face, rest: np.ndarray, placed: dict, neutral: dict, axes: np.ndarray, notes: list) -> None:
+    """Refuse an FP set that breaks playback (a feature's FPs placed in part); warn of swapped pairs, FPs placed
+    far off the surface and openings the mesh closes, naming the FPs."""
+    refusals, warnings = face_checks.missing_fps(neutral)
+    if refusals:
+        raise Mpeg4Error(
+            f"feature points missing: {'; '.join(refusals)}. Place them (Place Feature Points) and run Set Up "
+            "Face again"
+        )
+    notes.extend(Warn(text) for text in warnings)
+    swapped = face_checks.swapped_pairs(neutral, axes)
+    if swapped:
+        pairs = ", ".join(f"FP {left} and {right}" for left, right in swapped)
+        notes.append(Warn(f"left and right look swapped in {pairs} (the left one is on the face's right): check them"))
+    eyes = [neutral[f] for f in ("3.5", "3.6") if f in neutral]
+    separation = float(np.linalg.norm(eyes[0] - eyes[1])) if len(eyes) == 2 else 0.0
+    far = face_checks.far_off(placed, neutral, separation)
+    if far:
+        notes.append(Warn(f"FP {', '.join(far)} were placed far off the surface and snapped onto it: check them"))
+    fused = face_checks.fused_openings(rest, _edges(face), neutral)
+    if fused:
+        notes.append(
+            Warn(
+                f"the mesh has no opening at the {', '.join(fused)}: they cannot part (cut the mesh open between "
+                "the feature points)"
+            )
+        )
 
 
 def _planned_masks(face, rest: np.ndarray, neutral: dict[str, np.ndarray], notes: list) -> dict[str, np.ndarray]:
@@ -163,12 +227,14 @@ def _planned_masks(face, rest: np.ndarray, neutral: dict[str, np.ndarray], notes
     missing = binding_store.missing_masks(face)
     if not missing:
         return {}
-    edges = np.empty(len(face.data.edges) * 2, dtype=np.int64)
-    face.data.edges.foreach_get("vertices", edges)
-    made = make_masks(rest, edges.reshape(-1, 2), face_data.neutral_array(neutral))
+    made = make_masks(rest, _edges(face), face_data.neutral_array(neutral))
     made = {name: made[name] for name in missing if name in made}
-    if made:
-        notes.append(f"made vertex groups {', '.join(made)} from the feature points (edit them to refine the masks)")
+    empty = [name for name in made if face.vertex_groups.get(name) is not None]
+    if empty:
+        notes.append(f"vertex groups {', '.join(empty)} had no weights: filled them from the feature points")
+    if len(made) > len(empty):
+        new = ", ".join(name for name in made if name not in empty)
+        notes.append(f"made vertex groups {new} from the feature points (edit them to refine the masks)")
     unmade = [name for name in missing if name not in made]
     if unmade:
         names = ", ".join(unmade)
@@ -180,20 +246,32 @@ def _write_masks(face, made: dict[str, np.ndarray]) -> None:
     """Write made masks as vertex groups and remember them, so Remove takes them away again."""
     if not made:
         return
+    filled = list(face.get(face_data.FILLED_MASKS_PROP, ()))
     for name, weights in made.items():
-        group = face.vertex_groups.new(name=name)
+        group = face.vertex_groups.get(name)
+        if group is None:
+            group = face.vertex_groups.new(name=name)
+        elif name not in filled:
+            filled.append(name)
         for value in np.unique(weights[weights > 0.0]):
             group.add(np.flatnonzero(weights == value).tolist(), float(value), "REPLACE")
     settings = face.mpeg4_face
     settings.made_masks = ",".join(sorted({*filter(None, settings.made_masks.split(",")), *made}))
+    if filled:
+        face[face_data.FILLED_MASKS_PROP] = filled
 
 
 def _remove_made_masks(face) -> int:
     names = [name for name in face.mpeg4_face.made_masks.split(",") if name]
+    filled = set(face.get(face_data.FILLED_MASKS_PROP, ()))
     for name in names:
         group = face.vertex_groups.get(name)
-        if group is not None:
+        if group is not None and name in filled:
+            group.remove(list(range(len(face.data.vertices))))  # it was the user's, empty: empty again
+        elif group is not None:
             face.vertex_groups.remove(group)
+    if face_data.FILLED_MASKS_PROP in face:
+        del face[face_data.FILLED_MASKS_PROP]
     return len(names)
 
 
@@ -214,6 +292,7 @@ def _write_control_object(face, coll, plan: Plan) -> bpy.types.Object:
     mesh[face_data.FP_IDS_PROP] = list(plan.control_ids)
     mesh[face_data.REST_PROP] = plan.control_points.astype(np.float32).ravel()
     mesh[face_data.TRIANGLE_MASKS_PROP] = [m or "" for m in plan.triangle_masks]
+    mesh[face_data.FACE_AXES_PROP] = plan.axes.ravel()
     if control is None or face_data.CREATED_PROP not in control:
         control = bpy.data.objects.new(name, mesh)
         control[face_data.CREATED_PROP] = True
@@ -248,6 +327,8 @@ def set_up(face) -> list[str]:
     mesh = face.data
     rest_shape.store_rest(mesh, p.rest)
     _write_masks(face, p.made_masks)
+    inner_parts.write_parts(face, p.made_parts)
+    head_motion.write_head_turn(face, p.head_turn)
     binding_store.save(face, p.binding, p.key)
     settings["still_upper_face"] = settings.still_upper_face  # stored, even at its default (`live.on_load_post`)
     settings["enabled"] = False  # the handlers leave the face at rest while lashes and brows bind to it
@@ -282,7 +363,10 @@ def hook_followers(face, empties) -> list[str]:
             notes.append(f"{ob.name} follows the face's skin")
         elif driver in empties:
             if name.endswith("eye"):
-                followers.follow_gaze(face, ob, empties[driver], followers.eye_centre(face, ob))
+                centre = followers.eye_centre(face, ob)
+                problem = followers.follow_gaze(face, ob, empties[driver], centre, face_data.face_axes(face))
+                if problem:
+                    notes.append(Warn(problem))
             else:
                 followers.follow_location(ob, empties[driver])
             notes.append(f"{ob.name} follows FP {driver}")
@@ -313,6 +397,10 @@ def remove(face) -> list[str]:
         notes.append(f"removed {removed_actions} imported FAP stream(s)")
     for name in followers.PARTS:
         followers.remove_follow(getattr(settings, name))
+    if inner_parts.remove_parts(face):
+        notes.append("removed the part vertex groups set-up had made")
+    if head_motion.remove_head_turn(face):
+        notes.append(f"removed the {head_motion.HEAD_TURN_GROUP} vertex group set-up had made")
     made = _remove_made_masks(face)
     if made:
         notes.append(f"removed the {made} mask vertex groups set-up had made")

@@ -31,7 +31,7 @@ from ..mpeg4.fapu import AU, Fapu
 from ..mpeg4.feature_points import FP_IDS, fp_index
 from ..mpeg4.stream_timing import check_values, gain_and_clamp, scene_frames
 from ..speech.high_level import apply_high_level
-from . import animation, binding_store, elastic_rig, face_data, followers, head_motion
+from . import animation, binding_store, elastic_rig, face_data, followers, head_motion, inner_parts, rest_shape
 from .reporting import Warn, progress
 
 HEAD_FAPS = slice(47, 50)
@@ -60,9 +60,13 @@ def face_fapu(face) -> Fapu:
 def eye_pivots(face) -> np.ndarray | None:
     """(2, 3) face-local centres of the left and right eyeballs (fitted spheres), or None without both eyes."""
     settings = face.mpeg4_face
-    if settings.left_eye is None or settings.right_eye is None:
-        return None
-    return np.array([followers.eye_centre(face, settings.left_eye), followers.eye_centre(face, settings.right_eye)])
+    objects = (settings.left_eye, settings.right_eye)
+    inside = {} if all(objects) else inner_parts.eye_centres(face, rest_shape.reference_positions(face.data))
+    centres = [
+        followers.eye_centre(face, eye) if eye is not None else inside.get(role)
+        for eye, role in zip(objects, ("left_eye", "right_eye"), strict=True)
+    ]
+    return None if any(c is None for c in centres) else np.array(centres)
 
 
 def group_gains(face) -> dict[str, float]:
@@ -91,7 +95,8 @@ def missing_parts(face, mask: np.ndarray) -> list[str]:
     present = np.asarray(mask, dtype=bool).any(axis=0)
     notes = []
     for name, (numbers, what) in PART_FAPS.items():
-        if getattr(settings, name) is None and present[[n - 1 for n in numbers]].any():
+        inside = face.vertex_groups.get(inner_parts.GROUPS.get(name, "")) is not None
+        if getattr(settings, name) is None and not inside and present[[n - 1 for n in numbers]].any():
             label = settings.bl_rna.properties[name].name
             text = f"no {label} set in Face Parts: {what} will not show (set it, then run Set Up Face)"
             notes.append(Warn(text) if name in WARN_PARTS else text)
@@ -176,7 +181,9 @@ def _positions(face, empties, values: np.ndarray, has_head: bool, source: str):
     head = values[:, HEAD_FAPS] * AU
     values[:, HEAD_FAPS] = 0.0
     neutral = face_data.neutral_positions(empties)
-    points = fap_to_fp(neutral, values, fapu, eye_pivots=eye_pivots(face))
+    points = fap_to_fp(neutral, values, fapu, axes=face_data.face_axes(face), eye_pivots=eye_pivots(face))
+    # an FP whose FAPs move it relative to an FP the face lacks (6.1 from 6.2) comes out NaN: it stays still
+    points = np.where(np.isfinite(points), points, neutral[None])
     _check_reach(face, points, neutral, source)
     head_delta = head_motion.to_delta(face, head, head_pivot(neutral)) if has_head else None
     return points, neutral, head_delta
@@ -343,7 +350,7 @@ def export_fap(context, face, path, frame_start: int, frame_end: int) -> list[st
             for axis in range(3):
                 positions[:, fp_index(fp_id), axis] = animation.sample(ob, "location", axis, frames, ob.location[axis])
             step(i)
-    values = fp_to_fap(neutral, positions, fapu, eye_pivots=eye_pivots(face))
+    values = fp_to_fap(neutral, positions, fapu, axes=face_data.face_axes(face), eye_pivots=eye_pivots(face))
     mask = np.zeros((len(frames), N_FAPS), dtype=bool)
     mask[:, [n - 1 for n in recoverable_faps(set(empties))]] = True
 

@@ -28,6 +28,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..geometry.sphere_fit import SphereFitError, fit_sphere
 
 DRIVER_TAG = "mpeg4_rig"  # custom property on followers: which FP drives them
@@ -109,20 +110,38 @@ def eye_centre(face, eye) -> np.ndarray:
     return to_face[:3, 3].copy()
 
 
-def follow_gaze(face, eye, pupil, pivot: np.ndarray) -> None:
-    """Turn `eye` about `pivot` (face-local) so it keeps looking through the `pupil` empty."""
+def _along(row: np.ndarray, centre) -> tuple[int, float, str] | None:
+    """For a face axis `row` along a mesh axis: (that axis, its sign, the expression of the pupil's coordinate on
+    the face axis, from the centre); None for an axis between the mesh's axes."""
+    k = int(np.argmax(np.abs(row)))
+    if abs(abs(row[k]) - 1.0) > 1e-9:
+        return None
+    name, c = "xyz"[k], float(centre[k])
+    return k, float(np.sign(row[k])), (f"({name} - ({c!r}))" if row[k] > 0 else f"(({c!r}) - {name})")
+
+
+def follow_gaze(face, eye, pupil, pivot: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> str | None:
+    """Turn `eye` about `pivot` (face-local) so it keeps looking through the `pupil` empty: pitch about the face's
+    left axis, then yaw about its up (`axes`, the face frame's rows in face-local coordinates, along the mesh's
+    axes). Returns why it cannot, when the frame's axes lie between the mesh's or come in an order an Euler
+    rotation cannot follow (then the eye does not turn)."""
     remove_follow(eye)
-    cx, cy, cz = (float(v) for v in pivot)
-    px, py, pz = (float(v) for v in pupil.location)
-    yaw0 = math.atan2(px - cx, cy - py)
-    pitch0 = math.atan2(cz - pz, math.hypot(px - cx, py - cy))
-    horizontal = f"sqrt((x - ({cx!r})) * (x - ({cx!r})) + (y - ({cy!r})) * (y - ({cy!r})))"
-    pitch = f"atan2(({cz!r}) - z, {horizontal}) - ({pitch0!r})"
-    yaw = f"atan2(x - ({cx!r}), ({cy!r}) - y) - ({yaw0!r})"
+    axes = np.asarray(axes, dtype=np.float64)
+    left, up, forward = (_along(row, pivot) for row in axes)
+    if left is None or up is None or forward is None or left[0] > up[0]:
+        return f"{eye.name} cannot follow its pupil on a face whose frame lies between the mesh's axes"
+    fx, fy, fz = left[2], up[2], forward[2]
+    f = axes @ (np.array(pupil.location, dtype=np.float64) - pivot)
+    yaw0 = math.atan2(f[0], f[2])
+    pitch0 = math.atan2(-f[1], math.hypot(f[0], f[2]))
+    pitch = f"atan2(-{fy}, sqrt({fx} * {fx} + {fz} * {fz})) - ({pitch0!r})"
+    yaw = f"atan2({fx}, {fz}) - ({yaw0!r})"
+    pitch, yaw = (expr if sign > 0 else f"-({expr})" for expr, sign in ((pitch, left[1]), (yaw, up[1])))
     q = _offset_from_origin(face, eye, pivot)
-    if np.linalg.norm(q) <= OFF_CENTRE * math.dist((cx, cy, cz), (px, py, pz)):
-        _driver(eye, "delta_rotation_euler", 0, pupil, pitch)
-        _driver(eye, "delta_rotation_euler", 2, pupil, yaw)
+    canonical = np.array_equal(axes, BLENDER_FACE_AXES)
+    if not canonical or np.linalg.norm(q) <= OFF_CENTRE * np.linalg.norm(f):
+        _driver(eye, "delta_rotation_euler", left[0], pupil, pitch)
+        _driver(eye, "delta_rotation_euler", up[0], pupil, yaw)
     else:
         # Blender turns an object about its origin, by the delta rotation D = Rz(yaw) Rx(pitch) after its own
         # rotation; with q the centre's offset from the origin, a delta location q - D q keeps the centre still.
@@ -141,6 +160,9 @@ def follow_gaze(face, eye, pupil, pivot: np.ndarray) -> None:
         ):
             _angle_driver(eye, path, index, expression)
     eye[DRIVER_TAG] = pupil.get("mpeg4_fp", pupil.name)
+    if not canonical and np.linalg.norm(q) > OFF_CENTRE * np.linalg.norm(f):
+        return f"{eye.name} turns about its origin, {np.linalg.norm(q):.3g} from its fitted centre"
+    return None
 
 
 def _angle_driver(eye, path: str, index: int, expression: str) -> None:

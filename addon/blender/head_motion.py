@@ -13,10 +13,10 @@ from __future__ import annotations
 import numpy as np
 from mathutils import Euler, Matrix, Quaternion
 
+from ..deform.neck import head_turn_weights
 from ..errors import Mpeg4Error
-from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import head_angles, head_rotation
-from . import animation
+from . import animation, face_data
 
 DELTA_REST_PROP = "mpeg4_delta_rest"  # on the face: its delta transform before the first import
 
@@ -44,7 +44,7 @@ def user_rotation(face) -> np.ndarray:
 def to_delta(face, angles: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(F, 3) head pitch/yaw/roll in radians -> per-frame delta rotation values and (F, 3) delta location."""
     check_rotation_mode(face)
-    axes = BLENDER_FACE_AXES
+    axes = face_data.face_axes(face)
     r_mesh = axes.T @ head_rotation(angles) @ axes
     r_user = user_rotation(face)
     scale = float(np.mean(face.scale))
@@ -67,7 +67,7 @@ def from_delta(face, rotation: np.ndarray) -> np.ndarray:
         r_delta = np.array([np.array(Euler(e.tolist(), face.rotation_mode).to_matrix()) for e in rotation])
     r_user = user_rotation(face)
     r_mesh = r_user.T @ r_delta @ r_user
-    axes = BLENDER_FACE_AXES
+    axes = face_data.face_axes(face)
     return head_angles(axes @ r_mesh @ axes.T)
 
 
@@ -112,3 +112,72 @@ def restore_rest(face) -> None:
     face.delta_rotation_euler = record["rotation_euler"]
     face.delta_rotation_quaternion = record["rotation_quaternion"]
     del face[DELTA_REST_PROP]
+
+
+# ----------------------------------------------------------------------------- a head on a body
+
+HEAD_TURN_GROUP = "head_turn"  # 1: turns with the head, 0: stays with the body (deform/neck.py)
+MADE_NECK_PROP = "mpeg4_made_head_turn"  # on the face: set-up made the group
+
+
+def plan_head_turn(face, rest: np.ndarray, neutral: dict, axes: np.ndarray, notes: list) -> np.ndarray | None:
+    """The head-turn weights to write for a head on a body that has no such group with a weight (else None)."""
+    held = face_data.group_weights(face, [HEAD_TURN_GROUP]).get(HEAD_TURN_GROUP)
+    if held is not None and held.any():
+        return None
+    nan = np.full(3, np.nan)
+    weights = head_turn_weights(rest, axes, neutral.get("7.1", nan), neutral.get("2.1", nan))
+    if weights is not None:
+        notes.append(
+            f"{face.name} has a body: head turns turn the head about FP 7.1 and the neck in part, the shoulders "
+            f"stay (vertex group {HEAD_TURN_GROUP}: edit it to move the falloff)"
+        )
+    return weights
+
+
+def write_head_turn(face, weights: np.ndarray | None) -> None:
+    if weights is None:
+        return
+    group = face.vertex_groups.get(HEAD_TURN_GROUP) or face.vertex_groups.new(name=HEAD_TURN_GROUP)
+    for value in np.unique(weights[weights > 0.0]):
+        group.add(np.flatnonzero(weights == value).tolist(), float(value), "REPLACE")
+    face[MADE_NECK_PROP] = True
+
+
+def remove_head_turn(face) -> bool:
+    if MADE_NECK_PROP not in face:
+        return False
+    group = face.vertex_groups.get(HEAD_TURN_GROUP)
+    if group is not None:
+        face.vertex_groups.remove(group)
+    del face[MADE_NECK_PROP]
+    return True
+
+
+def body_share(face) -> tuple[np.ndarray, np.ndarray] | None:
+    """The vertices that must not take the whole head turn and the share of it each gives back (1 - weight),
+    or None for a head without a head-turn group."""
+    if face.vertex_groups.get(HEAD_TURN_GROUP) is None:
+        return None
+    weights = face_data.group_weights(face, [HEAD_TURN_GROUP])[HEAD_TURN_GROUP]
+    vertices = np.flatnonzero(weights < 1.0)
+    return (vertices, 1.0 - weights[vertices]) if len(vertices) and weights.any() else None
+
+
+def _delta_matrix(face, values) -> np.ndarray:
+    if face.rotation_mode == "QUATERNION":
+        return np.array(Quaternion(values).normalized().to_matrix())
+    return np.array(Euler(values, face.rotation_mode).to_matrix())
+
+
+def mesh_turn(face) -> np.ndarray:
+    """(3, 3) the head's turn now, in mesh coordinates: the face's delta rotation against the one it had before
+    head motion was imported (the identity when none was)."""
+    record = face.get(DELTA_REST_PROP)
+    if record is None or face.rotation_mode == "AXIS_ANGLE":
+        return np.eye(3)
+    path, _size = rotation_path(face)
+    rest = record["rotation_quaternion" if path == "delta_rotation_quaternion" else "rotation_euler"]
+    r_delta = _delta_matrix(face, tuple(getattr(face, path))) @ _delta_matrix(face, tuple(rest)).T
+    r_user = user_rotation(face)
+    return r_user.T @ r_delta @ r_user

@@ -25,10 +25,13 @@ import numpy as np
 from ..deform import fused, unfold
 from ..deform.folds import fan_triangles
 from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides
+from ..deform.loose_parts import DRIVERS, RigidParts, move_parts
+from ..deform.neck import turn_back
 from ..deform.planar_bones import Binding, evaluate, playback, prepare_playback
 from ..errors import Mpeg4Error
+from ..mpeg4.decode import head_pivot
 from ..mpeg4.feature_points import FP_IDS, fp_index
-from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, rest_shape
+from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, head_motion, inner_parts, rest_shape
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +63,14 @@ class _State:
     fps: np.ndarray | None = None  # (84, 3) the last read FPs in FP_IDS order (`_fp_array`)
     skin: unfold.SkinMesh | None = None  # Unfold Skin's view of the face, once per state (`_skin_mesh`)
     look_made: tuple | None = None  # (playback, skin, `unfold.Look`) at the playback's groups (`_look`)
+    parts: RigidParts | None = None  # the eyeballs, teeth and tongue inside the face object, moved rigidly
+    part_rows: np.ndarray | None = None  # the rows of `fps` that drive them
+    parts_last: np.ndarray | None = None  # those rows at the last frame
+    part_groups: np.ndarray | None = None  # the playback's groups holding their vertices
+    body: tuple[np.ndarray, np.ndarray] | None = None  # a head on a body: (vertices, share of the head turn undone)
+    body_groups: np.ndarray | None = None  # the playback's groups holding them
+    pivot: np.ndarray | None = None  # FP 7.1 at rest: what the head turns about
+    turn: np.ndarray | None = None  # the head turn at the last frame (mesh coordinates)
 
     @functools.cached_property
     def control_ids(self) -> tuple[str, ...]:
@@ -114,9 +125,18 @@ def _state(face) -> _State:
     out = np.empty((binding.n_vertices, 3), dtype=OUT)
     present = face_data.fp_empties(face)
     watched = [fp_id for fp_id in eyelid_rig.WATCHED if fp_id not in ids and fp_id in present]
+    parts = inner_parts.rigid_parts(face, binding.rest_vertices)
+    if parts is not None:
+        drivers = [DRIVERS[role] for role in parts.vertices if role in DRIVERS]
+        watched += [fp_id for fp_id in drivers if fp_id not in ids and fp_id not in watched and fp_id in present]
     reader = face_data.FpReader(ids + watched)  # one read a frame serves the deformer and the eyelids
     rows = np.array([fp_index(fp_id) for fp_id in reader.fp_ids], dtype=np.intp)
-    state = _State(key, binding, reader, len(ids), rows, out, mesh.shape_keys is not None)
+    state = _State(key, binding, reader, len(ids), rows, out, mesh.shape_keys is not None, parts=parts)
+    state.body = head_motion.body_share(face)
+    if state.body is not None:
+        state.pivot = head_pivot(face_data.neutral_positions(present))
+    if parts is not None:
+        state.part_rows = np.array([fp_index(DRIVERS[role]) for role in parts.vertices if role in DRIVERS], np.intp)
     earlier = _states.get(face.session_uid)
     state.guard_made = None if earlier is None else earlier.guard_made  # a setting's rebind leaves the lips as they are
     _states[face.session_uid] = state
@@ -124,12 +144,13 @@ def _state(face) -> _State:
 
 
 LIP_FPS = {"2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9"}
+MOUTH_BOX_ROWS = [fp_index("8.1"), fp_index("8.2")]  # the outer lip contour bounds the lips' vertices (`mouth_sides`)
 
 
 def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]:
     """The lip guard for the face's rest shape and the control points that move what it guards (the lips'
     skin, the seam between them); (None, None) when it is off or the face lacks inner-lip FPs or lip masks
-    (nothing then keeps the lips' skin apart but the FPs' order)."""
+    (nothing then keeps the lips' skin apart but the FPs' order), or the masks leave a lip without a vertex."""
     control_ids = state.control_ids
     if not face.mpeg4_face.keep_lips_apart or not LIP_FPS <= set(control_ids):
         return None, None
@@ -138,14 +159,21 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
         return None, None
     binding = state.binding
     neutral = face_data.neutral_positions(face_data.fp_empties(face))
-    upper, lower = mouth_sides(binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral)
+    if not np.isfinite(neutral[MOUTH_BOX_ROWS]).all():
+        return None, None
+    axes = face_data.face_axes(face)
+    upper, lower = mouth_sides(binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral, axes=axes)
+    if state.parts is not None:  # teeth and tongue in the mouth are no lip
+        upper[state.parts.all_vertices] = lower[state.parts.all_vertices] = False
+    if not (upper.any() and lower.any()):
+        return None, None
     triangles = face_data.mesh_fans(face.data)[0]
-    inputs = (binding.rest_vertices, binding.control_rest, np.array(control_ids), triangles, upper, lower)
+    inputs = (binding.rest_vertices, binding.control_rest, np.array(control_ids), triangles, upper, lower, axes)
     made = state.guard_made
     if made is not None and binding_store.same_inputs(made[0], inputs):
         guard = made[1]  # 0.3 s at 68k vertices (the skin beside the lips, along the mesh): not again
     else:
-        guard = bind_lip_guard(*inputs[:2], tuple(control_ids), *inputs[3:])
+        guard = bind_lip_guard(*inputs[:2], tuple(control_ids), *inputs[3:6], axes=axes)
         state.guard_made = inputs, guard
     moving = np.unique(binding.pair_triangle[np.isin(binding.pair_vertex, guard.vertices)])
     seam = [k for k, fp_id in enumerate(control_ids) if fp_id in LIP_FPS]
@@ -217,6 +245,10 @@ def _start_playback(face, state: _State, mode: str) -> None:
     state.playback = playback(state.binding, mode, state.out, eyelid_rig.turned_vertices(face, state.binding))
     skin = None if state.lip_guard is None or state.playback is None else state.lip_guard.skin
     state.lip_skin_groups = None if skin is None else state.playback.groups_of(skin)
+    parts = None if state.parts is None or state.playback is None else state.parts.all_vertices
+    state.part_groups = None if parts is None else state.playback.groups_of(parts)
+    body = None if state.body is None or state.playback is None else state.body[0]
+    state.body_groups = None if body is None else state.playback.groups_of(body)
 
 
 def control_positions(face, state: _State) -> np.ndarray:
@@ -325,7 +357,13 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
         points, fps = read[: state.n_control], _fp_array(state, read)
         mode = MODES[settings.mode]
         same = state.last is not None and np.array_equal(points, state.last)
-        if not force and state.mode == mode and same and eyelid_rig.still(face, state.binding, fps):
+        parts_still = state.parts is None or (
+            state.parts_last is not None and np.array_equal(fps[state.part_rows], state.parts_last, equal_nan=True)
+        )
+        turn = None if state.body is None else head_motion.mesh_turn(face)
+        turn_still = turn is None or (state.turn is not None and np.array_equal(turn, state.turn))
+        still = same and parts_still and turn_still
+        if not force and state.mode == mode and still and eyelid_rig.still(face, state.binding, fps):
             _show_control(settings.control_object, state)
             return True
         control_ids = state.control_ids
@@ -359,12 +397,28 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                         off_rest[state.lip_skin_groups] = 1
         if eyelid_rig.apply(face, state.binding, state.out, fps) and off_rest is not None:  # no V, no crossing
             off_rest[state.playback.rewritten] = 1  # the lids turned their groups
+        if state.parts is not None:  # eyeballs, teeth and tongue: rigid, wherever the skin's deformers put them
+            move_parts(state.parts, state.out, fps)
+            state.parts_last = fps[state.part_rows].copy()
+            if state.playback is not None:
+                state.playback.changed(state.part_groups)  # the next frame writes them afresh
+                if off_rest is not None:
+                    off_rest[state.part_groups] = 1
+        state.turn = turn
+        if turn is not None and not np.array_equal(turn, np.eye(3)):  # the body stays as the head turns
+            turn_back(state.out, *state.body, turn, state.pivot)
+            if state.playback is not None:
+                state.playback.changed(state.body_groups)
+                if off_rest is not None:
+                    off_rest[state.body_groups] = 1
         if settings.unfold_skin:  # no face shows its back
             skin = _skin_mesh(face, state)
             # at rest no face is turned over: only faces with a corner off its rest can be (0.1 ms of a look at
             # every face at 17k vertices, a third of that at the demo's moving skin)
-            look = None if off_rest is None else _look(face, state, skin)
-            moved = unfold.open_folds(skin, state.out, look).moved
+            # the look is made with the playback (0.15 s at 53k vertices: at set-up, not at the first frame that moves)
+            look = None if state.playback is None else _look(face, state, skin)
+            look = None if off_rest is None else look
+            moved = unfold.open_folds(skin, state.out, look, max_steps=unfold.frame_steps(skin.n_vertices)).moved
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh
         rest_shape.write_positions(face.data, state.out)

@@ -4,7 +4,7 @@ import bpy
 
 from ..mpeg4.fap_groups import GROUP_NAMES
 from ..mpeg4.feature_points import FP_IDS
-from . import arkit_ops, auto_placement, binding_store, elastic_ops, face_data, fap_io, followers
+from . import arkit_ops, auto_placement, binding_store, elastic_ops, face_data, fap_io, followers, inner_parts
 
 FAPU_LABELS = ("IRISD0", "ES0", "ENS0", "MNS0", "MW0")
 
@@ -73,12 +73,21 @@ class MPEG4_PT_face(bpy.types.Panel):
                 col = sub.column(align=True)
                 col.label(text="Masks made from the feature points:", icon="GROUP_VERTEX")
                 col.label(text=settings.made_masks.replace(",", ", ") + " (vertex groups: edit to refine)")
+                filled = face.get(face_data.FILLED_MASKS_PROP)
+                if filled:
+                    col.label(text=f"{', '.join(filled)}: the groups had no weights", icon="INFO")
 
             box = layout.box()
             box.label(text="Face Parts", icon="OUTLINER_OB_GROUP_INSTANCE")
             col = box.column(align=True)
             for name in followers.PARTS:
                 col.prop(settings, name)
+            inside = inner_parts.listed(face)
+            if inside:
+                col = box.column(align=True)
+                col.label(text=f"Inside {face.name} (vertex groups):", icon="GROUP_VERTEX")
+                for group, what, how in inside:
+                    col.label(text=f"{group}: taken for the {what}, {how}")
 
             box = layout.box()
             box.label(text="FAP Gains", icon="MODIFIER")

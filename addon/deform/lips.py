@@ -323,11 +323,8 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
             dist[i, j], sources[i, j] = d, r
     t = np.clip(dist / radius, 0.0, 1.0)
     falloff = 1.0 - t * t * (3.0 - 2.0 * t)
-    shares = (
-        falloff
-        / np.maximum(falloff.sum(axis=1, keepdims=True), 1e-300)
-        * falloff.max(axis=1, keepdims=True, initial=0.0)
-    )
+    most = falloff.max(axis=1, keepdims=True, initial=0.0)  # a lip of one vertex has no neighbour on it
+    shares = falloff / np.maximum(falloff.sum(axis=1, keepdims=True), 1e-300) * most
     shares *= side[sources] * np.concatenate([side, np.ones(len(skin[1]))])[:, None]
     return {
         "skin": np.array(skin[0] + skin[1], np.intp),

@@ -46,6 +46,11 @@ STEP = 0.5  # λ of a Jacobi step: half way to the neighbours' mean (the damped 
 CHECK_EVERY = 5  # steps between looks at the folds
 STALL_CHECKS = 4  # looks without fewer folds before the region widens by a ring
 MAX_STEPS = 2000  # at most this many steps a frame (a frame it cannot open keeps what is left)
+# The add-on's per-frame budget (`frame_steps`): a step costs about as much as the vertices it smooths, and a fold
+# covers more vertices the finer the mesh, so the steps a frame may take shrink as the mesh grows; a fold left open
+# when the budget ends stays that frame (a render of that frame shows it too: the budget is a count, not a time).
+FRAME_WORK = 4_000_000  # vertex-steps: MAX_STEPS on a face of up to 2000 vertices, 75 steps at 53k
+MIN_FRAME_STEPS = 50
 BISECTIONS = 16  # halvings in the search for the least share of the membrane's change (to 1.5e-5)
 MARGIN = 1e-6  # a triangle the least share leaves must keep this much of its rest (doubled area)², as dot n·n
 
@@ -274,6 +279,12 @@ def _flags(off_rest: np.ndarray, n_groups: int) -> np.ndarray:
     if off_rest.dtype != np.uint8 or off_rest.shape != (n_groups,) or not off_rest.flags.c_contiguous:
         raise DeformError(f"off_rest must be a C-contiguous uint8 array of {n_groups} flags")
     return off_rest
+
+
+def frame_steps(n_vertices: int) -> int:
+    """The most Jacobi steps Unfold Skin takes in one played frame of a face of `n_vertices`: FRAME_WORK over the
+    vertex count, within [MIN_FRAME_STEPS, MAX_STEPS]."""
+    return int(np.clip(FRAME_WORK // max(n_vertices, 1), MIN_FRAME_STEPS, MAX_STEPS))
 
 
 def open_folds(mesh: SkinMesh, positions: np.ndarray, look: Look | None = None, max_steps: int = MAX_STEPS) -> Unfolded:

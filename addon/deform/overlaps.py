@@ -1,0 +1,83 @@
+"""Skin that overlaps or crumples without turning over, which `folds` (normals against the rest ones) misses (no bpy).
+
+- `crossings`: pairs of triangles that share no vertex and pass through each other (an edge of one crosses the
+  other), among those with a vertex off its rest: skin pushed through skin (a lid through the lid below it, a
+  lip through the other) counts, however its normals point.
+- `edge_roughness`: how far each vertex of an ordered chain (a lid's edge) lies off the smooth curve through its
+  neighbours, the cubic through the two on each side (p = (-a + 4b + 4c - d) / 6 holds for every cubic): a
+  zig-zag lid edge shows there while its faces keep their orientation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+EPS = 1e-12
+
+
+def _edge_hits(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """(P,) True where the segment p0-p1 crosses the triangle abc (Möller-Trumbore, the segment's open interior)."""
+    direction = p1 - p0
+    e1, e2 = b - a, c - a
+    h = np.cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, h)
+    ok = np.abs(det) > EPS
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    s = p0 - a
+    u = inv * np.einsum("ij,ij->i", s, h)
+    q = np.cross(s, e1)
+    v = inv * np.einsum("ij,ij->i", direction, q)
+    t = inv * np.einsum("ij,ij->i", e2, q)
+    return ok & (u > 0) & (v > 0) & (u + v < 1) & (t > 0) & (t < 1)
+
+
+def crossings(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | None = None) -> int:
+    """How many pairs of vertex-disjoint triangles of (K, 3) `triangles` pass through each other at (N, 3)
+    `points`, among pairs with a triangle that has a corner flagged in (N,) bool `moving` (all when None)."""
+    points = np.asarray(points, dtype=np.float64)
+    tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    if len(tris) < 2:
+        return 0
+    corners = points[tris]
+    centres = corners.mean(axis=1)
+    radius = np.linalg.norm(corners - centres[:, None], axis=2).max(axis=1)
+    active = np.arange(len(tris)) if moving is None else np.flatnonzero(np.asarray(moving)[tris].any(axis=1))
+    if len(active) == 0:
+        return 0
+    # triangles in classes of similar size (factors of 2), each class searched within its own largest radius: one
+    # large triangle (a neck's cap) does not widen every search
+    size_class = np.floor(np.log2(np.maximum(radius, radius.max() * 1e-6))).astype(np.int64)
+    firsts, seconds = [], []
+    for size in np.unique(size_class):
+        members = np.flatnonzero(size_class == size)
+        found = cKDTree(centres[members]).query_ball_point(centres[active], radius[active] + radius[members].max())
+        firsts.append(np.repeat(active, [len(f) for f in found]))
+        seconds.append(members[np.concatenate([np.asarray(f, dtype=np.int64) for f in found])])
+    pairs = np.unique(np.sort(np.stack([np.concatenate(firsts), np.concatenate(seconds)], axis=1), axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    shared = (tris[pairs[:, 0], :, None] == tris[pairs[:, 1], None, :]).any(axis=(1, 2))
+    pairs = pairs[~shared]
+    near = np.linalg.norm(centres[pairs[:, 0]] - centres[pairs[:, 1]], axis=1) <= radius[pairs].sum(axis=1)
+    pairs = pairs[near]
+    if len(pairs) == 0:
+        return 0
+    hit = np.zeros(len(pairs), bool)
+    for one, other in ((0, 1), (1, 0)):
+        a, b, c = (corners[pairs[:, other], k] for k in range(3))
+        for i, j in ((0, 1), (1, 2), (2, 0)):
+            hit |= _edge_hits(corners[pairs[:, one], i], corners[pairs[:, one], j], a, b, c)
+    return int(hit.sum())
+
+
+def edge_roughness(points: np.ndarray, chain: np.ndarray, closed: bool = True) -> np.ndarray:
+    """(V,) distance of each vertex of the ordered `chain` (vertex indices) from the cubic through its two
+    neighbours on each side (0 for the first and last two of an open chain)."""
+    p = np.asarray(points, dtype=np.float64)[np.asarray(chain, dtype=np.int64)]
+    if len(p) < 5:
+        return np.zeros(len(p))
+    a, b, c, d = (np.roll(p, k, axis=0) for k in (2, 1, -1, -2))
+    off = np.linalg.norm(p - (-a + 4.0 * b + 4.0 * c - d) / 6.0, axis=1)
+    if not closed:
+        off[:2] = off[-2:] = 0.0
+    return off

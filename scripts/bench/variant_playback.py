@@ -1,0 +1,146 @@
+"""Set up faces as users bring them and play streams on them: what set-up said, frame cost, folds, skin crossings,
+lid edges.
+
+    .venv/bin/python -m scripts.bench.variant_playback FACE.blend|DIR ... [--streams S.fap ...] [--every K]
+
+Each face file (or every .blend in a folder, e.g. what `scripts.bench.variants OUT` wrote) is opened, its face
+(the object named Head, else the active mesh) set up with Set Up Face, and each stream imported with the default
+options and played frame by frame through `scene.frame_set`, as a user plays it. Per face and stream it prints:
+the frames; the median and the largest frame time, and how many frames took more than 3x the median (over all
+frames, and over the frames in which the face moved); the most faces turned over in a frame (`folds`); the most
+crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame); and how far the upper lids' edges (the
+vertices along their FPs, `lid_edges`) lie off a smooth curve through their neighbours, at rest and at most.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import addon
+from addon.blender import face_data, inner_parts, rest_shape
+from addon.deform.folds import count_inverted
+from addon.deform.overlaps import crossings, edge_roughness
+from addon.mpeg4.feature_points import fp_index
+from scripts.bench import evaluate_folds
+
+ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_STREAMS = (ROOT / "sample_blends" / "demo.fap", evaluate_folds.INTEROP / "copperdong_Xface" / "joy.fap")
+
+
+def _face():
+    face = bpy.data.objects.get("Head") or bpy.context.view_layer.objects.active
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob == face)
+    bpy.context.view_layer.objects.active = face
+    return face
+
+
+LID_SAMPLES = 24  # points along each upper lid's FP line whose nearest vertices make its edge
+
+
+def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
+    """Each upper lid's edge at rest: the `skin` (N,) vertices nearest LID_SAMPLES points along the line through its
+    FPs (inner corner, middle of the upper lid, outer corner: 3.11-3.1-3.7 and 3.8-3.2-3.12), each once, in order."""
+    neutral = face_data.neutral_positions(face_data.fp_empties(face))
+    chains = []
+    for ids in (("3.11", "3.1", "3.7"), ("3.8", "3.2", "3.12")):
+        line = np.array([neutral[fp_index(k)] for k in ids])
+        if not np.isfinite(line).all():
+            continue
+        t = np.linspace(0.0, 2.0, LID_SAMPLES)
+        k = np.minimum(t.astype(int), 1)
+        points = line[k] + (t - k)[:, None] * (line[k + 1] - line[k])
+        on_skin = np.flatnonzero(skin)
+        nearest = on_skin[np.argmin(np.linalg.norm(rest[on_skin][None] - points[:, None], axis=2), axis=1)]
+        chain = nearest[np.sort(np.unique(nearest, return_index=True)[1])]
+        along = (rest[chain] - line[0]) @ (line[2] - line[0]) / np.linalg.norm(line[2] - line[0])
+        step = 0.25 * np.linalg.norm(line[2] - line[0]) / LID_SAMPLES
+        keep = [0]
+        for k in range(1, len(chain)):  # one vertex across the lid (the row behind a margin vertex is not the edge)
+            if along[k] > along[keep[-1]] + step:
+                keep.append(k)
+        chain = chain[keep]
+        if len(chain) >= 5:
+            chains.append(chain)
+    return chains
+
+
+def play(face, stream: Path, every: int) -> dict:
+    assert bpy.ops.mpeg4.import_fap(filepath=str(stream)) == {"FINISHED"}
+    scene, mesh = bpy.context.scene, face.data
+    rest = rest_shape.stored_rest(mesh).astype(np.float64)
+    fans = face_data.mesh_fans(mesh)
+    parts = np.zeros(len(rest), bool)  # the eyeballs, teeth and tongue inside the face: not skin
+    for members in inner_parts.group_members(face).values():
+        parts[members] = True
+    skin = fans[0][~parts[fans[0]].any(axis=1)]
+    lids = lid_edges(face, rest, ~parts)
+    buffer = np.empty(len(mesh.vertices) * 3, np.float32)
+    times, moved, folds, crossed, rough = [], [], [], [], []
+    scene.frame_set(scene.frame_start)
+    last = rest
+    for frame in range(scene.frame_start + 1, int(np.ceil(scene.frame_end)) + 1):
+        start = time.perf_counter()
+        scene.frame_set(frame)
+        times.append(time.perf_counter() - start)
+        mesh.attributes["position"].data.foreach_get("vector", buffer)
+        now = buffer.reshape(-1, 3).astype(np.float64)
+        moved.append(not np.array_equal(now, last))
+        last = now
+        folds.append(count_inverted(rest, now, *fans))
+        if frame % every == 0:
+            crossed.append(crossings(now, skin, np.any(now != rest, axis=1)))
+        rough.append(max((edge_roughness(now, loop, closed=False).max() for loop in lids), default=0.0))
+        if face.mpeg4_face.status:
+            raise SystemExit(f"{stream.name} frame {frame}: {face.mpeg4_face.status}")
+    rest_rough = max((edge_roughness(rest, loop, closed=False).max() for loop in lids), default=0.0)
+    return {"times": np.array(times), "moved": np.array(moved), "folds": folds, "crossed": crossed}, rough, rest_rough
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("faces", nargs="+", type=Path, help=".blend files, or folders of them")
+    parser.add_argument("--streams", nargs="*", type=Path, default=list(DEFAULT_STREAMS))
+    parser.add_argument("--every", type=int, default=1, help="measure crossings every K-th frame")
+    args = parser.parse_args(argv)
+    files = [f for p in args.faces for f in (sorted(p.glob("*.blend")) if p.is_dir() else [p])]
+    addon.register()
+    columns = "frames | median ms (moving) | max ms | >3x median (moving) | folds | crossings | lid edge mm"
+    print(f"| face | stream | {columns} |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
+    for path in files:
+        bpy.ops.wm.open_mainfile(filepath=str(path))
+        face = _face()
+        try:
+            bpy.ops.mpeg4.setup_face()
+        except RuntimeError as exc:
+            print(f"| {path.stem} | set-up refused: {str(exc).splitlines()[0]} |||||||")
+            continue
+        saved = Path(tempfile.mkdtemp()) / "set_up.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(saved), copy=True)
+        for stream in args.streams:
+            bpy.ops.wm.open_mainfile(filepath=str(saved))
+            face = _face()
+            got, rough, rest_rough = play(face, stream, args.every)
+            t, moving = got["times"] * 1000, got["moved"]
+            median, moving_median = np.median(t), np.median(t[moving]) if moving.any() else np.nan
+            print(
+                f"| {path.stem} | {stream.name} | {len(t)} | {median:.1f} ({moving_median:.1f}) | {t.max():.1f} | "
+                f"{int((t > 3 * median).sum())} ({int((t[moving] > 3 * moving_median).sum())}) | "
+                f"{max(got['folds'])} | {max(got['crossed'], default=0)} | {rest_rough * 1000:.2f} → "
+                f"{max(rough, default=0.0) * 1000:.2f} |"
+            )
+        saved.unlink()
+        saved.parent.rmdir()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,224 @@
+"""Faces as users bring them (scripts/bench/variants.py): missing FPs and masks, empty mask groups, Y-up imports,
+swapped and misplaced FPs. No FP subset and no mask subset may end in an internal error."""
+
+import bpy
+import numpy as np
+import pytest
+from mathutils import Vector
+
+from addon.blender import face_data, face_setup, live
+from addon.blender.reporting import Warn
+from addon.mpeg4.feature_points import FP_IDS
+from scripts.bench import variants
+
+from .helpers import DEMO_FAP, positions, select
+from .test_hardening import snapshot, unset_sample
+
+MASKS = ("upper_lip", "lower_lip", "upper_eyelid", "lower_eyelid")
+FRAMES = (12, 40, 75)  # a blink, speech and a wide jaw in the demo stream
+PART_OBJECTS = ("Eye L", "Eye R", "Teeth Lower", "Teeth Upper", "Tongue")
+
+
+def _play(head) -> None:
+    """Import the demo stream and show a few frames; the face must stay deformed, with no message."""
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    for frame in FRAMES:
+        bpy.context.scene.frame_set(frame)
+        assert head.mpeg4_face.enabled and head.mpeg4_face.status == "", head.mpeg4_face.status
+
+
+def test_each_fp_deleted_in_turn_either_plays_or_is_refused_naming_it(tmp_path):
+    unset = tmp_path / "unset.blend"
+    unset_sample()
+    bpy.ops.wm.save_as_mainfile(filepath=str(unset))
+    refused = []
+    for fp_id in FP_IDS:
+        bpy.ops.wm.open_mainfile(filepath=str(unset))
+        head = bpy.data.objects["Head"]
+        select(head)
+        bpy.data.objects.remove(face_data.fp_empties(head)[fp_id])
+        try:
+            bpy.ops.mpeg4.setup_face()
+        except RuntimeError as exc:  # refused: the message names the FP and what needs it
+            assert f"FP {fp_id} (for " in str(exc)
+            refused.append(fp_id)
+            continue
+        _play(head)
+    # the FAPU's, the lids' and the lip guard's FPs: without one of them a stream cannot play as it should
+    assert set(refused) == {"2.2", "2.3", "2.4", "2.5", "2.6", "2.7", "2.8", "2.9", "8.1", "8.2", "8.3", "8.4"} | {
+        "3.1", "3.2", "3.3", "3.4", "3.5", "3.6", "3.7", "3.8", "3.11", "3.12", "9.15"
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("emptied", [False, True])
+def test_each_mask_group_deleted_or_emptied_in_turn_is_made_and_plays(emptied):
+    for name in MASKS:
+        head = unset_sample()
+        group = head.vertex_groups[name]
+        if emptied:
+            group.remove(list(range(len(head.data.vertices))))
+        else:
+            head.vertex_groups.remove(group)
+        before = snapshot()
+        notes = face_setup.set_up(head)
+        word = "filled" if emptied else "made vertex groups"
+        assert any(word in note and name in note for note in notes), notes
+        assert head.mpeg4_face.made_masks == name
+        weights = face_data.group_weights(head, [name])[name]
+        assert weights.any() and [g.name for g in head.vertex_groups].count(name) == 1
+        assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+        assert snapshot() == before  # an emptied group is the user's: emptied again, not deleted
+        face_setup.set_up(head)
+        _play(head)
+
+
+def test_all_mask_groups_empty_as_a_remesh_leaves_them_play():
+    head = unset_sample()
+    variants.empty_vertex_groups(head)
+    notes = face_setup.set_up(head)
+    assert any("had no weights: filled them" in note for note in notes)
+    state = live._state(head)
+    live.apply_face(head, force=True)
+    assert live._states[head.session_uid] is state and state.lip_guard is not None  # the lips are guarded
+    _play(head)
+
+
+def _world_pose(head, frame: int) -> np.ndarray:
+    bpy.context.scene.frame_set(frame)
+    matrix = np.array(head.matrix_world)
+    return positions(head.data) @ matrix[:3, :3].T + matrix[:3, 3]
+
+
+def _parts(head) -> list:
+    return [ob for ob in head.children if ob.type == "MESH" and ob.name in PART_OBJECTS]
+
+
+def _gaze(head) -> np.ndarray:
+    """The eyes' world positions with the left pupil moved 3 mm to the face's left and 2 mm up (world X and Z)."""
+    pupil = face_data.fp_empties(head)["3.5"]
+    pupil.matrix_world.translation += Vector((0.003, 0.0, 0.002))
+    bpy.context.view_layer.update()
+    turned = _part_positions(_parts(head))
+    pupil.matrix_world.translation -= Vector((0.003, 0.0, 0.002))
+    bpy.context.view_layer.update()
+    return turned
+
+
+def test_a_y_up_import_sets_up_and_plays_as_the_z_up_face_does():
+    head = unset_sample()
+    face_setup.set_up(head)
+    gaze = _gaze(head)
+    assert np.abs(gaze - _part_positions(_parts(head))).max() > 0.001  # the left eye turned
+    fapu = np.array(head.mpeg4_face.fapu)
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    expected = [(_world_pose(head, frame), _part_positions(_parts(head))) for frame in FRAMES]
+
+    head = unset_sample()
+    variants.rotate_y_up(head)
+    notes = face_setup.set_up(head)
+    assert not any(isinstance(note, Warn) for note in notes), notes
+    assert np.allclose(face_data.face_axes(head), np.eye(3))  # x left, y up, z forward: the mesh's own axes
+    assert np.allclose(head.mpeg4_face.fapu, fapu, rtol=1e-5)
+    assert np.abs(_gaze(head) - gaze).max() < 1e-5  # about the face's up and left, not the mesh's Z and X
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    for frame, (pose, parts) in zip(FRAMES, expected, strict=True):
+        assert np.abs(_world_pose(head, frame) - pose).max() < 1e-5
+        assert np.abs(_part_positions(_parts(head)) - parts).max() < 1e-5  # the eyes turn about the face's up
+
+
+def test_swapped_eye_corners_and_a_misplaced_fp_are_named():
+    head = unset_sample()
+    empties = face_data.fp_empties(head)
+    left, right = empties["3.7"], empties["3.12"]  # the outer corners, swapped as a user might click them
+    left.location, right.location = right.location.copy(), left.location.copy()
+    empties["5.1"].location.y -= 0.05  # 5 cm in front of the cheek
+    notes = face_setup.set_up(head)
+    assert any("swapped in FP 3.7 and 3.12 (" in note for note in notes), notes
+    assert any("FP 5.1 were placed far off the surface" in note for note in notes), notes
+
+
+def test_lips_fused_in_the_mesh_are_named():
+    head = unset_sample()
+    assert not any(isinstance(note, Warn) for note in face_setup.set_up(head))  # the sample as it is: no warning
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    empties = face_data.fp_empties(head)
+    rest = positions(head.data)
+    # weld the inner lips' middles together, as a coarse remesh does
+    upper, lower = (int(np.argmin(np.linalg.norm(rest - empties[f].location, axis=1))) for f in ("2.2", "2.3"))
+    head.data.edges.add(1)
+    head.data.edges[-1].vertices = (upper, lower)
+    head.data.update()
+    notes = face_setup.set_up(head)
+    assert any("no opening at the lips (FP 2.2, 2.3)" in note for note in notes), notes
+
+
+def _part_positions(objects) -> np.ndarray:
+    """World positions of the part objects' vertices, as evaluated now (their drivers applied)."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    rows = []
+    for ob in objects:
+        matrix = np.array(ob.evaluated_get(depsgraph).matrix_world)
+        rows.append(positions(ob.data) @ matrix[:3, :3].T + matrix[:3, 3])
+    return np.concatenate(rows)
+
+
+def test_parts_joined_into_the_face_move_as_the_separate_objects_do():
+    frames = range(1, 398, 12)
+    head = unset_sample()
+    objects = _parts(head)
+    assert len(objects) == 5
+    face_setup.set_up(head)
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    bpy.context.scene.frame_set(0)
+    at_rest = _part_positions(objects)
+    expected = []
+    for frame in frames:
+        bpy.context.scene.frame_set(frame)
+        expected.append(_part_positions(objects))
+    assert np.abs(np.array(expected) - at_rest).max() > 0.004  # the eyes turn and the jaw opens
+
+    head = unset_sample()
+    variants.join_parts(head)
+    notes = face_setup.set_up(head)
+    found = next(note for note in notes if note.startswith("found loose parts"))
+    for what in ("left eyeball (72", "right eyeball (72", "upper teeth (68", "lower teeth (68", "tongue (226"):
+        assert what in found
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    bpy.context.scene.frame_set(0)
+    rest = _world_pose(head, 0)
+    # each part vertex's counterpart in the joined face: the vertex at its rest position
+    match = np.array([int(np.argmin(np.linalg.norm(rest - p, axis=1))) for p in at_rest])
+    assert np.linalg.norm(rest[match] - at_rest, axis=1).max() < 1e-6
+    for frame, pose in zip(frames, expected, strict=True):
+        assert np.abs(_world_pose(head, frame)[match] - pose).max() < 1e-4, frame
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert not any(g.name.startswith("part_") for g in head.vertex_groups)
+
+
+def test_a_head_on_a_body_turns_while_the_shoulders_stay():
+    head = unset_sample()
+    face_setup.set_up(head)
+    assert head.vertex_groups.get("head_turn") is None  # a head on its own turns whole, as before
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    frames = range(1, 398, 8)
+    alone = [_world_pose(head, frame) for frame in frames]
+    rest_alone = _world_pose(head, 0)
+    n_head = len(rest_alone)
+
+    head = unset_sample()
+    variants.join_body(head)
+    notes = face_setup.set_up(head)
+    assert any("has a body" in note for note in notes)
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
+    rest = _world_pose(head, 0)
+    shoulders = rest[:, 2] < rest[:, 2].min() + 0.1
+    above_chin = np.flatnonzero(rest[:n_head, 2] > rest_alone[:, 2].min() + 0.05)
+    turned = 0.0
+    for frame, pose in zip(frames, alone, strict=True):
+        now = _world_pose(head, frame)
+        assert np.abs(now[shoulders] - rest[shoulders]).max() < 1e-5
+        assert np.abs(now[above_chin] - pose[above_chin]).max() < 1e-5  # the head as the head on its own
+        turned = max(turned, float(np.abs(pose - rest_alone).max()))
+    assert turned > 0.002
+    assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
+    assert head.vertex_groups.get("head_turn") is None

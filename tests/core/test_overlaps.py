@@ -1,0 +1,42 @@
+"""Skin passing through skin and rough lid edges, measured beside the fold count (no scene)."""
+
+import numpy as np
+
+from addon.deform.overlaps import crossings, edge_roughness
+
+
+def _sheet(offset: float):
+    """Two unit squares (two triangles each), the second `offset` above the first and shifted half a square."""
+    square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=np.float64)
+    points = np.concatenate([square, square + [0.5, 0.25, offset]])
+    tris = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+    return points, tris
+
+
+def test_sheets_apart_do_not_cross_and_a_sheet_pushed_through_does():
+    points, tris = _sheet(0.1)
+    assert crossings(points, tris) == 0
+    points[6, 2] = -0.5  # one corner of the upper sheet pushed through the lower one
+    assert crossings(points, tris) >= 1
+    assert crossings(points, tris, moving=np.zeros(8, bool)) == 0  # nothing moved: nothing looked at
+    neighbours = np.array([[0, 1, 2], [0, 2, 3]])  # triangles sharing vertices never count
+    assert crossings(points[:4], neighbours) == 0
+
+
+def test_a_smooth_lid_edge_is_on_its_curve_and_a_zig_zag_is_not():
+    angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+    circle = np.column_stack([np.cos(angle), np.sin(angle), np.zeros(40)]) * 0.015
+    chain = np.arange(40)
+    assert edge_roughness(circle, chain).max() < 1e-5  # a 15 mm circle at 40 vertices: a cubic to 0.01 mm
+    circle[10, 2] += 0.001
+    rough = edge_roughness(circle, chain)
+    assert rough[10] > 0.0005 and np.argmax(rough) == 10
+
+
+def test_unfold_skin_takes_fewer_steps_a_frame_the_finer_the_mesh():
+    from addon.deform.unfold import MAX_STEPS, MIN_FRAME_STEPS, frame_steps
+
+    assert frame_steps(1000) == MAX_STEPS
+    assert frame_steps(4278) == 935  # the sample
+    assert frame_steps(53522) == 74  # the 2 mm voxel remesh: 800 steps took 0.45 s there
+    assert frame_steps(10_000_000) == MIN_FRAME_STEPS
