@@ -38,6 +38,7 @@ log = logging.getLogger(__name__)
 MODES = {"PLANAR_BONES": "planar_bones", "SOFFD": "soffd"}
 PAUSED_IN_EDIT_MODE = "Paused in Edit Mode (the rest shape is shown)"
 OUT = np.float32  # the deformed positions, as the mesh holds them
+LIP_ROUNDS = 6  # lip guard and Unfold Skin taking turns after a frame's first unfold, at most
 _NATIVE_GUARD = True  # the compiled guard where the kernel has it (its numpy reference: lips.guard_lips)
 
 
@@ -385,16 +386,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                 state.playback = None  # out was written whole: a new evaluator next frame
             else:
                 off_rest = state.playback.off_rest
-            lips = state.lip_points
-            if state.lip_guard is not None and not np.array_equal(driving[lips], state.binding.control_rest[lips]):
-                # the lips press on each other, never pass
-                moved = fused.guard_lips_into(state.lip_arrays, state.out, driving) if _NATIVE_GUARD else None
-                if moved is None:
-                    moved = guard_lips(state.lip_guard, state.out, driving)
-                if moved and state.playback is not None:
-                    state.playback.changed(state.lip_skin_groups)  # the next frame writes them afresh
-                    if off_rest is not None:
-                        off_rest[state.lip_skin_groups] = 1
+            _keep_lips_apart(state, driving, off_rest)
         if eyelid_rig.apply(face, state.binding, state.out, fps) and off_rest is not None:  # no V, no crossing
             off_rest[state.playback.rewritten] = 1  # the lids turned their groups
         if state.parts is not None:  # eyeballs, teeth and tongue: rigid, wherever the skin's deformers put them
@@ -419,6 +411,15 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             look = None if state.playback is None else _look(face, state, skin)
             look = None if off_rest is None else look
             moved = unfold.open_folds(skin, state.out, look, max_steps=unfold.frame_steps(skin.n_vertices)).moved
+            for _ in range(LIP_ROUNDS if len(moved) else 0):
+                # the membrane may carry lip skin back across the other lip: the lips are guarded again and the
+                # skin opened again, until a round leaves both the guard and the membrane content
+                if not _keep_lips_apart(state, driving, None):
+                    break
+                again = unfold.open_folds(skin, state.out, None, max_steps=unfold.frame_steps(skin.n_vertices)).moved
+                if not len(again):
+                    break
+                moved = np.union1d(moved, again)
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh
         rest_shape.write_positions(face.data, state.out)
@@ -430,6 +431,22 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
     if settings.status:
         settings.status = ""
     return True
+
+
+def _keep_lips_apart(state: _State, driving: np.ndarray, off_rest: np.ndarray | None) -> bool:
+    """The lip guard on `state.out` (the lips press on each other, never pass) where the lips' points moved;
+    whether it moved any skin."""
+    lips = state.lip_points
+    if state.lip_guard is None or np.array_equal(driving[lips], state.binding.control_rest[lips]):
+        return False
+    moved = fused.guard_lips_into(state.lip_arrays, state.out, driving) if _NATIVE_GUARD else None
+    if moved is None:
+        moved = guard_lips(state.lip_guard, state.out, driving)
+    if moved and state.playback is not None:
+        state.playback.changed(state.lip_skin_groups)  # the next frame writes them afresh
+        if off_rest is not None:
+            off_rest[state.lip_skin_groups] = 1
+    return bool(moved)
 
 
 def _apply_elastic(face, force: bool) -> bool:
