@@ -17,8 +17,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from ..mpeg4.feature_points import FEATURE_POINTS
 
@@ -91,6 +89,11 @@ def far_off(placed: Mapping[str, np.ndarray], snapped: Mapping[str, np.ndarray],
 
 def fused_openings(rest: np.ndarray, edges: np.ndarray, positions: Mapping[str, np.ndarray]) -> list[str]:
     """The openings (`OPENINGS`) the mesh closes: '<name> (FP a and FP b)' for each."""
+    try:
+        from scipy.sparse import coo_matrix
+        from scipy.sparse.csgraph import dijkstra
+    except ImportError:  # a warning only: where the platform has no scipy wheel, it is not given
+        return []
     rest = np.asarray(rest, dtype=np.float64)
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
     if len(edges) == 0:

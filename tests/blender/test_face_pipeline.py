@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import binding_store, face_data, fap_io, rest_shape
+from addon.blender import binding_store, face_data, fap_io, live, rest_shape
 from addon.deform.eyelids import apply_eyelids, bind_eyelids, hold_lids
 from addon.deform.face_binding import bind_face
 from addon.deform.lips import bind_lip_guard, guard_lips, mouth_sides
@@ -46,7 +46,8 @@ def core_result(head, stream_path, frame_index):
     out = evaluate(binding, driving)
     triangles = face_data.mesh_fans(head.data)[0]
     upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
-    guard_lips(bind_lip_guard(rest, rest_control, tuple(ids), triangles, upper, lower), out, driving)
+    guard = bind_lip_guard(rest, rest_control, tuple(ids), triangles, upper, lower)
+    guard_lips(guard, out, driving)
     centres = fap_io.eye_pivots(head)
     radii = np.linalg.norm(neutral[[fp_index("3.5"), fp_index("3.6")]] - centres, axis=1)
     rig = bind_eyelids(
@@ -54,7 +55,15 @@ def core_result(head, stream_path, frame_index):
     )
     apply_eyelids(rig, out, points)
     skin = out.astype(np.float32)  # Unfold Skin works on the face's float32 positions
-    open_folds(prepare(rest, triangles), skin)
+    mesh = prepare(rest, triangles)
+    if len(open_folds(mesh, skin).moved):  # then the lips and the membrane take turns, as `live` plays them
+        for _ in range(live.LIP_ROUNDS):
+            lips = skin.astype(np.float64)
+            if not guard_lips(guard, lips, driving):
+                break
+            skin[...] = lips
+            if not len(open_folds(mesh, skin).moved):
+                break
     return skin
 
 

@@ -1,5 +1,7 @@
 """The face frame read from FPs, and the checks set-up makes before it writes (no scene)."""
 
+import sys
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -62,3 +64,25 @@ def test_fused_lips_are_found_by_the_path_round_the_opening():
     fps = {k: np.array(v) for k, v in fps.items()}
     assert fused_openings(*_grid(slit=False), fps) == ["lips (FP 2.2, 2.3)"]
     assert fused_openings(*_grid(slit=True), fps) == []
+
+
+def test_loose_pieces_are_the_same_without_scipy(monkeypatch):
+    """Where a platform has no scipy wheel, the numpy hooking finds the same pieces as scipy's components."""
+    from addon.deform.loose_parts import loose_parts
+
+    rng = np.random.default_rng(0)
+    for n in (1, 12, 300, 4000):
+        edges = rng.integers(0, n, size=(n // 2 + 1, 2))
+        with_scipy = loose_parts(n, edges)
+        monkeypatch.setitem(sys.modules, "scipy", None)
+        without = loose_parts(n, edges)
+        monkeypatch.undo()
+        # the same partition: each label of one names exactly one label of the other
+        pairs = np.unique(np.stack([with_scipy, without], axis=1), axis=0)
+        assert len(pairs) == len(np.unique(with_scipy)) == len(np.unique(without))
+    chain = np.array([[0, 1], [1, 2], [4, 5]])
+    monkeypatch.setitem(sys.modules, "scipy", None)
+    labels = loose_parts(7, chain)
+    assert labels[0] == labels[1] == labels[2] and labels[4] == labels[5]
+    assert len({labels[0], labels[3], labels[4], labels[6]}) == 4
+    assert labels[0] == 0  # numbered from the largest piece down
