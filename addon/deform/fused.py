@@ -1,6 +1,6 @@
 """The fast path of `planar_bones.evaluate`: one compiled pass over a per-vertex layout of the binding.
 
-Why this design (measured; README, "Fast path"): the numpy path spends most of a frame in thousands of
+Why this design (measured; docs/fast_path.md): the numpy path spends most of a frame in thousands of
 small batched matrix products and in `bincount`'s scatter. A sparse product from a library (scipy)
 would still need the per-frame basis and the D/d factors of eq. 13–14 computed around it, a second pass,
 and a large wheel per platform and Python version. So the project compiles its own kernel,
@@ -51,7 +51,7 @@ ABI_VERSION = 10  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
-THREADS = 2  # from PARALLEL_PAIRS pairs up; measured on 2 cores (README, "Fast path")
+THREADS = 2  # from PARALLEL_PAIRS pairs up; measured on 2 cores (docs/fast_path.md)
 PARALLEL_PAIRS = 50_000  # below this (the 4k sample head has 21k) a second thread costs more than it saves
 MAX_THREADS = 16  # PBK_MAX_THREADS
 PLAIN_REGIONS = 4  # FACE, EDGE + 0..2: key = triangle × 4 + region
