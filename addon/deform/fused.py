@@ -6,9 +6,10 @@ would still need the per-frame basis and the D/d factors of eq. 13–14 computed
 and a large wheel per platform and Python version. So the project compiles its own kernel,
 `native/planar_bones_kernel.c`: plain C with no Python C-API, loaded with `ctypes`, so one shared library
 per platform serves every Python version. `scripts/build_kernel.py` puts it in the wheel
-``mpeg4_face_kernel``, which the extension zip bundles (Blender installs it where the platform matches)
-and set-up installs into ``.venv``. Where it is missing, does not load or reports another ABI version,
-or where ``MPEG4_FACE_NO_KERNEL=1`` is set, `planar_bones.evaluate` runs its numpy reference instead.
+``mpeg4_face_kernel``, cross-compiled for every platform; each platform's extension zips bundle its wheel
+(Blender installs it) and set-up installs this machine's into ``.venv``. Where it is missing, does not load
+or reports another ABI version, or where ``MPEG4_FACE_NO_KERNEL=1`` is set, `planar_bones.evaluate` runs its
+numpy reference instead.
 
 The layout (`build_layout`, once per binding, mode and output dtype) groups the pairs by vertex (CSR), so
 the kernel writes each output vertex once, with no scatter and no atomics. A face or edge pair (every
