@@ -1,7 +1,7 @@
 """Scripts around the add-on, grouped by job; run each as a module from the repository root:
 
     .venv/bin/python -m scripts.convert --face FACE.blend IN.fap... -o OUTDIR    convert streams (user command)
-    .venv/bin/python -m scripts.build_extension                                  build the extension zip
+    .venv/bin/python -m scripts.build_extension                                  build the extension zips
     .venv/bin/python -m scripts.bench.<name>                                     benchmarks (the figures of docs/)
     .venv/bin/python -m scripts.sample.<name>                                    build the sample heads and stream
     .venv/bin/python -m scripts.docs.<name>                                      render the pictures of docs/
