@@ -242,12 +242,15 @@ def install(wheel: Path) -> bool:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--platforms", nargs="+", choices=PLATFORMS, default=list(PLATFORMS), metavar="PLATFORM")
+    parser.add_argument(
+        "--platforms", nargs="+", choices=PLATFORMS, metavar="PLATFORM", help="default: all; with --install, this one"
+    )
     parser.add_argument("--out", type=Path, default=WHEELS, help="folder for the wheels (default: wheels/)")
     parser.add_argument("--install", action="store_true", help="also install this machine's wheel into this Python")
     args = parser.parse_args(argv)
     try:
-        platforms = dict.fromkeys([*args.platforms, *([host_platform()] if args.install else [])])
+        chosen = args.platforms or ([] if args.install else list(PLATFORMS))
+        platforms = dict.fromkeys([*chosen, *([host_platform()] if args.install else [])])
         wheels = {platform: build_wheel(platform, args.out) for platform in platforms}
         print("\n".join(map(str, wheels.values())))
         if args.install and install(wheels[host_platform()]):
