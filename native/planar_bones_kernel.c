@@ -31,13 +31,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#if defined(__GLIBC__) && defined(__x86_64__)
-/* glibc 2.34 gave pthread_create and pthread_detach new symbol versions; asking for the ones every
- * x86-64 glibc has lets the library load where Blender runs on an older glibc too (4.2 needs 2.28). */
-__asm__(".symver pthread_create, pthread_create@GLIBC_2.2.5");
-__asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
-#endif
-
 #define PBK_ABI_VERSION 10
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
@@ -52,6 +45,7 @@ __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 /* On x86-64 with GCC or Clang, an AVX2 + FMA variant of the loop too, chosen at run time by the CPU. */
 #if defined(__x86_64__) && defined(__GNUC__)
 #define PBK_AVX2 1
+#include <cpuid.h>
 #include <immintrin.h>
 #define AVX2_TARGET __attribute__((target("avx2,fma")))
 #else
@@ -61,7 +55,6 @@ __asm__(".symver pthread_detach, pthread_detach@GLIBC_2.2.5");
 /* Four doubles: one component (x, y or z) of a key's four rows, or a pair's four coefficients. */
 typedef double Quad __attribute__((vector_size(32), aligned(32)));
 typedef float Quad32 __attribute__((vector_size(16)));
-typedef int64_t Lanes __attribute__((vector_size(32)));
 
 typedef struct {
     double shift[4];    /* the translation every vertex takes times its weight sum (x, y, z, 0) */
@@ -167,13 +160,19 @@ static inline __attribute__((always_inline)) double apex_ratio(double a, double 
     return d > 0.0 ? ratio : 0.0;
 }
 
-/* (sum of x's lanes, of y's, of z's, 0) */
-static inline __attribute__((always_inline)) Quad lane_sums(Quad x, Quad y, Quad z) {
-    Quad zero = {0.0, 0.0, 0.0, 0.0};
-    Quad xy = __builtin_shuffle(x, y, (Lanes){0, 4, 2, 6}) + __builtin_shuffle(x, y, (Lanes){1, 5, 3, 7});
-    Quad z0 = __builtin_shuffle(z, zero, (Lanes){0, 4, 2, 6}) + __builtin_shuffle(z, zero, (Lanes){1, 5, 3, 7});
-    return __builtin_shuffle(xy, z0, (Lanes){0, 1, 4, 5}) + __builtin_shuffle(xy, z0, (Lanes){2, 3, 6, 7});
-}
+/* (sum of x's lanes, of y's, of z's, 0); one per variant, since Clang passes a 4-double vector to a function
+ * compiled without AVX differently than to one with it, and refuses the mix */
+#define DEFINE_LANE_SUMS(NAME, ATTRIBUTES)                                                                        \
+    static inline __attribute__((always_inline)) ATTRIBUTES Quad NAME(Quad x, Quad y, Quad z) {                 \
+        Quad zero = {0.0, 0.0, 0.0, 0.0};                                                                       \
+        Quad xy = __builtin_shufflevector(x, y, 0, 4, 2, 6) + __builtin_shufflevector(x, y, 1, 5, 3, 7);         \
+        Quad z0 = __builtin_shufflevector(z, zero, 0, 4, 2, 6) + __builtin_shufflevector(z, zero, 1, 5, 3, 7);   \
+        return __builtin_shufflevector(xy, z0, 0, 1, 4, 5) + __builtin_shufflevector(xy, z0, 2, 3, 6, 7);        \
+    }
+DEFINE_LANE_SUMS(lane_sums, )
+#if PBK_AVX2
+DEFINE_LANE_SUMS(lane_sums_avx2, AVX2_TARGET)
+#endif
 
 /* Four coefficients as doubles: portable loaders, and where there is AVX2 one instruction each. */
 static inline __attribute__((always_inline)) Quad load_f32(const float *p) {
@@ -191,6 +190,7 @@ static inline __attribute__((always_inline)) Quad load_f64(const double *p) {
 #define REAL float
 #define LOAD load_f32
 #define LOAD64 load_f64
+#define LANES lane_sums
 #define RANGE range_f32
 #define LIST list_f32
 #define SUM sum_f32
@@ -199,6 +199,7 @@ static inline __attribute__((always_inline)) Quad load_f64(const double *p) {
 #undef REAL
 #undef LOAD
 #undef LOAD64
+#undef LANES
 #undef RANGE
 #undef LIST
 #undef SUM
@@ -207,6 +208,7 @@ static inline __attribute__((always_inline)) Quad load_f64(const double *p) {
 #define REAL double
 #define LOAD load_f64
 #define LOAD64 load_f64
+#define LANES lane_sums
 #define RANGE range_f64
 #define LIST list_f64
 #define SUM sum_f64
@@ -215,6 +217,7 @@ static inline __attribute__((always_inline)) Quad load_f64(const double *p) {
 #undef REAL
 #undef LOAD
 #undef LOAD64
+#undef LANES
 #undef RANGE
 #undef LIST
 #undef SUM
@@ -232,6 +235,7 @@ static inline __attribute__((always_inline)) AVX2_TARGET Quad load_f64_avx2(cons
 #define REAL float
 #define LOAD load_f32_avx2
 #define LOAD64 load_f64_avx2
+#define LANES lane_sums_avx2
 #define RANGE range_f32_avx2
 #define LIST list_f32_avx2
 #define SUM sum_f32_avx2
@@ -240,6 +244,7 @@ static inline __attribute__((always_inline)) AVX2_TARGET Quad load_f64_avx2(cons
 #undef REAL
 #undef LOAD
 #undef LOAD64
+#undef LANES
 #undef RANGE
 #undef LIST
 #undef SUM
@@ -248,6 +253,7 @@ static inline __attribute__((always_inline)) AVX2_TARGET Quad load_f64_avx2(cons
 #define REAL double
 #define LOAD load_f64_avx2
 #define LOAD64 load_f64_avx2
+#define LANES lane_sums_avx2
 #define RANGE range_f64_avx2
 #define LIST list_f64_avx2
 #define SUM sum_f64_avx2
@@ -256,6 +262,7 @@ static inline __attribute__((always_inline)) AVX2_TARGET Quad load_f64_avx2(cons
 #undef REAL
 #undef LOAD
 #undef LOAD64
+#undef LANES
 #undef RANGE
 #undef LIST
 #undef SUM
@@ -269,15 +276,20 @@ typedef void Range(int64_t, int64_t, const double *, const int32_t *, const int3
 typedef void List(int64_t, int64_t, const int32_t *, const double *, const int32_t *, const int32_t *,
                   const void *, const int32_t *, const int32_t *, const void *, const void *, const Tables *, void *);
 
-static int has_avx2(void) {
 #if PBK_AVX2
+static int has_avx2(void) {
     static int avx2 = -1;
-    if (avx2 < 0) avx2 = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+    if (avx2 < 0) {
+        /* CPUID and XGETBV rather than __builtin_cpu_supports, whose run-time support MinGW lacks: AVX2 and FMA,
+         * and an OS that saves the YMM registers */
+        unsigned a, b, c, d, xcr0 = 0, xcr0_high;
+        int avx = __get_cpuid(1, &a, &b, &c, &d) && (c & bit_FMA) && (c & bit_AVX) && (c & bit_OSXSAVE);
+        if (avx) __asm__("xgetbv" : "=a"(xcr0), "=d"(xcr0_high) : "c"(0));
+        avx2 = avx && (xcr0 & 6) == 6 && __get_cpuid_count(7, 0, &a, &b, &c, &d) && (b & bit_AVX2);
+    }
     return avx2;
-#else
-    return 0;
-#endif
 }
+#endif
 
 /* The loops for this CPU and output type. */
 static Range *range_for(int single) {

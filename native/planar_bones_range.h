@@ -1,6 +1,6 @@
 /* The kernel's loops over vertices, included by planar_bones_kernel.c once per coefficient type REAL (float or
  * double; the output has the same type) and instruction set: the 4-wide loaders LOAD (of REALs) and LOAD64 (of
- * doubles), the function attribute TARGET and the function names SUM, RANGE and LIST. A vertex sums its pairs
+ * doubles), the lane sums LANES, the function attribute TARGET and the function names SUM, RANGE and LIST. A vertex sums its pairs
  * lane by lane in double and adds the lanes up once at the end (SUM); RANGE runs over a range of vertices, a
  * vertex whose pairs' triangles all are at rest taking its result at rest, and LIST over listed vertices. */
 
@@ -44,7 +44,7 @@ TARGET static inline __attribute__((always_inline)) void SUM(int64_t u, const do
         }
     }
     Quad rest = LOAD64(base + 4 * u); /* x, y, z and the weight correction */
-    Quad sum = rest + (rest[3] + weight) * shift + lane_sums(x, y, z);
+    Quad sum = rest + (rest[3] + weight) * shift + LANES(x, y, z);
     out[3 * u] = (REAL)sum[0];
     out[3 * u + 1] = (REAL)sum[1];
     out[3 * u + 2] = (REAL)sum[2];

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Every figure the README quotes: accuracy against MakeHuman's sculpted expressions (and faces turned over
+# Every figure docs/ quotes: accuracy against MakeHuman's sculpted expressions (and faces turned over
 # while playing the demo and the real .fap streams), masks made from the FPs against hand-made ones, Planar
 # Bones vs Surface Deform speed end to end, the kernel, the .fap reader, fitting to MakeHuman faces' FPs
 # (accuracy and set-up time), speech (lip closure, sync, throughput), Elastic Bones (training, frame cost) and

@@ -13,6 +13,6 @@ if [ ! -x .venv/bin/python ]; then
     "$PYTHON" -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r requirements.txt
-# The compiled Planar Bones kernel (addon/deform/fused.py), built with this machine's C compiler and
-# installed into .venv; without a compiler the add-on and the tests use the numpy path.
+# The compiled Planar Bones kernel (addon/deform/fused.py), built for this machine with Zig's C compiler (ziglang,
+# pinned above) and installed into .venv; without it the add-on and the tests use the numpy path.
 .venv/bin/python -m scripts.build_kernel --install >/dev/null || echo "warning: no compiled kernel; using the numpy path" >&2

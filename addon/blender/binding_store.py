@@ -290,6 +290,9 @@ def gather(
     masks = _masks(face, fresh, made_masks)
     tri_masks = [m if m in masks else None for m in triangle_masks]
     params = {"radius_fraction": settings.radius_fraction, "falloff_exponent": settings.falloff_exponent, "es0": es0}
+    # Python floats in the key's text: NumPy 2 writes a numpy scalar as np.float64(...), which would make a binding
+    # saved under NumPy 1 (Blender 5.0 and older) look stale under NumPy 2
+    params = {name: float(value) for name, value in params.items()}
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
     key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)

@@ -149,7 +149,7 @@ def follow_gaze(face, eye, pupil, pivot: np.ndarray, axes: np.ndarray = BLENDER_
         for prop, expression in ((PITCH_PROP, pitch), (YAW_PROP, yaw)):
             eye[prop] = 0.0
             _driver(eye, f'["{prop}"]', -1, pupil, expression)
-        qx, qy, qz = (f"({v!r})" for v in q)
+        qx, qy, qz = (f"({float(v)!r})" for v in q)  # a Python float's repr: NumPy 2 writes np.float64(...)
         turned_y = f"(cos(p) * {qy} - sin(p) * {qz})"  # Rx(pitch) q = (qx, turned_y, turned_z)
         for path, index, expression in (
             ("delta_rotation_euler", 0, "p"),

@@ -143,6 +143,9 @@ def adopt(face, empties: dict, planned: dict[str, np.ndarray], neutral: dict[str
                 "tagged": face_data.FP_PROP in ob,
                 "size": ob.empty_display_size,
             }
+            # sized to the face once, when adopted: a later set-up (after a fit, Back to Generic) keeps the size,
+            # so that going back to the generic face gives back the empties as they were
+            ob.empty_display_size = max(ob.empty_display_size, size)
         ob[face_data.FP_PROP] = fp_id
         if _needs_parenting(face, ob):
             ob.parent = face
@@ -152,7 +155,6 @@ def adopt(face, empties: dict, planned: dict[str, np.ndarray], neutral: dict[str
         if tuple(ob.location) != tuple(planned[fp_id]):
             ob.location = planned[fp_id]
         ob[face_data.EMPTY_REST_PROP] = [float(v) for v in neutral[fp_id]]
-        ob.empty_display_size = max(ob.empty_display_size, size)
     return reparented
 
 

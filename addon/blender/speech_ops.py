@@ -79,9 +79,17 @@ def _all_strips(editor):
     return editor.strips_all if hasattr(editor, "strips_all") else editor.sequences_all
 
 
+def strip_span(strip) -> tuple[int, int]:
+    """(first frame, first frame after) of a strip as the sequencer shows it: `left_handle` and `right_handle` in
+    Blender 5.1+, `frame_final_start` and `frame_final_end` before (deprecated in 5.1, gone in Blender 6)."""
+    if hasattr(strip, "left_handle"):
+        return strip.left_handle, strip.right_handle
+    return strip.frame_final_start, strip.frame_final_end
+
+
 def _free_channel(editor, first: int, last: int) -> int:
     """The lowest channel with no strip between frames `first` and `last`."""
-    busy = {s.channel for s in _all_strips(editor) if s.frame_final_start <= last and s.frame_final_end > first}
+    busy = {s.channel for s in _all_strips(editor) if strip_span(s)[0] <= last and strip_span(s)[1] > first}
     return next(c for c in range(1, len(busy) + 2) if c not in busy)
 
 

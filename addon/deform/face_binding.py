@@ -9,7 +9,7 @@ A head is covered by the control mesh only in part, so two choices sit on top of
   ends smoothly where the volumes end. At 0.2 rather than 0.05 the fade spans about the outer
   half of the volumes' reach instead of their outer third, and the skin where the face ends (temples,
   under the chin, the mouth corners' inside) stretches over a wider band and folds far less; measured on
-  the sample head's expression units and .fap streams (README, "Accuracy against sculpted expressions").
+  the sample head's expression units and .fap streams (docs/accuracy.md).
 
 Still skin around the eyes and brows (``triangle_parts``, docs/eyes_brows.md): raising radii to cover every
 face vertex is what spreads a brow's or a lid's motion over the forehead, temple and cheek, which sculpted

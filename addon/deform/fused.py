@@ -1,14 +1,15 @@
 """The fast path of `planar_bones.evaluate`: one compiled pass over a per-vertex layout of the binding.
 
-Why this design (measured; README, "Fast path"): the numpy path spends most of a frame in thousands of
+Why this design (measured; docs/fast_path.md): the numpy path spends most of a frame in thousands of
 small batched matrix products and in `bincount`'s scatter. A sparse product from a library (scipy)
 would still need the per-frame basis and the D/d factors of eq. 13–14 computed around it, a second pass,
 and a large wheel per platform and Python version. So the project compiles its own kernel,
 `native/planar_bones_kernel.c`: plain C with no Python C-API, loaded with `ctypes`, so one shared library
 per platform serves every Python version. `scripts/build_kernel.py` puts it in the wheel
-``mpeg4_face_kernel``, which the extension zip bundles (Blender installs it where the platform matches)
-and set-up installs into ``.venv``. Where it is missing, does not load or reports another ABI version,
-or where ``MPEG4_FACE_NO_KERNEL=1`` is set, `planar_bones.evaluate` runs its numpy reference instead.
+``mpeg4_face_kernel``, cross-compiled for every platform; each platform's extension zips bundle its wheel
+(Blender installs it) and set-up installs this machine's into ``.venv``. Where it is missing, does not load
+or reports another ABI version, or where ``MPEG4_FACE_NO_KERNEL=1`` is set, `planar_bones.evaluate` runs its
+numpy reference instead.
 
 The layout (`build_layout`, once per binding, mode and output dtype) groups the pairs by vertex (CSR), so
 the kernel writes each output vertex once, with no scatter and no atomics. A face or edge pair (every
@@ -51,7 +52,7 @@ ABI_VERSION = 10  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
-THREADS = 2  # from PARALLEL_PAIRS pairs up; measured on 2 cores (README, "Fast path")
+THREADS = 2  # from PARALLEL_PAIRS pairs up; measured on 2 cores (docs/fast_path.md)
 PARALLEL_PAIRS = 50_000  # below this (the 4k sample head has 21k) a second thread costs more than it saves
 MAX_THREADS = 16  # PBK_MAX_THREADS
 PLAIN_REGIONS = 4  # FACE, EDGE + 0..2: key = triangle × 4 + region

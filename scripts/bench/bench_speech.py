@@ -1,4 +1,4 @@
-"""Speech on the sample head: bilabial closure, audio-visual sync and throughput (the README's "Speech" figures).
+"""Speech on the sample head: bilabial closure, audio-visual sync and throughput (the figures of docs/speech.md).
 
     .venv/bin/python -m scripts.bench.bench_speech [--sentences scripts/bench/speech_sentences.txt] [--fps 25]
                                                    [--video-sentences 10] [--json OUT.json]

