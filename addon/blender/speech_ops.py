@@ -87,6 +87,12 @@ def strip_span(strip) -> tuple[int, int]:
     return strip.frame_final_start, strip.frame_final_end
 
 
+def strip_content_start(strip) -> float:
+    """The frame where a strip's source begins (its sound's time 0): `content_start` in Blender 5.1+,
+    `frame_start` before (deprecated in 5.1, gone in Blender 6)."""
+    return strip.content_start if hasattr(strip, "content_start") else strip.frame_start
+
+
 def _free_channel(editor, first: int, last: int) -> int:
     """The lowest channel with no strip between frames `first` and `last`."""
     busy = {s.channel for s in _all_strips(editor) if strip_span(s)[0] <= last and strip_span(s)[1] > first}

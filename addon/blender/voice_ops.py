@@ -26,7 +26,7 @@ from ..speech import coarticulation, phone_alignment, recording
 from . import fap_io, poll
 from .modal_job import ModalJob
 from .reporting import Mpeg4Operator
-from .speech_ops import FACE_PROP, _play, _SpeechOptions, frame_budget, scene_fps
+from .speech_ops import FACE_PROP, _play, _SpeechOptions, frame_budget, scene_fps, strip_content_start
 
 AUDIO_GLOB = "*.wav;*.wave;*.flac;*.ogg;*.oga;*.mp3;*.m4a;*.aac;*.opus"
 
@@ -251,7 +251,7 @@ class MPEG4_OT_lipsync_strip(_LipSyncOperator, bpy.types.Operator):
     def invoke(self, context, _event):
         strip = _active_sound_strip(context)
         if strip is not None and not self.properties.is_property_set("start_frame"):
-            self.start_frame = int(strip.frame_start)
+            self.start_frame = int(strip_content_start(strip))
         return context.window_manager.invoke_props_dialog(self, width=420)
 
     def _make_job(self, context) -> LipSyncJob:
@@ -260,7 +260,7 @@ class MPEG4_OT_lipsync_strip(_LipSyncOperator, bpy.types.Operator):
         if strip is None:
             raise Mpeg4Error("make a sound strip the active strip of the sequencer first")
         if not self.properties.is_property_set("start_frame"):
-            self.start_frame = int(strip.frame_start)
+            self.start_frame = int(strip_content_start(strip))
         sound = strip.sound
         path = Path(bpy.path.abspath(sound.filepath)).resolve() if sound.filepath else None
         budget = frame_budget(context.scene, self.start_frame, self.set_frame_range) / scene_fps(context.scene)

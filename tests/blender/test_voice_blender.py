@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from addon.blender import face_data, fap_io, speech_ops, voice_ops
+from addon.blender.speech_ops import strip_span
 from addon.speech import espeak, recording, wav
 from tests.markers import needs_espeak
 
@@ -41,10 +42,10 @@ def test_lipsync_from_audio_keys_one_action_adds_the_recording_and_closes_the_li
     assert action.name == "Lip-Sync: take"
     assert {ob.animation_data.action for ob in face_data.fp_empties(head).values()} == {action}
     (strip,) = [s for s in strips() if s not in before]
-    assert strip.type == "SOUND" and strip.frame_final_start == 5
+    assert strip.type == "SOUND" and strip_span(strip)[0] == 5
     assert bpy.path.abspath(strip.sound.filepath) == str(path)
     rest = gap(head, 4)
-    gaps = {f: gap(head, f) for f in range(5, 5 + strip.frame_final_duration)}
+    gaps = {f: gap(head, f) for f in range(*strip_span(strip))}
     assert max(gaps.values()) - rest > 0.002  # the mouth opens by millimetres
     bilabials = [p for p in speech.phonemes if p.label in ("b", "p", "m")]
     assert len(bilabials) == 7  # maybe, bob, bought, map
@@ -67,7 +68,7 @@ def test_lipsync_from_a_sound_strip_without_transcript_keeps_the_strip(tmp_path)
     assert bpy.ops.mpeg4.lipsync_strip() == {"FINISHED"}
     (action,) = set(bpy.data.actions) - actions
     assert action.name == "Lip-Sync: line" and strips() == before
-    frames = [f for f in range(12, 12 + strip.frame_final_duration)]
+    frames = [f for f in range(*strip_span(strip))]
     gaps = [gap(head, f) for f in frames]
     assert max(gaps) - gap(head, 11) > 0.002  # recognised phones open the mouth from the strip's frame on
 
