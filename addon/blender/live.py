@@ -38,7 +38,6 @@ log = logging.getLogger(__name__)
 MODES = {"PLANAR_BONES": "planar_bones", "SOFFD": "soffd"}
 PAUSED_IN_EDIT_MODE = "Paused in Edit Mode (the rest shape is shown)"
 OUT = np.float32  # the deformed positions, as the mesh holds them
-LIP_ROUNDS = 6  # lip guard and Unfold Skin taking turns after a frame's first unfold, at most
 _NATIVE_GUARD = True  # the compiled guard where the kernel has it (its numpy reference: lips.guard_lips)
 
 
@@ -410,16 +409,13 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             # the look is made with the playback (0.15 s at 53k vertices: at set-up, not at the first frame that moves)
             look = None if state.playback is None else _look(face, state, skin)
             look = None if off_rest is None else look
-            moved = unfold.open_folds(skin, state.out, look, max_steps=unfold.frame_steps(skin.n_vertices)).moved
-            for _ in range(LIP_ROUNDS if len(moved) else 0):
-                # the membrane may carry lip skin back across the other lip: the lips are guarded again and the
-                # skin opened again, until a round leaves both the guard and the membrane content
-                if not _keep_lips_apart(state, driving, None):
-                    break
-                again = unfold.open_folds(skin, state.out, None, max_steps=unfold.frame_steps(skin.n_vertices)).moved
-                if not len(again):
-                    break
-                moved = np.union1d(moved, again)
+            moved = unfold.open_folds_guarded(
+                skin,
+                state.out,
+                lambda: _keep_lips_apart(state, driving, None),  # the lips have the last word
+                look,
+                max_steps=unfold.frame_steps(skin.n_vertices),
+            )
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh
         rest_shape.write_positions(face.data, state.out)

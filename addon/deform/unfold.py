@@ -35,6 +35,7 @@ to it bit for bit, `tests/core/test_unfold.py`).
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,7 @@ from .inputs import DeformError, check_points
 STEP = 0.5  # λ of a Jacobi step: half way to the neighbours' mean (the damped Jacobi of a membrane)
 CHECK_EVERY = 5  # steps between looks at the folds
 STALL_CHECKS = 4  # looks without fewer folds before the region widens by a ring
+GUARD_ROUNDS = 6  # a guard and the membrane taking turns after a frame's first unfold (`open_folds_guarded`), at most
 MAX_STEPS = 2000  # at most this many steps a frame (a frame it cannot open keeps what is left)
 # The add-on's per-frame budget (`frame_steps`): a step costs about as much as the vertices it smooths, and a fold
 # covers more vertices the finer the mesh, so the steps a frame may take shrink as the mesh grows; a fold left open
@@ -297,3 +299,25 @@ def open_folds(mesh: SkinMesh, positions: np.ndarray, look: Look | None = None, 
     if done is None:
         return unfold(mesh, positions, max_steps)
     return Unfolded(*done)
+
+
+def open_folds_guarded(
+    mesh: SkinMesh,
+    positions: np.ndarray,
+    guard: Callable[[], bool],
+    look: Look | None = None,
+    max_steps: int = MAX_STEPS,
+) -> np.ndarray:
+    """`open_folds`, then, where it moved skin, `guard` (a constraint on `positions` in place, such as the lip guard,
+    saying whether it moved any) and the membrane take turns until a round leaves both content, at most
+    GUARD_ROUNDS: the membrane may carry lip skin back across the other lip, the guard may turn a face over. The
+    vertices the membrane moved."""
+    moved = open_folds(mesh, positions, look, max_steps=max_steps).moved
+    for _ in range(GUARD_ROUNDS if len(moved) else 0):
+        if not guard():
+            break
+        again = open_folds(mesh, positions, None, max_steps=max_steps).moved
+        if not len(again):
+            break
+        moved = np.union1d(moved, again)
+    return moved

@@ -4,12 +4,12 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import binding_store, face_data, fap_io, live, rest_shape
+from addon.blender import binding_store, face_data, fap_io, rest_shape
 from addon.deform.eyelids import apply_eyelids, bind_eyelids, hold_lids
 from addon.deform.face_binding import bind_face
 from addon.deform.lips import bind_lip_guard, guard_lips, mouth_sides
 from addon.deform.planar_bones import evaluate
-from addon.deform.unfold import open_folds, prepare
+from addon.deform.unfold import open_folds_guarded, prepare
 from addon.mpeg4.control_mesh import triangle_parts
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
@@ -22,7 +22,8 @@ from .helpers import DEMO_FAP, evaluated_positions, open_sample, positions, sele
 
 def core_result(head, stream_path, frame_index):
     """The bpy-free pipeline for one frame: .fap -> FAP values -> group gains and ranges -> FPs -> fresh bind ->
-    evaluate with the mid-lids at rest -> the lips kept apart -> the lids' turn over the eyeballs -> Unfold Skin."""
+    evaluate with the mid-lids at rest -> the lips kept apart -> the lids' turn over the eyeballs -> Unfold Skin
+    taking turns with the lips' guard."""
     stream = read_fap(stream_path)
     values = shape_faps(hold_missing(stream.mask, stream.values))
     values[:, 47:50] = 0.0  # head rotation goes to the object transform
@@ -55,15 +56,7 @@ def core_result(head, stream_path, frame_index):
     )
     apply_eyelids(rig, out, points)
     skin = out.astype(np.float32)  # Unfold Skin works on the face's float32 positions
-    mesh = prepare(rest, triangles)
-    if len(open_folds(mesh, skin).moved):  # then the lips and the membrane take turns, as `live` plays them
-        for _ in range(live.LIP_ROUNDS):
-            lips = skin.astype(np.float64)
-            if not guard_lips(guard, lips, driving):
-                break
-            skin[...] = lips
-            if not len(open_folds(mesh, skin).moved):
-                break
+    open_folds_guarded(prepare(rest, triangles), skin, lambda: guard_lips(guard, skin, driving))
     return skin
 
 

@@ -216,3 +216,32 @@ def test_the_repair_grows_from_nothing_as_the_fold_does():
     assert first > 0 and changes[first] < 0.1e-3  # the first fold is opened by under a tenth of a spacing
     assert all(b >= a - 1e-9 for a, b in zip(changes[first:], changes[first + 1 :], strict=False))
     assert 0 < shares[first] < 0.2
+
+
+def test_a_guard_and_the_membrane_take_turns_until_both_are_content():
+    """`open_folds_guarded`: no guard where the membrane moved nothing; where it did, the guard runs, the membrane
+    opens what the guard folded again, and so on until the guard moves nothing or GUARD_ROUNDS have passed."""
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0)).astype(np.float32)
+
+    def run(refolds: int) -> tuple[np.ndarray, np.ndarray, int]:
+        """The guard folds the centre back `refolds` times (saying it moved skin), then moves nothing."""
+        positions, calls = folded.copy(), []
+
+        def guard() -> bool:
+            calls.append(1)
+            if len(calls) > refolds:
+                return False
+            positions[centre()] = folded[centre()]
+            return True
+
+        moved = unfold.open_folds_guarded(mesh, positions, guard)
+        return positions, moved, len(calls)
+
+    still = rest.astype(np.float32)
+    assert len(unfold.open_folds_guarded(mesh, still, lambda: pytest.fail("no fold: no guard"))) == 0
+    for refolds, calls in ((0, 1), (2, 3), (50, unfold.GUARD_ROUNDS)):
+        positions, moved, made = run(refolds)
+        assert made == calls and centre() in moved
+        assert not inverted_faces(rest, positions.astype(np.float64), triangles).any()  # the membrane ends it
