@@ -412,7 +412,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             moved = unfold.open_folds_guarded(
                 skin,
                 state.out,
-                lambda: _keep_lips_apart(state, driving, None),  # the lips have the last word
+                lambda: _keep_lips_apart(state, driving, None),  # the lips kept apart again after the membrane
                 look,
                 max_steps=unfold.frame_steps(skin.n_vertices),
             )
