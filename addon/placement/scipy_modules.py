@@ -5,7 +5,6 @@ from .errors import PlacementError
 
 try:
     from scipy.sparse import coo_matrix, csr_matrix, diags, kron
-    from scipy.sparse.csgraph import connected_components
     from scipy.sparse.linalg import factorized
     from scipy.spatial import cKDTree
 except ImportError as error:  # pragma: no cover - depends on the platform's wheels
@@ -14,4 +13,4 @@ except ImportError as error:  # pragma: no cover - depends on the platform's whe
         "from its zip, which brings scipy's wheel for this platform"
     ) from error
 
-__all__ = ["cKDTree", "connected_components", "coo_matrix", "csr_matrix", "diags", "factorized", "kron"]
+__all__ = ["cKDTree", "coo_matrix", "csr_matrix", "diags", "factorized", "kron"]

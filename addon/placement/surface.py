@@ -12,7 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .scipy_modules import cKDTree, connected_components, coo_matrix
+from ..deform.loose_parts import loose_parts as edge_pieces
+from .scipy_modules import cKDTree
 
 NEAR_VERTICES = 6  # vertices whose triangles are searched for a closest point
 
@@ -20,10 +21,7 @@ NEAR_VERTICES = 6  # vertices whose triangles are searched for a closest point
 def loose_parts(n_vertices: int, triangles: np.ndarray) -> np.ndarray:
     """(N,) label of each vertex's connected piece (vertices in no triangle get their own label)."""
     t = np.asarray(triangles, dtype=np.int64)
-    rows = np.concatenate([t[:, 0], t[:, 1], t[:, 2]])
-    cols = np.concatenate([t[:, 1], t[:, 2], t[:, 0]])
-    graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(n_vertices, n_vertices))
-    return connected_components(graph, directed=False)[1]
+    return edge_pieces(n_vertices, np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]))
 
 
 def triangle_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
