@@ -27,7 +27,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from scripts import build_kernel
+from scripts import build_kernel, slim_wheels
 
 ROOT = Path(__file__).resolve().parents[1]
 MANIFEST = ROOT / "blender_manifest.toml"
@@ -187,7 +187,7 @@ def zip_name(manifest: dict, platform: str, line: str) -> str:
 
 def build_zip(out_dir: Path, template: str, platform: str, line: str) -> Path:
     wheels = [build_kernel.build_wheel(platform)]
-    wheels += [wheel for project in BUNDLED if (wheel := fetch_wheel(project, LINES[line], platform))]
+    wheels += [slim_wheels.slim(wheel) for project in BUNDLED if (wheel := fetch_wheel(project, LINES[line], platform))]
     text = zip_manifest(template, platform, LINES[line], wheels)
     with tempfile.TemporaryDirectory() as scratch:
         manifest = check_manifest(Path(scratch) / "blender_manifest.toml", text)

@@ -61,6 +61,7 @@ def _blender_ext():
 def test_the_zip_states_its_platform_blender_versions_and_wheels_for_them(built_zip):
     manifest, line = _zip_manifest(built_zip), build_extension.LINES[LINE]
     assert built_zip.name == f"mpeg4_face-0.1.0-linux_x64-blender{LINE}.zip" and manifest["platforms"] == ["linux-x64"]
+    assert built_zip.stat().st_size <= 45e6  # the download target (scripts/slim_wheels.py trims what is never loaded)
     assert (manifest["blender_version_min"], manifest["blender_version_max"]) == (line.minimum, line.maximum)
     assert bpy.app.version >= tuple(map(int, line.minimum.split("."))) and bpy.app.version < tuple(
         map(int, line.maximum.split("."))
@@ -142,6 +143,30 @@ INSTALL = textwrap.dedent("""
     assert glob.glob(os.path.join(site, "site-packages", "scipy", "spatial", "_qhull.*"))
     for name in ("scipy.spatial", "espeakng_loader", "pocketsphinx"):
         importlib.import_module(name)
+    # the trimmed wheels (scripts/slim_wheels.py) still do all the add-on asks of them: each scipy call it makes ...
+    import numpy as np
+    from scipy.optimize import lsq_linear
+    from scipy.sparse import coo_matrix, csr_matrix, diags, kron
+    from scipy.sparse.csgraph import connected_components, dijkstra
+    from scipy.sparse.linalg import factorized
+    from scipy.spatial import Delaunay, cKDTree
+    points = np.random.default_rng(0).random((30, 3))
+    assert len(Delaunay(points).simplices) > 0 and cKDTree(points).query(points[3])[1] == 3
+    graph = csr_matrix(([1.0, 1.0], ([0, 2], [1, 3])), shape=(4, 4))  # two edges: 0-1 and 2-3
+    assert list(connected_components(graph, directed=False)[1]) == [0, 0, 1, 1]
+    assert list(dijkstra(graph, directed=False, indices=0)) == [0, 1, np.inf, np.inf]
+    system = kron(diags([1.0, 2.0]), coo_matrix(np.eye(2))).tocsc()
+    assert np.allclose(factorized(system)(np.ones(4)), [1, 1, 0.5, 0.5])
+    assert np.allclose(lsq_linear(np.eye(2), [2.0, -1.0], bounds=(0, 1)).x, [1, 0])
+    # ... and a voice is aligned and recognised without the word language model the trimmed PocketSphinx lacks
+    espeak = importlib.import_module(module + ".speech.espeak")
+    recording = importlib.import_module(module + ".speech.recording")
+    alignment = importlib.import_module(module + ".speech.phone_alignment")
+    speech = espeak.synthesize("Bob made a map", voice="en-us")
+    voice = recording.from_samples(speech.samples.astype(np.float32) / 32768, speech.sample_rate)
+    aligned = [p.label for p in alignment.phones_from_recording(voice, "Bob made a map")]
+    assert [p for p in aligned if p in ("b", "m", "p")] == ["b", "b", "m", "m", "p"], aligned
+    assert len(alignment.phones_from_recording(voice)) > 3
     # the installed package works on its own (no checkout on sys.path): set up the sample and deform it
     assert "addon" not in sys.modules
     bpy.ops.wm.open_mainfile(filepath=sys.argv[-2])
