@@ -154,7 +154,7 @@ def _package_init(platform: str, digest: str) -> str:
     )
 
 
-def _record_hash(data: bytes) -> str:
+def record_hash(data: bytes) -> str:
     return "sha256=" + base64.urlsafe_b64encode(hashlib.sha256(data).digest()).rstrip(b"=").decode()
 
 
@@ -206,7 +206,7 @@ def build_wheel(platform: str, out_dir: Path = WHEELS) -> Path:
             f"Tag: py3-none-{PLATFORMS[platform].tag}\n"
         ).encode(),
     }
-    record = "".join(f"{name},{_record_hash(data)},{len(data)}\n" for name, data in files.items())
+    record = "".join(f"{name},{record_hash(data)},{len(data)}\n" for name, data in files.items())
     files[f"{info}/RECORD"] = (record + f"{info}/RECORD,,\n").encode()
     out_dir.mkdir(parents=True, exist_ok=True)
     partial = target.with_name(f"{target.name}.{os.getpid()}.part")  # builds running at once do not collide

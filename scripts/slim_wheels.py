@@ -16,7 +16,6 @@ and what those load, is outside DROPPED_SCIPY, and nothing in the add-on names t
 
 from __future__ import annotations
 
-import base64
 import csv
 import hashlib
 import io
@@ -26,6 +25,8 @@ import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
+
+from scripts import build_kernel
 
 BUILD_TAG = "1slim"
 
@@ -82,10 +83,6 @@ def slim_name(wheel: Path) -> str:
     return "-".join([*parts[:2], BUILD_TAG, *parts[2:]])
 
 
-def _record_hash(data: bytes) -> str:
-    return "sha256=" + base64.urlsafe_b64encode(hashlib.sha256(data).digest()).rstrip(b"=").decode()
-
-
 def _dist_info(names: list[str]) -> str:
     found = {name.split("/")[0] for name in names if re.fullmatch(r"[^/]+\.dist-info/RECORD", name)}
     if len(found) != 1:
@@ -121,11 +118,11 @@ def slim(wheel: Path, out_dir: Path | None = None) -> Path:
                 if member.filename == wheel_meta:  # the build tag, stated where the wheel spec puts it
                     text = re.sub(r"(?m)^Build:.*\n", "", data.decode("utf-8"))
                     data = (text.rstrip("\n") + f"\nBuild: {BUILD_TAG}\n").encode("utf-8")
-                    rows.append([member.filename, _record_hash(data), str(len(data))])
+                    rows.append([member.filename, build_kernel.record_hash(data), str(len(data))])
                 elif member.filename in listed:
                     rows.append(listed[member.filename])
                 elif not member.is_dir():
-                    rows.append([member.filename, _record_hash(data), str(len(data))])
+                    rows.append([member.filename, build_kernel.record_hash(data), str(len(data))])
                 dst.writestr(member, data, compress_type=zipfile.ZIP_DEFLATED)
             rows.append([record, "", ""])
             csv.writer(out, lineterminator="\n").writerows(rows)
