@@ -167,6 +167,40 @@ def print_table(report: dict) -> None:
     )
 
 
+class StageTimer:
+    """Time spent in the import's stages during one import (the functions wrapped where their callers find them)."""
+
+    STAGES = (
+        (arkit_io, "read_capture", "read"),
+        (arkit_io, "capture_to_stream", "convert"),
+        (fap_io, "decode_stream", "decode"),
+        (fap_io.animation, "set_keys", "key"),
+        (fap_io, "_remember", "remember"),
+    )
+
+    def __init__(self):
+        self.seconds = {label: 0.0 for _module, _name, label in self.STAGES}
+        self._saved = []
+        for module, name, label in self.STAGES:
+            original = getattr(module, name)
+            self._saved.append((module, name, original))
+            setattr(module, name, self._wrap(original, label))
+
+    def _wrap(self, function, label):
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds[label] += time.perf_counter() - start
+
+        return timed
+
+    def restore(self) -> None:
+        for module, name, original in self._saved:
+            setattr(module, name, original)
+
+
 def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
     """The 10-minute capture's import time and the demo stream's round-trip errors (see the module docstring)."""
     convert.select_only(face.head)
@@ -197,9 +231,11 @@ def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
         start = time.perf_counter()
         capture_to_stream(read_capture(long_csv))
         reading = time.perf_counter() - start
+        stages = StageTimer()
         start = time.perf_counter()
         arkit_io.import_capture(bpy.context, head, str(long_csv), "FAPS", options)
         seconds = time.perf_counter() - start
+        stages.restore()
         size = long_csv.stat().st_size
     still_head = values.copy()
     still_head[:, [n - 1 for n in HEAD_FAPS]] = 0.0  # which FPs the face's own FAPs move, the head held still
@@ -210,6 +246,7 @@ def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
         "capture_mib": size / 2**20,
         "capture_read_and_convert_seconds": reading,
         "capture_to_fap_keys_seconds": seconds,
+        **{f"  of which {name} seconds": spent for name, spent in stages.seconds.items()},
         "demo_frames": int(stream.n_frames),
         "round_trip_weights_only_mean_mm": 1e3 * float(np.nanmean(weights_only)),
         "round_trip_weights_only_mean_moving_fps_mm": 1e3 * float(np.nanmean(weights_only[:, moving])),
