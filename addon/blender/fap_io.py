@@ -311,6 +311,11 @@ def apply_gains(context, face) -> list[str]:
     if list(record["fp_ids"]) != list(empties) or any(fcurve is None for fcurve in curves):
         del face.mpeg4_face[RECORD]  # the stream was taken off: gains apply to the next import
         return []
+    if not isinstance(record["checksum"], str):  # key sums, as versions before the digest kept
+        raise Mpeg4Error(
+            f"{source} was imported by an earlier version of the add-on: the new gains apply when it is imported "
+            "again (its keys are kept)"
+        )
     keys = _keys(curves)
     if _checksum(keys) != record["checksum"]:
         raise Mpeg4Error(

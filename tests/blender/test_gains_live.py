@@ -67,6 +67,16 @@ def test_edited_keys_are_kept_and_the_change_is_reported(imported):
     assert "were changed since it was imported" in head.mpeg4_face.status
 
 
+def test_a_stream_remembered_by_an_earlier_version_is_kept_and_reported(imported):
+    head = imported
+    chin = face_data.fp_empties(head)["2.1"]
+    head.mpeg4_face[fap_io.RECORD]["checksum"] = [1.0, 2.0, 3.0]  # the key sums versions before the digest kept
+    before = _keys(chin)
+    head.mpeg4_face.gain_jaw = 0.5
+    assert np.array_equal(_keys(chin), before)
+    assert "imported by an earlier version" in head.mpeg4_face.status
+
+
 def test_a_stream_added_on_top_is_not_keyed_again(imported):
     head = imported
     assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP), start_frame=1, mode="ADD") == {"FINISHED"}
