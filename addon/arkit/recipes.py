@@ -14,12 +14,12 @@ from types import MappingProxyType
 
 import numpy as np
 
+from ..mpeg4.fap_tables import TableReader
 from ..mpeg4.faps import LEFT_RIGHT_PAIRS, N_FAPS
-from ..speech import SpeechError
-from ..speech.tables import _fap_values, _list, _object, _text, read_json
 from . import ArkitError
 
 DATA = Path(__file__).resolve().with_name("data")
+READ = TableReader(ArkitError)
 
 # ARFaceAnchor.BlendShapeLocation, in the order Live Link Face writes them (its CSV columns, PascalCase there)
 ARKIT_NAMES = (
@@ -80,33 +80,30 @@ def mirror_name(name: str) -> str:
 
 def _table(path) -> RecipeTable:
     source = str(path)
-    try:
-        doc = _object(read_json(path, "ARKit recipe table"), {"about", "shapes"}, set(), source)
-        entries = _list(doc["shapes"], f"{source}: shapes")
-        targets = np.zeros((N_SHAPES, N_FAPS))
-        why = [""] * N_SHAPES
-        cannot, parts = {}, {}
-        for k, entry in enumerate(entries):
-            where = f"{source}: shapes entry {k + 1}"
-            entry = _object(entry, {"name", "why", "faps"}, {"cannot", "part"}, where)
-            name = entry["name"]
-            if name not in ARKIT_INDEX:
-                raise ArkitError(f"{where}: {name!r} is not one of ARKit's 52 blendshape names")
-            i = ARKIT_INDEX[name]
-            if why[i]:
-                raise ArkitError(f"{where}: {name} is listed twice")
-            where = f"{source}: {name}"
-            why[i] = _text(entry["why"], f"{where}: 'why'")
-            if "cannot" in entry:
-                cannot[name] = _text(entry["cannot"], f"{where}: 'cannot'")
-            if "part" in entry:
-                if entry["part"] not in PART_DEFORMATIONS:
-                    raise ArkitError(f"{where}: part {entry['part']!r} is not one of {', '.join(PART_DEFORMATIONS)}")
-                parts[name] = entry["part"]
-            for number, value in _fap_values(entry["faps"], where).items():
-                targets[i, number - 1] = value
-    except SpeechError as exc:
-        raise ArkitError(str(exc)) from None
+    doc = READ.object_with(READ.read_json(path, "ARKit recipe table"), {"about", "shapes"}, set(), source)
+    entries = READ.list_of(doc["shapes"], f"{source}: shapes")
+    targets = np.zeros((N_SHAPES, N_FAPS))
+    why = [""] * N_SHAPES
+    cannot, parts = {}, {}
+    for k, entry in enumerate(entries):
+        where = f"{source}: shapes entry {k + 1}"
+        entry = READ.object_with(entry, {"name", "why", "faps"}, {"cannot", "part"}, where)
+        name = entry["name"]
+        if name not in ARKIT_INDEX:
+            raise ArkitError(f"{where}: {name!r} is not one of ARKit's 52 blendshape names")
+        i = ARKIT_INDEX[name]
+        if why[i]:
+            raise ArkitError(f"{where}: {name} is listed twice")
+        where = f"{source}: {name}"
+        why[i] = READ.text(entry["why"], f"{where}: 'why'")
+        if "cannot" in entry:
+            cannot[name] = READ.text(entry["cannot"], f"{where}: 'cannot'")
+        if "part" in entry:
+            if entry["part"] not in PART_DEFORMATIONS:
+                raise ArkitError(f"{where}: part {entry['part']!r} is not one of {', '.join(PART_DEFORMATIONS)}")
+            parts[name] = entry["part"]
+        for number, value in READ.fap_values(entry["faps"], where).items():
+            targets[i, number - 1] = value
     missing = [name for name, text in zip(ARKIT_NAMES, why, strict=True) if not text]
     if missing:
         raise ArkitError(f"{source}: {len(missing)} ARKit shape(s) missing: {', '.join(missing)}")

@@ -159,16 +159,30 @@ def ensure_fcurve(ob, path: str, index: int, action_name: str):
     return bag.fcurves.find(path, index=index) or bag.fcurves.new(path, index=index)
 
 
-def set_keys(fcurve, frames: np.ndarray, values: np.ndarray) -> None:
-    """Replace all keys of `fcurve` with linear keys at `frames`."""
-    points = fcurve.keyframe_points
-    points.clear()
-    points.add(len(frames))
+def linear_keys(frames: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The linear keys, (K, 2) float32 (frame, value), that give `values` at `frames` (increasing): a key inside
+    a run of equal values is left out. Between a run's two ends a linear key evaluates to v + t * (v - v) = v
+    exactly, so the curve gives the same value at every frame and between frames, with a fraction of the keys
+    (most of a stream's curves are flat most of the time: most FPs move on few FAPs)."""
     co = np.empty((len(frames), 2), dtype=np.float32)
     co[:, 0], co[:, 1] = frames, values
+    v = co[:, 1]  # compared as stored: float32
+    keep = np.ones(len(v), dtype=bool)
+    keep[1:-1] = (v[1:-1] != v[:-2]) | (v[1:-1] != v[2:])
+    return co[keep]
+
+
+def set_keys(fcurve, frames: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Replace all keys of `fcurve` with the linear keys giving `values` at `frames` (`linear_keys`); returns
+    them as the curve now holds them (what `foreach_get("co")` reads back)."""
+    co = linear_keys(frames, values)
+    points = fcurve.keyframe_points
+    points.clear()
+    points.add(len(co))
     points.foreach_set("co", co.ravel())
-    points.foreach_set("interpolation", np.full(len(frames), LINEAR, dtype=np.int32))
-    fcurve.update()
+    points.foreach_set("interpolation", np.full(len(co), LINEAR, dtype=np.int32))
+    fcurve.update()  # the handles (drawn in the Graph Editor); keys in order stay where they are
+    return co
 
 
 def sample(ob, path: str, index: int, frames: np.ndarray, default: float) -> np.ndarray:

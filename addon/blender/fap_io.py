@@ -16,6 +16,7 @@ so). A stream added on top of other motion is keyed once; its gains apply at imp
 
 from __future__ import annotations
 
+import hashlib
 import os
 from dataclasses import dataclass
 
@@ -202,6 +203,7 @@ def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) ->
         elastic_rig.require_skeleton(face)  # its keys are baked below: refuse before anything is keyed
     frames, points, neutral = decoded.frames, decoded.points, decoded.neutral
     streams = animation.StreamActions(decoded.name, decoded.source)
+    written = []  # each curve's keys as keyed, in `_keyed_curves` order
     with progress(context, len(empties) + 1) as step:
         for i, (fp_id, ob) in enumerate(empties.items()):
             k = fp_index(fp_id)
@@ -210,8 +212,7 @@ def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) ->
                 base = [animation.sample(ob, "location", axis, frames, ob.location[axis]) for axis in range(3)]
                 keyed = np.stack(base, axis=1) + keyed - neutral[k]
             fcurve = animation.replace_motion(ob, streams)
-            for axis in range(3):
-                animation.set_keys(fcurve("location", axis), frames, keyed[:, axis])
+            written += [animation.set_keys(fcurve("location", axis), frames, keyed[:, axis]) for axis in range(3)]
             step(i)
         if decoded.head is not None:
             rotation, dloc = decoded.head
@@ -220,15 +221,13 @@ def key_stream(context, face, decoded: DecodedStream, options: ImportOptions) ->
             head_motion.remember_rest(face)
             fcurve = animation.replace_motion(face, streams)
             path, size = head_motion.rotation_path(face)
-            for axis in range(size):
-                animation.set_keys(fcurve(path, axis), frames, rotation[:, axis])
-            for axis in range(3):
-                animation.set_keys(fcurve("delta_location", axis), frames, dloc[:, axis])
+            written += [animation.set_keys(fcurve(path, axis), frames, rotation[:, axis]) for axis in range(size)]
+            written += [animation.set_keys(fcurve("delta_location", axis), frames, dloc[:, axis]) for axis in range(3)]
         elif not options.add:
             animation.clear_stream_motion(face)  # a new stream without head motion replaces the old head motion
             head_motion.restore_rest(face)
         step(len(empties) + 1)
-    _remember(face, decoded, None if options.add else empties)
+    _remember(face, decoded, None if options.add else empties, written)
     notes = [
         f"keyed {len(empties)} feature points over {len(frames)} frames of {decoded.source} (action {decoded.name!r})"
     ]
@@ -270,16 +269,18 @@ def _keys(curves) -> list[np.ndarray]:
     return keys
 
 
-def _checksum(keys: list[np.ndarray]) -> list[float]:
-    """Key count and two weighted sums of the curves' keys: what tells an edit since keying."""
-    flat = np.concatenate([k.ravel() for k in keys]).astype(np.float64) if keys else np.zeros(0)
-    # numpy's own sums (pairwise, one thread): the same keys give the same figures every time, which a
-    # threaded BLAS dot product does not promise
-    return [float(len(flat)), float(flat.sum()), float((flat * np.sin(np.arange(1, len(flat) + 1))).sum())]
+def _checksum(keys: list[np.ndarray]) -> str:
+    """A digest of the curves' keys, (K, 2) float32 each, curve by curve: what tells an edit since keying."""
+    digest = hashlib.blake2b(digest_size=16)
+    for k in keys:
+        digest.update(len(k).to_bytes(8, "little"))  # where one curve ends and the next begins
+        digest.update(np.ascontiguousarray(k, dtype=np.float32).tobytes())
+    return digest.hexdigest()
 
 
-def _remember(face, decoded: DecodedStream, empties) -> None:
-    """Keep what `apply_gains` needs to key the stream again; `empties` None forgets (an added stream)."""
+def _remember(face, decoded: DecodedStream, empties, keys: list[np.ndarray]) -> None:
+    """Keep what `apply_gains` needs to key the stream again, with the digest of its `keys` as keyed (the
+    curves' keys, read back, give the same: set_keys returns them); `empties` None forgets (an added stream)."""
     settings = face.mpeg4_face
     if empties is None or decoded.faps is None:
         if settings.get(RECORD) is not None:
@@ -292,7 +293,7 @@ def _remember(face, decoded: DecodedStream, empties) -> None:
         "faps": np.asarray(decoded.faps, dtype=np.float32).ravel(),
         "head": head,
         "fp_ids": list(empties),
-        "checksum": _checksum(_keys(_keyed_curves(face, empties, head))),
+        "checksum": _checksum(keys),
     }
 
 
@@ -310,8 +311,13 @@ def apply_gains(context, face) -> list[str]:
     if list(record["fp_ids"]) != list(empties) or any(fcurve is None for fcurve in curves):
         del face.mpeg4_face[RECORD]  # the stream was taken off: gains apply to the next import
         return []
+    if not isinstance(record["checksum"], str):  # key sums, as versions before the digest kept
+        raise Mpeg4Error(
+            f"{source} was imported by an earlier version of the add-on: the new gains apply when it is imported "
+            "again (its keys are kept)"
+        )
     keys = _keys(curves)
-    if _checksum(keys) != list(record["checksum"]):
+    if _checksum(keys) != record["checksum"]:
         raise Mpeg4Error(
             f"the keys of {source} were changed since it was imported: the new gains apply when it is imported "
             "again (your edits are kept)"
@@ -325,14 +331,13 @@ def apply_gains(context, face) -> list[str]:
     if head_delta is not None:
         rotation, dloc = head_delta
         columns += [*rotation.T, *dloc.T]
-    frames32 = frames.astype(np.float32)
-    for fcurve, old, values in zip(curves, keys, columns, strict=True):
-        if not (np.array_equal(old[:, 0], frames32) and np.array_equal(old[:, 1], values.astype(np.float32))):
-            animation.set_keys(fcurve, frames, values)  # only the curves the new gains move
+    for i, (fcurve, old, values) in enumerate(zip(curves, keys, columns, strict=True)):
+        if not np.array_equal(old, animation.linear_keys(frames, values)):
+            keys[i] = animation.set_keys(fcurve, frames, values)  # only the curves the new gains move
     notes = [f"keyed {source} again with the new gains"]
     if face.mpeg4_face.engine == elastic_rig.ELASTIC:
         notes.append(elastic_rig.rebake_keys(face, frames))
-    face.mpeg4_face[RECORD]["checksum"] = _checksum(_keys(curves))
+    face.mpeg4_face[RECORD]["checksum"] = _checksum(keys)
     return notes
 
 

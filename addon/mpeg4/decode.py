@@ -234,7 +234,8 @@ def fap_to_fp(
         rot = rotation(1, angle[:, yaw]) @ rotation(0, angle[:, pitch])
         pts[:, [k]] = _rotate(pts[:, [k]], pivot[:, None], rot)
 
-    pts = _rotate(pts, head_pivot(face_neutral)[None, None], head_rotation(angle[:, 47:50]))
+    if np.any(angle[:, 47:50]):  # a head held still (callers that key the head apart) skips the identity turn
+        pts = _rotate(pts, head_pivot(face_neutral)[None, None], head_rotation(angle[:, 47:50]))
     return pts @ axes
 
 

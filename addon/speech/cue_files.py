@@ -29,7 +29,7 @@ from pathlib import Path
 from ..mpeg4.faps import Viseme
 from . import SpeechError
 from .segments import Segment, TimedLabel, check_timing, describe, segments_from_labels
-from .tables import PhonemeTable, load_rhubarb, number, read_json, read_text
+from .tables import READ, PhonemeTable, load_rhubarb
 
 MAX_CUES = 100_000  # lines or entries of one cue file: an hour of speech has about 50,000 phonemes
 _NUMBER = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?", re.ASCII)
@@ -38,7 +38,7 @@ _NUMBER = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?
 def _lines(path) -> list[tuple[int, list[str]]]:
     """(line number, fields) of each line that is neither blank nor a '#' comment."""
     source = str(path)
-    text = read_text(path, "cue file")
+    text = READ.read_text(path, "cue file")
     out = []
     for n, line in enumerate(text.replace("\r\n", "\n").replace("\r", "\n").split("\n"), 1):
         fields = line.split()
@@ -67,7 +67,7 @@ def read_timed_labels(path) -> list[TimedLabel]:
     """The timed labels of one of our files: JSON if the name ends in .json, else TSV."""
     source = str(path)
     if str(path).lower().endswith(".json"):
-        doc = read_json(path, "timed label file")
+        doc = READ.read_json(path, "timed label file")
         if not isinstance(doc, dict) or "segments" not in doc or not doc.keys() <= {"segments", "about"}:
             raise SpeechError(f'{source}: expected {{"segments": [{{"start", "end", "label"}}, ...]}}')
         return _json_items(doc["segments"], source, "segment", "label")
@@ -92,8 +92,8 @@ def _json_items(items, source: str, what: str, label_key: str) -> list[TimedLabe
             raise SpeechError(f'{where}: expected {{"start": seconds, "end": seconds, "{label_key}": text}}')
         if not isinstance(item[label_key], str) or not item[label_key].strip():
             raise SpeechError(f"{where}: {label_key} {item[label_key]!r} is not a text")
-        start = number(item["start"], f"{where}: start")
-        end = number(item["end"], f"{where}: end")
+        start = READ.number(item["start"], f"{where}: start")
+        end = READ.number(item["end"], f"{where}: end")
         out.append(TimedLabel(start, end, item[label_key].strip(), where))
     return out
 
@@ -132,7 +132,7 @@ def read_rhubarb(path, shapes: dict[str, Viseme] | None = None) -> list[Segment]
     source = str(path)
     shapes = shapes or load_rhubarb()
     if source.lower().endswith(".json"):
-        doc = read_json(path, "Rhubarb cue file")
+        doc = READ.read_json(path, "Rhubarb cue file")
         if not isinstance(doc, dict) or "mouthCues" not in doc or not doc.keys() <= {"mouthCues", "metadata"}:
             raise SpeechError(f'{source}: expected a Rhubarb JSON file {{"metadata": ..., "mouthCues": [...]}}')
         cues = _json_items(doc["mouthCues"], source, "mouth cue", "value")
@@ -170,7 +170,7 @@ def read_cue_file(path, phonemes: PhonemeTable | None = None) -> list[Segment]:
     our JSON (has "segments") or TSV (3 fields a line)."""
     source = str(path)
     if source.lower().endswith(".json"):
-        doc = read_json(path, "cue file")
+        doc = READ.read_json(path, "cue file")
         if isinstance(doc, dict) and "mouthCues" in doc:
             return read_rhubarb(path)
         return read_segments(path, phonemes)

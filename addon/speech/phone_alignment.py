@@ -41,7 +41,7 @@ import numpy as np
 from . import SpeechError, espeak
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
-from .tables import DATA, cmu_phones, read_json, read_text
+from .tables import DATA, READ, cmu_phones
 
 FRAME_SECONDS = 0.01
 BOUNDARY_OFFSET = (410 / 2 - 160 / 2) / RATE  # seconds, see the module docstring
@@ -103,7 +103,7 @@ def _pocketsphinx():
 def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
     """espeak-ng English mnemonic -> CMU phones, from `data/espeak_to_cmu.json` (checked)."""
     source = str(DATA / "espeak_to_cmu.json")
-    doc = read_json(DATA / "espeak_to_cmu.json", "espeak-ng to CMU table")
+    doc = READ.read_json(DATA / "espeak_to_cmu.json", "espeak-ng to CMU table")
     known = cmu_phones().visemes
     table: dict[str, tuple[str, ...]] = {}
     for k, group in enumerate(doc["groups"]):
@@ -522,4 +522,4 @@ def phones_from_recording(
 
 def read_transcript_file(path) -> str:
     """A transcript .txt file (UTF-8)."""
-    return read_text(path, "transcript")
+    return READ.read_text(path, "transcript")

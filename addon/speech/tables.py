@@ -10,7 +10,6 @@ and returned read-only.
 from __future__ import annotations
 
 import functools
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,31 +17,15 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ..mpeg4.faps import FAPS, N_FAPS, Expression, Viseme, fap
-from ..user_files import read_regular_file
-from ..user_json import parse_json
+from ..mpeg4.fap_tables import TableReader
+from ..mpeg4.faps import N_FAPS, Expression, Viseme
 from . import SpeechError
+
+READ = TableReader(SpeechError)  # the speech package's files and tables: errors are SpeechError
 
 DATA = Path(__file__).resolve().with_name("data")
 N_VISEMES = len(Viseme)
 N_EXPRESSIONS = len(Expression)
-
-# The standard's intra-frame range of each FAP in quantiser steps ("I max", research/mpeg4-fba.md section 3;
-# the research marks 29, 30, 41 and 42 as unverified). Times the FAP's quantiser step it is the largest
-# magnitude an I-frame can carry, in FAP units; the tables must stay within it.
-_I_MAX = (
-    (3, 1080), (4, 600), (5, 1860), (6, 600), (7, 600), (8, 600), (9, 600), (10, 1860), (11, 1860), (12, 600),
-    (13, 600), (14, 600), (15, 1080), (16, 1080), (17, 1080), (18, 420), (19, 1080), (20, 1080), (21, 600),
-    (22, 600), (23, 1200), (24, 1200), (25, 900), (26, 900), (27, 600), (28, 600), (29, 420), (30, 420),
-    *((n, 900) for n in range(31, 43)), *((n, 1080) for n in range(43, 47)), (47, 300), (48, 1860),
-    (49, 1860), (50, 1860), (51, 600), (52, 1860), (53, 600), (54, 600), (55, 600), (56, 600), (57, 1860),
-    (58, 1860), (59, 600), (60, 600), (61, 540), (62, 540), (63, 680), (64, 900), (65, 900), (66, 900),
-    (67, 900), (68, 900),
-)  # fmt: skip
-FAP_RANGE = np.zeros(N_FAPS)
-for _number, _i_max in _I_MAX:
-    FAP_RANGE[_number - 1] = _i_max * FAPS[_number - 1].quant_step
-FAP_RANGE.flags.writeable = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,85 +76,10 @@ class PhonemeTable:
         return None
 
 
-# --- reading -------------------------------------------------------------------------------------------
-
-
-MAX_FILE_BYTES = 16 * 2**20  # a cue list or table this large is not one
-
-
-def read_text(path: Path | str, what: str) -> str:
-    """A small UTF-8 text file (a regular file, at most MAX_FILE_BYTES); SpeechError naming the file."""
-    source = str(path)
-    too_large = f"larger than {MAX_FILE_BYTES // 2**20} MiB"
-    data = read_regular_file(path, MAX_FILE_BYTES, SpeechError, f"{source}: the {what}", too_large)
-    try:
-        return data.decode("utf-8").removeprefix("\ufeff")
-    except UnicodeDecodeError as exc:
-        raise SpeechError(f"{source}: the {what} is not UTF-8 text (byte {exc.start})") from None
-
-
-def read_json(path: Path | str, what: str) -> object:
-    """A JSON document, strictly (`user_json.parse_json`); SpeechError naming the file."""
-    return parse_json(read_text(path, what), SpeechError, f"{path}: the {what}")
-
-
-def _object(value, keys: set[str], optional: set[str], where: str) -> dict:
-    if not isinstance(value, dict):
-        raise SpeechError(f"{where}: expected an object, found {type(value).__name__}")
-    missing = keys - value.keys()
-    unknown = value.keys() - keys - optional
-    if missing:
-        raise SpeechError(f"{where}: missing {', '.join(sorted(missing))}")
-    if unknown:
-        raise SpeechError(f"{where}: unknown key(s) {', '.join(sorted(unknown))}")
-    return value
-
-
-def _list(value, where: str) -> list:
-    if not isinstance(value, list):
-        raise SpeechError(f"{where}: expected a list, found {type(value).__name__}")
-    return value
-
-
-def _text(value, where: str) -> str:
-    if not isinstance(value, str) or not value.strip():
-        raise SpeechError(f"{where}: expected a non-empty text")
-    return value
-
-
-def number(value, where: str) -> float:
-    """A JSON number as float (bool is not a number here); SpeechError otherwise."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise SpeechError(f"{where}: {value!r} is not a finite number")
-    return float(value)
-
-
-def _fap_values(faps, where: str) -> dict[int, float]:
-    """{FAP name: value} -> {FAP number: value}, each within the FAP's range and direction."""
-    if not isinstance(faps, dict):
-        raise SpeechError(f"{where}: 'faps' must be an object of FAP name: value")
-    out = {}
-    for name, value in faps.items():
-        try:
-            info = fap(name)
-        except KeyError:
-            raise SpeechError(f"{where}: unknown FAP {name!r}") from None
-        if info.fapu is None:
-            raise SpeechError(f"{where}: FAP {name!r} is high-level; a table holds low-level FAPs only")
-        value = number(value, f"{where}: FAP {name!r}")
-        limit = FAP_RANGE[info.number - 1]
-        if abs(value) > limit:
-            raise SpeechError(f"{where}: FAP {name!r} = {value:g} is outside the standard's range ±{limit:g}")
-        if not info.bidirectional and value < 0:
-            raise SpeechError(f"{where}: FAP {name!r} = {value:g} is negative but the FAP is unidirectional")
-        out[info.number] = value
-    return out
-
-
 def _shape_table(path, key: str, enum, first: int, extra: set[str]) -> ShapeTable:
     source = str(path)
-    doc = _object(read_json(path, f"{key} table"), {"about", key}, set(), source)
-    entries = _list(doc[key], f"{source}: {key}")
+    doc = READ.object_with(READ.read_json(path, f"{key} table"), {"about", key}, set(), source)
+    entries = READ.list_of(doc[key], f"{source}: {key}")
     rows = len(enum) - first
     if len(entries) != rows:
         raise SpeechError(f"{source}: {key} must list {rows} entries ({first}..{len(enum) - 1}), found {len(entries)}")
@@ -181,7 +89,7 @@ def _shape_table(path, key: str, enum, first: int, extra: set[str]) -> ShapeTabl
     number_key = key[:-1]  # "visemes" -> "viseme"
     for k, entry in enumerate(entries):
         where = f"{source}: {key} entry {k + 1}"
-        entry = _object(entry, {number_key, "name", "why", "faps"} | extra, set(), where)
+        entry = READ.object_with(entry, {number_key, "name", "why", "faps"} | extra, set(), where)
         value = entry[number_key]
         if isinstance(value, bool) or not isinstance(value, int) or not first <= value < len(enum):
             raise SpeechError(f"{where}: {number_key} {value!r} is not one of {first}..{len(enum) - 1}")
@@ -192,8 +100,8 @@ def _shape_table(path, key: str, enum, first: int, extra: set[str]) -> ShapeTabl
         if entry["name"] != member.name and entry["name"] != member.name.lower():
             raise SpeechError(f"{where}: {number_key} {value} is {member.name}, not {entry['name']!r}")
         where = f"{source}: {number_key} {member.name}"
-        why[value] = _text(entry["why"], f"{where}: 'why'")
-        for number_, fap_value in _fap_values(entry["faps"], where).items():
+        why[value] = READ.text(entry["why"], f"{where}: 'why'")
+        for number_, fap_value in READ.fap_values(entry["faps"], where).items():
             targets[value, number_ - 1] = fap_value
     if first == 0 and np.any(targets[0]):
         raise SpeechError(f"{source}: {enum(0).name} must be the neutral face (every FAP 0)")
@@ -217,10 +125,10 @@ _PARAMETERS = {"alpha", "theta_before", "theta_after"}
 
 
 def _parameters(value, where: str, required: set[str]) -> dict[str, float]:
-    value = _object(value, required, (_PARAMETERS | {"c"}) - required, where)
+    value = READ.object_with(value, required, (_PARAMETERS | {"c"}) - required, where)
     out = {}
     for name, item in value.items():
-        out[name] = number(item, f"{where}: {name}")
+        out[name] = READ.number(item, f"{where}: {name}")
         if out[name] <= 0:
             raise SpeechError(f"{where}: {name} = {out[name]:g} must be positive")
     return out
@@ -231,17 +139,19 @@ def load_dominance(path: Path | str | None = None) -> DominanceTable:
     if path is None:
         return _default_dominance()
     source = str(path)
-    doc = _object(read_json(path, "dominance table"), {"about", "groups", "default", "visemes"}, set(), source)
+    doc = READ.object_with(
+        READ.read_json(path, "dominance table"), {"about", "groups", "default", "visemes"}, set(), source
+    )
     groups: dict[str, tuple[int, ...]] = {}
     owner: dict[int, str] = {}
     if not isinstance(doc["groups"], dict) or not doc["groups"]:
         raise SpeechError(f"{source}: 'groups' must be a non-empty object of group name: {{faps, why}}")
     for name, group in doc["groups"].items():
         where = f"{source}: group {name!r}"
-        group = _object(group, {"faps", "why"}, set(), where)
-        _text(group["why"], f"{where}: 'why'")
+        group = READ.object_with(group, {"faps", "why"}, set(), where)
+        READ.text(group["why"], f"{where}: 'why'")
         numbers = []
-        for item in _list(group["faps"], f"{where}: faps"):
+        for item in READ.list_of(group["faps"], f"{where}: faps"):
             if isinstance(item, bool) or not isinstance(item, int) or not 3 <= item <= N_FAPS:
                 raise SpeechError(f"{where}: {item!r} is not a low-level FAP number (3..{N_FAPS})")
             if item in owner:
@@ -251,7 +161,7 @@ def load_dominance(path: Path | str | None = None) -> DominanceTable:
         groups[name] = tuple(numbers)
     default = _parameters(doc["default"], f"{source}: default", _PARAMETERS | {"c"})
     arrays = {name: np.full((N_VISEMES, N_FAPS), value) for name, value in default.items()}
-    entries = _list(doc["visemes"], f"{source}: visemes")
+    entries = READ.list_of(doc["visemes"], f"{source}: visemes")
     names = [entry.get("name") if isinstance(entry, dict) else None for entry in entries]
     for member in Viseme:
         if names.count(member.name) != 1:
@@ -259,13 +169,13 @@ def load_dominance(path: Path | str | None = None) -> DominanceTable:
     why = [""] * N_VISEMES
     for k, entry in enumerate(entries):
         where = f"{source}: visemes entry {k + 1}"
-        entry = _object(entry, {"name", "why"}, set(groups), where)
+        entry = READ.object_with(entry, {"name", "why"}, set(groups), where)
         try:
             member = Viseme[entry["name"]]
         except (KeyError, TypeError):
             raise SpeechError(f"{where}: unknown viseme {entry['name']!r}") from None
         where = f"{source}: viseme {member.name}"
-        why[member] = _text(entry["why"], f"{where}: 'why'")
+        why[member] = READ.text(entry["why"], f"{where}: 'why'")
         for group, numbers in groups.items():
             if group in entry:
                 for name, value in _parameters(entry[group], f"{where}: {group}", _PARAMETERS).items():
@@ -284,7 +194,7 @@ def load_dominance(path: Path | str | None = None) -> DominanceTable:
 
 def _viseme_names(value, where: str) -> tuple[Viseme, ...]:
     out = []
-    for name in _list(value, where):
+    for name in READ.list_of(value, where):
         try:
             out.append(Viseme[name])
         except (KeyError, TypeError):
@@ -297,14 +207,14 @@ def load_phonemes(path: Path | str | None = None) -> PhonemeTable:
     if path is None:
         return _default_phonemes()
     source = str(path)
-    doc = _object(read_json(path, "phoneme table"), {"about", "groups"}, set(), source)
+    doc = READ.object_with(READ.read_json(path, "phoneme table"), {"about", "groups"}, set(), source)
     table: dict[str, tuple[Viseme, ...]] = {}
-    for k, group in enumerate(_list(doc["groups"], f"{source}: groups")):
+    for k, group in enumerate(READ.list_of(doc["groups"], f"{source}: groups")):
         where = f"{source}: groups entry {k + 1}"
-        group = _object(group, {"visemes", "phonemes", "why"}, set(), where)
-        _text(group["why"], f"{where}: 'why'")
+        group = READ.object_with(group, {"visemes", "phonemes", "why"}, set(), where)
+        READ.text(group["why"], f"{where}: 'why'")
         visemes = _viseme_names(group["visemes"], f"{where}: visemes")
-        for name in _list(group["phonemes"], f"{where}: phonemes"):
+        for name in READ.list_of(group["phonemes"], f"{where}: phonemes"):
             if not isinstance(name, str) or not name or name != name.strip() or any(c.isspace() for c in name):
                 raise SpeechError(f"{where}: phoneme {name!r} must be a name without blanks")
             if name[0] in PhonemeTable.stress_marks:
@@ -323,12 +233,12 @@ def load_rhubarb(path: Path | str | None = None) -> dict[str, Viseme]:
     if path is None:
         return dict(_default_rhubarb())
     source = str(path)
-    doc = _object(read_json(path, "Rhubarb shape table"), {"about", "shapes"}, set(), source)
+    doc = READ.object_with(READ.read_json(path, "Rhubarb shape table"), {"about", "shapes"}, set(), source)
     table = {}
-    for k, entry in enumerate(_list(doc["shapes"], f"{source}: shapes")):
+    for k, entry in enumerate(READ.list_of(doc["shapes"], f"{source}: shapes")):
         where = f"{source}: shapes entry {k + 1}"
-        entry = _object(entry, {"shape", "viseme", "why"}, set(), where)
-        _text(entry["why"], f"{where}: 'why'")
+        entry = READ.object_with(entry, {"shape", "viseme", "why"}, set(), where)
+        READ.text(entry["why"], f"{where}: 'why'")
         if entry["shape"] not in RHUBARB_SHAPES or entry["shape"] in table:
             raise SpeechError(f"{where}: shape {entry['shape']!r} is not a new one of {' '.join(RHUBARB_SHAPES)}")
         (table[entry["shape"]],) = _viseme_names([entry["viseme"]], f"{where}: viseme")

@@ -17,9 +17,10 @@ the one weight (0..2) that fits each sculpt best: the gap between the two says h
 
 `--speed-and-round-trip`: a 10-minute 60 fps Live Link Face capture (made from the demo stream's FAPs through the
 round trip, 36,000 rows) read and keyed onto the sample head as a FAP stream (Import ARKit Capture's FAPS target),
-timed end to end; and the round trip FAP -> ARKit weights -> FAP on sample_blends/demo.fap, as mean feature-point
-error on the sample head (weights only, the eyes through eyeLook*; and through Live Link Face CSV with its eye
-and head columns).
+timed end to end with its stages (reading, converting, decoding, keying, remembering for live gains), and
+the same frames written as a `.fap` and imported; and the round trip FAP -> ARKit weights -> FAP on
+sample_blends/demo.fap, as mean feature-point error on the sample head (weights only, the eyes through eyeLook*;
+and through Live Link Face CSV with its eye and head columns).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from addon.arkit.mapping import EYE_FAPS, HEAD_FAPS, capture_faps, capture_to_st
 from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES
 from addon.blender import arkit_io, elastic_rig, face_data, fap_io
 from addon.mpeg4.decode import hold_missing
-from addon.mpeg4.fap_file import read_fap
+from addon.mpeg4.fap_file import read_fap, write_fap
 from addon.mpeg4.fapu import AU
 from scripts import convert
 from scripts.bench import evaluate
@@ -167,6 +168,40 @@ def print_table(report: dict) -> None:
     )
 
 
+class StageTimer:
+    """Time spent in the import's stages during one import (the functions wrapped where their callers find them)."""
+
+    STAGES = (
+        (arkit_io, "read_capture", "read"),
+        (arkit_io, "capture_to_stream", "convert"),
+        (fap_io, "decode_stream", "decode"),
+        (fap_io.animation, "set_keys", "key"),
+        (fap_io, "_remember", "remember"),
+    )
+
+    def __init__(self):
+        self.seconds = {label: 0.0 for _module, _name, label in self.STAGES}
+        self._saved = []
+        for module, name, label in self.STAGES:
+            original = getattr(module, name)
+            self._saved.append((module, name, original))
+            setattr(module, name, self._wrap(original, label))
+
+    def _wrap(self, function, label):
+        def timed(*args, **kwargs):
+            start = time.perf_counter()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                self.seconds[label] += time.perf_counter() - start
+
+        return timed
+
+    def restore(self) -> None:
+        for module, name, original in self._saved:
+            setattr(module, name, original)
+
+
 def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
     """The 10-minute capture's import time and the demo stream's round-trip errors (see the module docstring)."""
     convert.select_only(face.head)
@@ -197,10 +232,17 @@ def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
         start = time.perf_counter()
         capture_to_stream(read_capture(long_csv))
         reading = time.perf_counter() - start
+        stages = StageTimer()
         start = time.perf_counter()
         arkit_io.import_capture(bpy.context, head, str(long_csv), "FAPS", options)
         seconds = time.perf_counter() - start
+        stages.restore()
         size = long_csv.stat().st_size
+        long_fap = Path(tmp) / "take.fap"
+        write_fap(capture_to_stream(read_capture(long_csv)), long_fap)
+        start = time.perf_counter()
+        fap_io.import_fap(bpy.context, head, str(long_fap), options)
+        fap_seconds = time.perf_counter() - start
     still_head = values.copy()
     still_head[:, [n - 1 for n in HEAD_FAPS]] = 0.0  # which FPs the face's own FAPs move, the head held still
     moved = fp_distances(neutral, still_head, np.zeros_like(values), fapu, eye_pivots=pivots)
@@ -210,6 +252,8 @@ def speed_and_round_trip(face: evaluate.SampleFace) -> dict:
         "capture_mib": size / 2**20,
         "capture_read_and_convert_seconds": reading,
         "capture_to_fap_keys_seconds": seconds,
+        **{f"  of which {name} seconds": spent for name, spent in stages.seconds.items()},
+        "same_frames_as_fap_import_seconds": fap_seconds,
         "demo_frames": int(stream.n_frames),
         "round_trip_weights_only_mean_mm": 1e3 * float(np.nanmean(weights_only)),
         "round_trip_weights_only_mean_moving_fps_mm": 1e3 * float(np.nanmean(weights_only[:, moving])),

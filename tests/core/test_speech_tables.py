@@ -6,10 +6,10 @@ import json
 import numpy as np
 import pytest
 
+from addon.mpeg4.fap_tables import FAP_RANGE
 from addon.mpeg4.faps import FAPS, Expression, Viseme, fap
 from addon.speech import SpeechError
 from addon.speech.tables import (
-    FAP_RANGE,
     RHUBARB_SHAPES,
     load_dominance,
     load_expressions,
