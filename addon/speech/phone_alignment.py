@@ -18,9 +18,10 @@ fails to align is merged with the next one and tried again. Each piece is decode
 noise on both sides: the alignment grammar starts and ends in silence, and a piece cut right at a word
 would not match it.
 
-Timing: PocketSphinx's frame k analyses samples [160 k, 160 k + 410) (10 ms shift, 25.6 ms window), so its
-centre lies 12.8 ms after 10 k ms. A phone starting at frame k starts half-way between the centres of frames
-k - 1 and k, at 10 k + 7.8 ms: `BOUNDARY_OFFSET`.
+Timing: with a frame shift of h samples (`FRAME_RATES`: 160 for alignment, 80 for recognition),
+PocketSphinx's frame k analyses samples [h k, h k + 410) (25.6 ms window), so its centre lies 12.8 ms after
+h k / 16 ms. A phone starting at frame k starts half-way between the centres of frames k - 1 and k, at
+h k / 16 + 12.8 - h / 32 ms (10 k + 7.8 ms at 100 frames a second): `_boundary_offset`.
 
 The work runs as a generator of progress fractions (0..1) that returns the phones: `run` drives it to the
 end, and Blender's modal operator one step per timer tick so that Esc can stop it between steps.
@@ -43,8 +44,14 @@ from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
 
-FRAME_SECONDS = 0.01
-BOUNDARY_OFFSET = (410 / 2 - 160 / 2) / RATE  # seconds, see the module docstring
+# Frames a second per task. Recognition analyses every 5 ms: its phones are three-state models that last at
+# least three frames, 30 ms at the model's 100 frames a second, longer than many phones of fluent speech (a
+# flap, a schwa, the release of a stop), so the search gave them away to their neighbours or dropped them
+# (bilabial closures found in clean dev takes: 53 % at 10 ms, 72 % at 5 ms). Alignment keeps 10 ms: 5 ms gave
+# it under 2 points of frame agreement for twice the time, and its score cut (`MIN_SCORE_PER_FRAME`) is
+# measured at 10 ms (docs/voice.md).
+FRAME_RATES = {"align": 100, "recognise": 200}
+WINDOW_SAMPLES = 410  # PocketSphinx's analysis window at 16 kHz (0.025625 s)
 PAD_SECONDS = 0.3
 PIECE_SECONDS = 30.0  # longer recordings are cut at pauses into pieces of about this length
 MIN_PAUSE_SECONDS = 0.25  # a pause where a long recording may be cut
@@ -233,7 +240,7 @@ def _new_decoder(task: str, accuracy: str):
     if accuracy not in ACCURACY:
         raise SpeechError(f"accuracy {accuracy!r} is not one of {', '.join(ACCURACY)}")
     beam = BEAMS[task, accuracy]
-    options = {"lm": None, "beam": beam, "wbeam": beam, "pbeam": beam}
+    options = {"lm": None, "beam": beam, "wbeam": beam, "pbeam": beam, "frate": FRAME_RATES[task]}
     if task == "recognise":
         # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
         # search keeps only a few long phones
@@ -345,13 +352,20 @@ def _share_words(words: list[_Word], voiced: list[float]) -> list[list[_Word]]:
     return out
 
 
-def _phones_of(entries, offset: float) -> list[TimedLabel]:
+def _boundary_offset(frame_rate: int) -> float:
+    """Seconds from the start of frame k (k / frame_rate) to a phone boundary before it: half-way between the
+    centres of frames k - 1 and k (see the module docstring)."""
+    return WINDOW_SAMPLES / 2 / RATE - 0.5 / frame_rate
+
+
+def _phones_of(entries, offset: float, frame_rate: int) -> list[TimedLabel]:
     """(label, first frame, frames, word: "" between words, None when recognised) of a padded piece starting
-    at `offset` s -> timed labels whose `where` names the word."""
+    at `offset` s, in frames of 1 / `frame_rate` s -> timed labels whose `where` names the word."""
     out = []
+    shift = offset + _boundary_offset(frame_rate) - PAD_SECONDS
     for label, first, frames, word in entries:
-        start = max(0.0, offset + first * FRAME_SECONDS + BOUNDARY_OFFSET - PAD_SECONDS)
-        end = max(start, offset + (first + frames) * FRAME_SECONDS + BOUNDARY_OFFSET - PAD_SECONDS)
+        start = max(0.0, shift + first / frame_rate)
+        end = max(start, shift + (first + frames) / frame_rate)
         where = "recognised phone" if word is None else f"word {word!r}" if word else "between words"
         out.append(TimedLabel(start, end, label, f"{where} at {start:.2f} s"))
     return out
@@ -472,7 +486,7 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 + (f" after {first / RATE:.1f} s" if first else "")
                 + ": check that it is what is said (every word, in order), or lip-sync without it"
             )
-        results.append(_phones_of(entries, first / RATE))
+        results.append(_phones_of(entries, first / RATE, FRAME_RATES["align"]))
         pending_range, pending_words = None, []
     return results
 
@@ -491,7 +505,7 @@ def recognition_steps(
             yield from _decode_pass(decoder, pcm, _piece_mean(decoder, pcm), done, total)
             done += len(pcm) / 2
             entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
-            results.append(_phones_of(entries, first / RATE))
+            results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))
     return _join(results, recording.duration)
 
 

@@ -226,6 +226,32 @@ def test_recognition_without_transcript_finds_most_phones_and_the_closures():
     assert hits >= len(bilabials) // 2
 
 
+def test_frames_become_seconds_at_each_tasks_frame_rate():
+    # frame k's window [h k, h k + 410) samples has its centre 12.8125 ms after h k / 16 ms; a boundary before
+    # frame k lies half-way between the centres of frames k - 1 and k: 7.8125 ms at 10 ms frames, 10.3125 at 5 ms
+    assert phone_alignment._boundary_offset(100) == pytest.approx(0.0078125)
+    assert phone_alignment._boundary_offset(200) == pytest.approx(0.0103125)
+    (phone,) = phone_alignment._phones_of([("b", 100, 4, None)], 1.0, 200)
+    assert (phone.start, phone.end) == pytest.approx((1.0 + 0.5 + 0.0103125 - 0.3, 1.0 + 0.52 + 0.0103125 - 0.3))
+    (phone,) = phone_alignment._phones_of([("b", 100, 4, "bob")], 1.0, 100)
+    assert (phone.start, phone.end) == pytest.approx((1.0 + 1.0 + 0.0078125 - 0.3, 1.0 + 1.04 + 0.0078125 - 0.3))
+    assert phone.where == "word 'bob' at 1.71 s"
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_recognition_resolves_phones_shorter_than_three_10_ms_frames():
+    # at 5 ms frames a three-state phone may last 15 ms: fluent speech has phones that short
+    take, _ = _take("Maybe Bob bought a map.")
+    phones = phone_alignment.phones_from_recording(take, None)
+    inside = [p for p in phones[1:] if p.end < take.duration]  # the last ones are clipped to the take
+    durations = np.array([p.end - p.start for p in inside])
+    assert durations.min() >= 0.015 - 1e-9
+    assert np.any(durations < 0.03 - 1e-9)
+    starts = np.array([p.start for p in inside]) / 0.005  # on the 5 ms grid, 10.3125 ms after a frame start
+    assert np.allclose(starts % 1, 0.0625, atol=1e-6)
+
+
 @needs_espeak
 @needs_pocketsphinx
 def test_a_transcript_that_is_not_what_is_said_is_refused():
