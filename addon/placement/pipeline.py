@@ -23,6 +23,7 @@ from .parts import find_eyeballs, pupil_on_eyeball
 from .rigid import TEMPLATE_AXES, align
 from .scipy_modules import cKDTree
 from .surface import Surface, area_samples, loose_parts, triangle_areas
+from .symmetry import symmetrise
 from .template import load_template
 
 SAMPLES = 4000  # surface samples of the mesh for the rigid fit
@@ -113,6 +114,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     )
 
     placed, confidence, estimated = _transfer(template, coarse, surface)
+    placed = _symmetric(template, placed, surface)
     parts = _parts(local, triangles, labels, skin_labels)
     placed, confidence, estimated = _on_parts(template, placed, confidence, estimated, parts)
     _check_head(template, placed, score)
@@ -197,6 +199,15 @@ def _transfer(template, coarse, surface):
     _d, around = cKDTree(template.coarse_vertices).query(template.fp_positions, k=NEIGHBOURS)
     confidence = np.exp(-((residual[around].mean(axis=1) / CONFIDENCE_RESIDUAL) ** 2))
     return placed, confidence, []
+
+
+def _symmetric(template, placed, surface):
+    """The carried points made mirror-symmetric across the face's own mid-plane (`symmetry`), the skin
+    points snapped back onto the skin."""
+    placed, _plane = symmetrise(placed, np.arange(len(placed)))
+    on_skin = template.fp_vertices >= 0
+    placed[on_skin], _normals = surface.closest(placed[on_skin])
+    return placed
 
 
 def _parts(local, triangles, labels, skin_labels):
