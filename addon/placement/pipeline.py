@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mpeg4.feature_points import FEATURE_POINTS, fp_index
+from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .nicp import register
@@ -26,6 +27,7 @@ from .surface import Surface, area_samples, loose_parts, triangle_areas
 from .symmetry import symmetrise
 from .template import load_template
 
+BODY_SAMPLES = 20000  # surface samples of the whole mesh for finding a head on a body
 SAMPLES = 4000  # surface samples of the mesh for the rigid fit
 SKIN_SHARE = 0.2  # a loose piece with at least this share of the largest one's area is skin (head, body)
 CROP = 0.25  # the skin kept around the fitted template: its bounding box grown by this share
@@ -83,6 +85,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     """Generator: yields the fraction done (0..1), returns the Placement (see the module's doc)."""
     vertices, triangles = _validate(vertices, triangles)
     template = load_template()
+    triangles = _head_of_body(vertices, triangles)
     labels = loose_parts(len(vertices), triangles)
     area = np.bincount(labels[triangles[:, 0]], weights=triangle_areas(vertices, triangles), minlength=labels.max() + 1)
     if area.max() <= 0:
@@ -126,6 +129,15 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         axes=TEMPLATE_AXES @ similarity.rotation.T,
         scale=similarity.scale,
     )
+
+
+def _head_of_body(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The triangles of the head and neck when the mesh is a whole body (`body.head_region`), else all."""
+    points, _normals = area_samples(vertices, triangles, BODY_SAMPLES)
+    region = head_region(points)
+    if region is None:
+        return triangles
+    return triangles[region.contains(vertices)[triangles].all(axis=1)]
 
 
 def carry_on_surface(points: np.ndarray, rest: Surface, deformed: np.ndarray) -> np.ndarray:
