@@ -21,10 +21,10 @@ from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .nicp import register
 from .parts import find_eyeballs, pupil_on_eyeball
-from .rigid import TEMPLATE_AXES, align
+from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
 from .surface import Surface, area_samples, loose_parts, triangle_areas
-from .symmetry import symmetrise
+from .symmetry import MidPlane, surface_mid_plane, symmetrise
 from .template import load_template
 
 BODY_SAMPLES = 20000  # surface samples of the whole mesh for finding a head on a body
@@ -100,6 +100,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         align(template.coarse_vertices, template.coarse_normals, points, normals), 0.02, 0.3
     )
 
+    similarity = _on_mid_plane(template, similarity, points, normals)
     # the skin in the template's frame, cut to the head the template covers
     local = similarity.inverse_apply(vertices)
     lo, hi = template.vertices.min(axis=0), template.vertices.max(axis=0)
@@ -129,6 +130,38 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         axes=TEMPLATE_AXES @ similarity.rotation.T,
         scale=similarity.scale,
     )
+
+
+def _on_mid_plane(template, similarity: Similarity, points: np.ndarray, normals: np.ndarray) -> Similarity:
+    """The rigid fit turned and moved so that the template's mid-plane is the skin's own plane of symmetry
+    (`symmetry.surface_mid_plane`, from the skin samples in the fitted template's box): a face is nearly
+    symmetric whatever its shape, so its mid-plane does not depend on how like the template it is, where
+    the fit's yaw and roll can be pulled by what the template lacks (shoulders, hair, a bust's base)."""
+    local = similarity.inverse_apply(points)
+    local_normals = normals @ similarity.rotation
+    lo, hi = template.vertices.min(axis=0), template.vertices.max(axis=0)
+    inside = np.all((local >= lo) & (local <= hi), axis=1)
+    left = TEMPLATE_AXES[0]
+    plane = surface_mid_plane(local[inside], local_normals[inside], MidPlane(left, 0.0))
+    turn = _turn(left, plane.normal)
+    centre = local[inside].mean(axis=0)
+    before = centre - (centre @ left) * left
+    after = plane.project(centre)
+    # template -> local: x -> turn @ (x - before) + after, then local -> world by the fit
+    rotation = similarity.rotation @ turn
+    translation = similarity.apply(after) - similarity.scale * rotation @ before
+    return Similarity(rotation, similarity.scale, translation)
+
+
+def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The least rotation taking unit vector `a` to unit vector `b` (not opposite)."""
+    axis = np.cross(a, b)
+    sine, cosine = np.linalg.norm(axis), float(a @ b)
+    if sine < 1e-15:
+        return np.eye(3)
+    k = axis / sine
+    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + sine * cross + (1.0 - cosine) * cross @ cross
 
 
 def _head_of_body(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
