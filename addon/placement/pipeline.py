@@ -19,6 +19,7 @@ from ..mpeg4.feature_points import FEATURE_POINTS, fp_index
 from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
+from .landmarks import refine
 from .nicp import register
 from .parts import find_eyeballs, pupil_on_eyeball
 from .rigid import TEMPLATE_AXES, Similarity, align
@@ -249,10 +250,10 @@ def _transfer(template, coarse, surface):
 def _symmetric(template, placed, surface):
     """The carried points made mirror-symmetric across the face's own mid-plane (`symmetry`), the skin
     points snapped back onto the skin."""
-    placed, _plane = symmetrise(placed, np.arange(len(placed)))
+    placed, plane = symmetrise(placed, np.arange(len(placed)))
     on_skin = template.fp_vertices >= 0
     placed[on_skin], _normals = surface.closest(placed[on_skin])
-    return placed
+    return refine(placed, surface, TEMPLATE_AXES[2], plane)
 
 
 def _parts(local, triangles, labels, skin_labels):
