@@ -21,6 +21,7 @@ from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .landmarks import refine
 from .nicp import register
+from .openings import boundary_loops, refine_openings
 from .parts import find_eyeballs, pupil_on_eyeball
 from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
@@ -253,7 +254,9 @@ def _symmetric(template, placed, surface):
     placed, plane = symmetrise(placed, np.arange(len(placed)))
     on_skin = template.fp_vertices >= 0
     placed[on_skin], _normals = surface.closest(placed[on_skin])
-    return refine(placed, surface, TEMPLATE_AXES[2], plane)
+    placed = refine(placed, surface, TEMPLATE_AXES[2], plane)
+    refine_openings(placed, surface.vertices, boundary_loops(len(surface.vertices), surface.triangles), TEMPLATE_AXES)
+    return placed
 
 
 def _parts(local, triangles, labels, skin_labels):

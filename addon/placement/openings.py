@@ -1,0 +1,91 @@
+"""Eye and lip points from the openings themselves, where the mesh has them: a character modelled with
+separate eyeballs has a hole in its skin for each eye, and one with a mouth cavity a hole between its
+lips. Each opening is a loop of boundary edges (edges of one triangle only). Near the carried guess, the
+opening's corners are its loop's extreme points along the face's left axis (the eye corners 3.7/3.11 and
+3.8/3.12, the inner lip corners 2.4/2.5); the lid middles (3.1-3.4) and the inner lip points (2.2, 2.3,
+2.6-2.9) are where the loop crosses the plane across the face at the middle between the corners (for
+2.6-2.9 midway between the middle and a corner), the upper crossing on the upper lid or lip and the lower
+on the lower. A closed surface (a scan, a head whose lids meet) has no such loop and keeps its points.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..mpeg4.feature_points import fp_index
+from .surface import loose_parts
+
+REACH = 0.5  # an opening's centre lies within this share of the carried corners' distance of their midpoint
+SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares of that distance
+
+# (outer or left corner, inner or right corner, [(upper FP, lower FP, share of the way from the middle to
+# the first corner)]) for each opening: the left eye, the right eye, the mouth
+OPENINGS = (
+    ("3.7", "3.11", [("3.1", "3.3", 0.0)]),
+    ("3.8", "3.12", [("3.2", "3.4", 0.0)]),
+    ("2.4", "2.5", [("2.2", "2.3", 0.0), ("2.6", "2.8", 0.5), ("2.7", "2.9", -0.5)]),
+)
+
+
+def boundary_loops(n_vertices: int, triangles: np.ndarray) -> list[np.ndarray]:
+    """The mesh's boundary edges grouped into connected loops (a list of (k, 2) vertex pairs); an edge is
+    labelled as a triangle with a repeated corner."""
+    edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+    unique, counts = np.unique(edges, axis=0, return_counts=True)
+    boundary = unique[counts == 1]
+    if not len(boundary):
+        return []
+    labels = loose_parts(n_vertices, np.column_stack([boundary, boundary[:, 1]]))[boundary[:, 0]]
+    return [boundary[labels == label] for label in np.unique(labels)]
+
+
+def _crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level: float) -> np.ndarray:
+    """Points (C, 3) where the loop's edges cross the plane axis . x = level."""
+    a = vertices[edges[:, 0]] @ axis - level
+    b = vertices[edges[:, 1]] @ axis - level
+    crossing = (a * b <= 0) & (a != b)
+    t = a[crossing] / (a[crossing] - b[crossing])
+    start, end = vertices[edges[crossing, 0]], vertices[edges[crossing, 1]]
+    return start + t[:, None] * (end - start)
+
+
+def refine_openings(placed: np.ndarray, vertices: np.ndarray, loops: list[np.ndarray], axes: np.ndarray) -> list[str]:
+    """Move the eye and inner lip points of `placed` (84, 3; changed in place) onto the openings found near
+    them (`axes`: rows left, up, forward). Returns the FP ids moved."""
+    left, up = axes[0], axes[1]
+    moved = []
+    for first, second, middles in OPENINGS:
+        a, b = placed[fp_index(first)], placed[fp_index(second)]
+        width = abs((a - b) @ left)
+        loop = _opening(vertices, loops, 0.5 * (a + b), width, left)
+        if loop is None:
+            continue
+        ring = vertices[np.unique(loop)]
+        extreme = ring[[np.argmax(ring @ left), np.argmin(ring @ left)]]
+        corners = extreme if (a - b) @ left > 0 else extreme[::-1]
+        placed[fp_index(first)], placed[fp_index(second)] = corners
+        moved += [first, second]
+        middle = 0.5 * (corners[0] + corners[1]) @ left
+        for upper, lower, share in middles:
+            level = middle + share * (corners[0] @ left - middle)
+            crossing = _crossings(vertices, loop, left, level)
+            if len(crossing) < 2:
+                continue
+            height = crossing @ up
+            placed[fp_index(upper)] = crossing[np.argmax(height)]
+            placed[fp_index(lower)] = crossing[np.argmin(height)]
+            moved += [upper, lower]
+    return moved
+
+
+def _opening(vertices, loops, centre, width, left):
+    """The loop near `centre` about `width` wide along `left`, or None."""
+    best = None
+    for loop in loops:
+        ring = vertices[np.unique(loop)]
+        distance = np.linalg.norm(ring.mean(axis=0) - centre)
+        extent = np.ptp(ring @ left)
+        if distance <= REACH * width and SIZE[0] * width <= extent <= SIZE[1] * width:
+            if best is None or distance < best[0]:
+                best = (distance, loop)
+    return None if best is None else best[1]
