@@ -9,6 +9,7 @@ pytest.importorskip("scipy")
 
 from addon.mpeg4.feature_points import FEATURE_POINTS, fp_index
 from addon.placement.body import head_region
+from addon.placement.openings import boundary_loops
 from addon.placement.pipeline import place_feature_points
 from addon.placement.rigid import TEMPLATE_AXES, Similarity
 from addon.placement.surface import area_samples
@@ -113,3 +114,41 @@ def test_a_bust_does_not_turn_the_fit():
     left, right = _pairs()
     plane = MidPlane(placement.axes[0], 0.0)
     assert np.abs(placement.positions[right] - plane.reflect(placement.positions[left])).max() < 1e-3
+
+
+def _with_eye_holes():
+    """The template with an elliptic hole cut around each eye (the triangles whose centre lies inside),
+    and each hole's true corners: its boundary's extreme vertices along the face's left."""
+    t = load_template()
+    keep = np.ones(len(t.triangles), dtype=bool)
+    centres = t.vertices[t.triangles].mean(axis=1)
+    corners = {}
+    for outer, inner in (("3.7", "3.11"), ("3.12", "3.8")):
+        a, b = t.fp_positions[fp_index(outer)], t.fp_positions[fp_index(inner)]
+        middle, half = 0.5 * (a + b), 0.4 * abs(a[0] - b[0])
+        inside = ((centres[:, 0] - middle[0]) / half) ** 2 + ((centres[:, 2] - middle[2]) / (0.5 * half)) ** 2 < 1
+        keep &= ~(inside & (np.abs(centres[:, 1] - middle[1]) < 0.006))
+    triangles = t.triangles[keep]
+    loops = boundary_loops(len(t.vertices), triangles)
+    for outer, inner in (("3.7", "3.11"), ("3.12", "3.8")):
+        middle = 0.5 * (t.fp_positions[fp_index(outer)] + t.fp_positions[fp_index(inner)])
+        loop = min(loops, key=lambda edges: np.linalg.norm(t.vertices[np.unique(edges)].mean(0) - middle))
+        ring = t.vertices[np.unique(loop)]
+        ends = ring[[np.argmax(ring[:, 0]), np.argmin(ring[:, 0])]]
+        corners[outer], corners[inner] = (ends if outer == "3.7" else ends[::-1])[[0, 1]]
+    return t.vertices, triangles, corners
+
+
+def test_eye_corners_are_the_corners_of_the_eye_openings():
+    vertices, triangles, corners = _with_eye_holes()
+    assert len(boundary_loops(len(vertices), triangles)) == 3  # the neck and the two eyes
+    turn = Similarity(_yaw(-20.0), 2.0, np.array([0.0, 1.0, 0.0]))
+    placement = place_feature_points(turn.apply(vertices), triangles)
+    for fp_id, corner in corners.items():
+        assert np.linalg.norm(placement.positions[fp_index(fp_id)] - turn.apply(corner)) < 1e-6
+    # the lid middles lie on the opening's edge, the upper one above the lower
+    lids = placement.positions[[fp_index(f) for f in ("3.1", "3.3", "3.2", "3.4")]]
+    up = placement.axes[1]
+    assert lids[0] @ up > lids[1] @ up and lids[2] @ up > lids[3] @ up
+    edge = turn.apply(vertices[np.unique(np.vstack(boundary_loops(len(vertices), triangles)))])
+    assert all(np.min(np.linalg.norm(edge - lid, axis=1)) < 2.0 * 0.006 for lid in lids)
