@@ -5,7 +5,9 @@ opening's corners are its loop's extreme points along the face's left axis (the 
 3.8/3.12, the inner lip corners 2.4/2.5); the lid middles (3.1-3.4) and the inner lip points (2.2, 2.3,
 2.6-2.9) are where the loop crosses the plane across the face at the middle between the corners (for
 2.6-2.9 midway between the middle and a corner), the upper crossing on the upper lid or lip and the lower
-on the lower. A closed surface (a scan, a head whose lids meet) has no such loop and keeps its points.
+on the lower. A closed surface (a scan, a head whose lids meet) has no such loop and keeps its points, and
+so does one whose loop is hidden behind skin seen from the front (lids tucked round an eyeball, lips rolled
+into a mouth cavity: the edge a viewer sees is then not the loop).
 """
 
 from __future__ import annotations
@@ -13,10 +15,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
+from .scipy_modules import cKDTree
 from .surface import loose_parts
 
 REACH = 0.5  # an opening's centre lies within this share of the carried corners' distance of their midpoint
 SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares of that distance
+VISIBLE_SHARE = 0.05  # the neighbourhood, against the opening's width, in which skin in front hides its loop
 
 # (outer or left corner, inner or right corner, [(upper FP, lower FP, share of the way from the middle to
 # the first corner)]) for each opening: the left eye, the right eye, the mouth
@@ -49,16 +53,18 @@ def _crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level:
     return start + t[:, None] * (end - start)
 
 
-def refine_openings(placed: np.ndarray, vertices: np.ndarray, loops: list[np.ndarray], axes: np.ndarray) -> list[str]:
+def refine_openings(
+    placed: np.ndarray, vertices: np.ndarray, loops: list[np.ndarray], axes: np.ndarray, skin: np.ndarray
+) -> list[str]:
     """Move the eye and inner lip points of `placed` (84, 3; changed in place) onto the openings found near
-    them (`axes`: rows left, up, forward). Returns the FP ids moved."""
+    them (`axes`: rows left, up, forward; `skin`: area samples of the skin). Returns the FP ids moved."""
     left, up = axes[0], axes[1]
     moved = []
     for first, second, middles in OPENINGS:
         a, b = placed[fp_index(first)], placed[fp_index(second)]
         width = abs((a - b) @ left)
         loop = _opening(vertices, loops, 0.5 * (a + b), width, left)
-        if loop is None:
+        if loop is None or _hidden(vertices[np.unique(loop)], skin, axes):
             continue
         ring = vertices[np.unique(loop)]
         extreme = ring[[np.argmax(ring @ left), np.argmin(ring @ left)]]
@@ -76,6 +82,22 @@ def refine_openings(placed: np.ndarray, vertices: np.ndarray, loops: list[np.nda
             placed[fp_index(lower)] = crossing[np.argmin(height)]
             moved += [upper, lower]
     return moved
+
+
+def _hidden(ring: np.ndarray, skin: np.ndarray, axes: np.ndarray) -> bool:
+    """Whether most of an opening's loop `ring` is hidden from the front by skin in front of it (a lid or a
+    lip tucked behind over an eyeball or into a mouth cavity): its visible edge is then not the loop. Skin
+    `skin` samples within a twentieth of the loop's width across the face and more than twice that in
+    front of a loop vertex hide it."""
+    radius = VISIBLE_SHARE * np.ptp(ring @ axes[0])
+    flat = skin @ axes[:2].T
+    tree = cKDTree(flat)
+    depth = skin @ axes[2]
+    hidden = [
+        bool(len(near)) and depth[near].max() > point @ axes[2] + 2.0 * radius
+        for point, near in zip(ring, tree.query_ball_point(ring @ axes[:2].T, radius), strict=True)
+    ]
+    return np.mean(hidden) > 0.5
 
 
 def _opening(vertices, loops, centre, width, left):

@@ -255,7 +255,10 @@ def _symmetric(template, placed, surface):
     on_skin = template.fp_vertices >= 0
     placed[on_skin], _normals = surface.closest(placed[on_skin])
     placed = refine(placed, surface, TEMPLATE_AXES[2], plane)
-    refine_openings(placed, surface.vertices, boundary_loops(len(surface.vertices), surface.triangles), TEMPLATE_AXES)
+    loops = boundary_loops(len(surface.vertices), surface.triangles)
+    if loops:
+        skin, _normals = area_samples(surface.vertices, surface.triangles, FEATURE_SAMPLES)
+        refine_openings(placed, surface.vertices, loops, TEMPLATE_AXES, skin)
     return placed
 
 

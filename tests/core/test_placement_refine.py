@@ -152,3 +152,18 @@ def test_eye_corners_are_the_corners_of_the_eye_openings():
     assert lids[0] @ up > lids[1] @ up and lids[2] @ up > lids[3] @ up
     edge = turn.apply(vertices[np.unique(np.vstack(boundary_loops(len(vertices), triangles)))])
     assert all(np.min(np.linalg.norm(edge - lid, axis=1)) < 2.0 * 0.006 for lid in lids)
+
+
+def test_an_opening_hidden_behind_the_lids_is_not_taken_for_their_edge():
+    vertices, triangles, corners = _with_eye_holes()
+    tucked = vertices.copy()
+    rims = np.unique(np.vstack(boundary_loops(len(vertices), triangles)))
+    rims = rims[vertices[rims, 1] < -0.1]  # the eye holes' rims (the face looks along -Y), not the neck
+    # lids tucked round an eyeball: each rim 6 mm back and a third wider, under the skin around it
+    for side in (rims[vertices[rims, 0] > 0], rims[vertices[rims, 0] < 0]):
+        centre = vertices[side].mean(axis=0)
+        tucked[side] = centre + (vertices[side] - centre) * np.array([1.35, 1.0, 1.35]) + [0.0, 0.006, 0.0]
+    placement = place_feature_points(tucked, triangles)
+    ring = tucked[rims]
+    for fp_id in corners:
+        assert np.linalg.norm(ring - placement.positions[fp_index(fp_id)], axis=1).min() > 0.002
