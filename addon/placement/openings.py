@@ -6,8 +6,8 @@ opening's corners are its loop's extreme points along the face's left axis (the 
 2.6-2.9) are where the loop crosses the plane across the face at the middle between the corners (for
 2.6-2.9 midway between the middle and a corner), the upper crossing on the upper lid or lip and the lower
 on the lower. A closed surface (a scan, a head whose lids meet) has no such loop and keeps its points, and
-so does one whose loop is hidden behind skin seen from the front (lids tucked round an eyeball, lips rolled
-into a mouth cavity: the edge a viewer sees is then not the loop).
+so does an eye whose loop is hidden behind skin seen from the front (lids tucked round an eyeball: the lid
+edge a viewer sees is then not the loop); a mouth's loop is taken wherever it is (where the lips part).
 """
 
 from __future__ import annotations
@@ -23,11 +23,13 @@ SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares 
 VISIBLE_SHARE = 0.05  # the neighbourhood, against the opening's width, in which skin in front hides its loop
 
 # (outer or left corner, inner or right corner, [(upper FP, lower FP, share of the way from the middle to
-# the first corner)]) for each opening: the left eye, the right eye, the mouth
+# the first corner)], only when seen from the front) for each opening: the left eye, the right eye, the
+# mouth. The mouth's loop is taken even when the lips hide it: it is where the lips part, and set-up opens
+# the mouth between 2.2 and 2.3 only when they lie on either side of it.
 OPENINGS = (
-    ("3.7", "3.11", [("3.1", "3.3", 0.0)]),
-    ("3.8", "3.12", [("3.2", "3.4", 0.0)]),
-    ("2.4", "2.5", [("2.2", "2.3", 0.0), ("2.6", "2.8", 0.5), ("2.7", "2.9", -0.5)]),
+    ("3.7", "3.11", [("3.1", "3.3", 0.0)], True),
+    ("3.8", "3.12", [("3.2", "3.4", 0.0)], True),
+    ("2.4", "2.5", [("2.2", "2.3", 0.0), ("2.6", "2.8", 0.5), ("2.7", "2.9", -0.5)], False),
 )
 
 
@@ -60,11 +62,11 @@ def refine_openings(
     them (`axes`: rows left, up, forward; `skin`: area samples of the skin). Returns the FP ids moved."""
     left, up = axes[0], axes[1]
     moved = []
-    for first, second, middles in OPENINGS:
+    for first, second, middles, seen in OPENINGS:
         a, b = placed[fp_index(first)], placed[fp_index(second)]
         width = abs((a - b) @ left)
         loop = _opening(vertices, loops, 0.5 * (a + b), width, left)
-        if loop is None or _hidden(vertices[np.unique(loop)], skin, axes):
+        if loop is None or (seen and _hidden(vertices[np.unique(loop)], skin, axes)):
             continue
         ring = vertices[np.unique(loop)]
         extreme = ring[[np.argmax(ring @ left), np.argmin(ring @ left)]]
