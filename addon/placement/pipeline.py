@@ -16,15 +16,20 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mpeg4.feature_points import FEATURE_POINTS, fp_index
+from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
+from .landmarks import refine
 from .nicp import register
+from .openings import boundary_loops, refine_openings
 from .parts import find_eyeballs, pupil_on_eyeball
-from .rigid import TEMPLATE_AXES, align
+from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
 from .surface import Surface, area_samples, loose_parts, triangle_areas
+from .symmetry import MidPlane, surface_mid_plane, symmetrise
 from .template import load_template
 
+BODY_SAMPLES = 20000  # surface samples of the whole mesh for finding a head on a body
 SAMPLES = 4000  # surface samples of the mesh for the rigid fit
 SKIN_SHARE = 0.2  # a loose piece with at least this share of the largest one's area is skin (head, body)
 CROP = 0.25  # the skin kept around the fitted template: its bounding box grown by this share
@@ -82,6 +87,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     """Generator: yields the fraction done (0..1), returns the Placement (see the module's doc)."""
     vertices, triangles = _validate(vertices, triangles)
     template = load_template()
+    triangles = _head_of_body(vertices, triangles)
     labels = loose_parts(len(vertices), triangles)
     area = np.bincount(labels[triangles[:, 0]], weights=triangle_areas(vertices, triangles), minlength=labels.max() + 1)
     if area.max() <= 0:
@@ -96,6 +102,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         align(template.coarse_vertices, template.coarse_normals, points, normals), 0.02, 0.3
     )
 
+    similarity = _on_mid_plane(template, similarity, points, normals)
     # the skin in the template's frame, cut to the head the template covers
     local = similarity.inverse_apply(vertices)
     lo, hi = template.vertices.min(axis=0), template.vertices.max(axis=0)
@@ -113,6 +120,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     )
 
     placed, confidence, estimated = _transfer(template, coarse, surface)
+    placed = _symmetric(template, placed, surface)
     parts = _parts(local, triangles, labels, skin_labels)
     placed, confidence, estimated = _on_parts(template, placed, confidence, estimated, parts)
     _check_head(template, placed, score)
@@ -124,6 +132,47 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         axes=TEMPLATE_AXES @ similarity.rotation.T,
         scale=similarity.scale,
     )
+
+
+def _on_mid_plane(template, similarity: Similarity, points: np.ndarray, normals: np.ndarray) -> Similarity:
+    """The rigid fit turned and moved so that the template's mid-plane is the skin's own plane of symmetry
+    (`symmetry.surface_mid_plane`, from the skin samples in the fitted template's box): a face is nearly
+    symmetric whatever its shape, so its mid-plane does not depend on how like the template it is, where
+    the fit's yaw and roll can be pulled by what the template lacks (shoulders, hair, a bust's base)."""
+    local = similarity.inverse_apply(points)
+    local_normals = normals @ similarity.rotation
+    lo, hi = template.vertices.min(axis=0), template.vertices.max(axis=0)
+    inside = np.all((local >= lo) & (local <= hi), axis=1)
+    left = TEMPLATE_AXES[0]
+    plane = surface_mid_plane(local[inside], local_normals[inside], MidPlane(left, 0.0))
+    turn = _turn(left, plane.normal)
+    centre = local[inside].mean(axis=0)
+    before = centre - (centre @ left) * left
+    after = plane.project(centre)
+    # template -> local: x -> turn @ (x - before) + after, then local -> world by the fit
+    rotation = similarity.rotation @ turn
+    translation = similarity.apply(after) - similarity.scale * rotation @ before
+    return Similarity(rotation, similarity.scale, translation)
+
+
+def _turn(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The least rotation taking unit vector `a` to unit vector `b` (not opposite)."""
+    axis = np.cross(a, b)
+    sine, cosine = np.linalg.norm(axis), float(a @ b)
+    if sine < 1e-15:
+        return np.eye(3)
+    k = axis / sine
+    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + sine * cross + (1.0 - cosine) * cross @ cross
+
+
+def _head_of_body(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The triangles of the head and neck when the mesh is a whole body (`body.head_region`), else all."""
+    points, _normals = area_samples(vertices, triangles, BODY_SAMPLES)
+    region = head_region(points)
+    if region is None:
+        return triangles
+    return triangles[region.contains(vertices)[triangles].all(axis=1)]
 
 
 def carry_on_surface(points: np.ndarray, rest: Surface, deformed: np.ndarray) -> np.ndarray:
@@ -197,6 +246,20 @@ def _transfer(template, coarse, surface):
     _d, around = cKDTree(template.coarse_vertices).query(template.fp_positions, k=NEIGHBOURS)
     confidence = np.exp(-((residual[around].mean(axis=1) / CONFIDENCE_RESIDUAL) ** 2))
     return placed, confidence, []
+
+
+def _symmetric(template, placed, surface):
+    """The carried points made mirror-symmetric across the face's own mid-plane (`symmetry`), the skin
+    points snapped back onto the skin."""
+    placed, plane = symmetrise(placed, np.arange(len(placed)))
+    on_skin = template.fp_vertices >= 0
+    placed[on_skin], _normals = surface.closest(placed[on_skin])
+    placed = refine(placed, surface, TEMPLATE_AXES[2], plane)
+    loops = boundary_loops(len(surface.vertices), surface.triangles)
+    if loops:
+        skin, _normals = area_samples(surface.vertices, surface.triangles, FEATURE_SAMPLES)
+        refine_openings(placed, surface.vertices, loops, TEMPLATE_AXES, skin)
+    return placed
 
 
 def _parts(local, triangles, labels, skin_labels):

@@ -61,6 +61,13 @@ def _material(name: str) -> bpy.types.Material:
 def place(path: Path, face_name: str | None, parts: tuple[str, ...]):
     _import(path)
     meshes = [ob for ob in bpy.data.objects if ob.type == "MESH"]
+    for ob in meshes:
+        # placement and set-up read a mesh's own rest shape, and the empties snap onto the shown one: a
+        # skinned character is shown at rest (the Rocketbox rest mesh is in centimetres, its bones make
+        # it metres)
+        for modifier in ob.modifiers:
+            if modifier.type == "ARMATURE":
+                modifier.show_render = modifier.show_viewport = False
     face = bpy.data.objects[face_name] if face_name else meshes[0]
     convert.select_only(face)
     for name in parts:
