@@ -3,9 +3,12 @@ turned into the FP empties exactly as manual placement makes them (`fp_empties.p
 
 The head is the active mesh with its visible mesh children (eyeballs, teeth, tongue as separate objects)
 and any other selected meshes; hidden objects (a reference copy, the control mesh) are not read. The
-meshes' own data is read, not their evaluated shape: the FP empties are placed on the same data that
-manual placement snaps onto. Each empty keeps its confidence (`CONFIDENCE_PROP`); the face keeps the ids of
-the low ones (`LOW_PROP`), which the panel lists and Place Feature Points can resume on.
+meshes' own data is read, not their evaluated shape (a skinned character is placed at rest, where set-up
+binds it), and the empties go where the placement put them, which already snapped the skin points onto that
+data: snapping them again onto the shape as shown would mix the two (an Armature modifier that scales a
+character's centimetres to metres moved them a hundredfold). Each empty keeps its confidence
+(`CONFIDENCE_PROP`); the face keeps the ids of the low ones (`LOW_PROP`), which the panel lists and Place
+Feature Points can resume on.
 """
 
 from __future__ import annotations
@@ -60,7 +63,7 @@ def world_arrays(objects) -> tuple[np.ndarray, np.ndarray]:
 def apply(face, placement) -> list[str]:
     """Create or move the 84 empties to the placement; returns report lines."""
     for fp, position, confidence in zip(FEATURE_POINTS, placement.positions, placement.confidence, strict=True):
-        (empty,) = fp_empties.place(face, fp.id, position)
+        (empty,) = fp_empties.place(face, fp.id, position, snap=False)
         empty[CONFIDENCE_PROP] = float(confidence)
     low = placement.low_confidence()
     face[LOW_PROP] = ",".join(low)

@@ -189,20 +189,21 @@ def _matrix(values) -> Matrix:
     return Matrix([list(values[i : i + 4]) for i in range(0, 16, 4)])
 
 
-def place(face, fp_id: str, world_location, mirror: bool = False) -> list[bpy.types.Object]:
-    """Create (or move) the empty of `fp_id` at a world location; skin points snap onto the face.
+def place(face, fp_id: str, world_location, mirror: bool = False, snap: bool = True) -> list[bpy.types.Object]:
+    """Create (or move) the empty of `fp_id` at a world location; skin points snap onto the face as shown (its
+    evaluated shape) unless `snap` is False (a location already on the surface wanted).
 
     With `mirror`, the FP's partner across the face's local X = 0 plane (Blender's X-mirror) is placed too.
     """
     local = face.matrix_world.inverted() @ Vector(world_location)
-    placed = [_place_local(face, fp_id, local)]
+    placed = [_place_local(face, fp_id, local, snap)]
     partner = feature_point(fp_id).mirror
     if mirror and partner:
-        placed.append(_place_local(face, partner, Vector((-local.x, local.y, local.z))))
+        placed.append(_place_local(face, partner, Vector((-local.x, local.y, local.z)), snap))
     return placed
 
 
-def _place_local(face, fp_id: str, local) -> bpy.types.Object:
+def _place_local(face, fp_id: str, local, snap: bool = True) -> bpy.types.Object:
     coll = ensure_fp_collection(face)
     empty = face_data.fp_empties(face).get(fp_id)
     if empty is None:
@@ -213,7 +214,7 @@ def _place_local(face, fp_id: str, local) -> bpy.types.Object:
         empty.empty_display_size = display_size(face)
         coll.objects.link(empty)
         empty.parent = face
-    if feature_point(fp_id).surface == "skin":
+    if snap and feature_point(fp_id).surface == "skin":
         ok, on_surface, _n, _i = face.closest_point_on_mesh(local)
         if ok:
             local = on_surface

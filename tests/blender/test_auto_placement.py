@@ -72,6 +72,18 @@ def test_variants_of_the_sample(name, change, scale, mean_mm):
     assert errors.mean() <= mean_mm, (name, errors.mean())
 
 
+def test_a_deforming_modifier_does_not_move_the_points_off_the_rest_mesh():
+    """Placement reads the mesh at rest (where set-up binds it); a modifier that changes the shape as shown (an
+    Armature on a skinned character, here a Displace 5 mm out along the normals) must not pull the empties
+    onto the shown shape."""
+    head, truth = _sample_without_fps()
+    displace = head.modifiers.new("Shown shape", "DISPLACE")
+    displace.strength, displace.mid_level = 0.005, 0.0
+    assert bpy.ops.mpeg4.auto_place_feature_points() == {"FINISHED"}
+    assert _errors_mm(head, truth).mean() <= 1.0  # as without the modifier (test_sample_head_gets_...)
+    head.modifiers.remove(displace)
+
+
 def test_existing_points_move_only_when_asked():
     head, truth = _sample_without_fps()
     assert bpy.ops.mpeg4.auto_place_feature_points() == {"FINISHED"}
