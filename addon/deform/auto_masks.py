@@ -76,29 +76,36 @@ def nearest_vertices(vertices: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=1)
 
 
-def rim_vertices(vertices: np.ndarray, neutral: np.ndarray, opening: tuple[str, str, str, str]) -> tuple | None:
-    """(upper rim, lower rim): the vertices nearest `RIM_SAMPLES` points along each side's edge of an opening,
-    the parabola through its corners and that side's middle FP (`opening` = (corner, corner, upper middle,
-    lower middle) FP ids), leaving out the `RIM_CORNER` of its length at each corner, where the two edges
-    meet; None when an FP is missing. The edge is a curve in space, so its vertices are the same on any
-    topology, with or without a hole in the mesh there."""
+def edge_curves(neutral: np.ndarray, opening: tuple[str, str, str, str], samples: int = 24) -> np.ndarray | None:
+    """(2, samples, 3) points along the upper and the lower edge of an opening: the parabola through its corners
+    and that side's middle FP (`opening` = (corner, corner, upper middle, lower middle) FP ids), leaving out the
+    `RIM_CORNER` of its length at each corner, where the two edges meet; None when an FP is missing."""
     points = np.array([neutral[fp_index(f)] for f in opening])
     if not np.all(np.isfinite(points)):
         return None
-    rims = []
+    chord = points[1] - points[0]
+    s = np.linspace(RIM_CORNER, 1.0 - RIM_CORNER, samples)[:, None]
+    curves = []
     for middle in points[2:]:
         # where along the corner-to-corner line the middle FP falls: the parabola's parameter there
-        chord = points[1] - points[0]
         at = float(np.clip((middle - points[0]) @ chord / (chord @ chord), 0.2, 0.8))
-        s = np.linspace(RIM_CORNER, 1.0 - RIM_CORNER, RIM_SAMPLES)[:, None]
         # Lagrange's quadratic through (0, corner), (at, middle), (1, other corner)
-        curve = (
+        curves.append(
             points[0] * ((s - at) * (s - 1.0)) / at
             + middle * (s * (s - 1.0)) / (at * (at - 1.0))
             + points[1] * (s * (s - at)) / (1.0 - at)
         )
-        rims.append(np.unique(nearest_vertices(vertices, curve)))
-    return rims[0], rims[1]
+    return np.stack(curves)
+
+
+def rim_vertices(vertices: np.ndarray, neutral: np.ndarray, opening: tuple[str, str, str, str]) -> tuple | None:
+    """(upper rim, lower rim): the vertices nearest `RIM_SAMPLES` points along each edge of an opening
+    (`edge_curves`); None when an FP is missing. The edges are curves in space, so their vertices are the same
+    on any topology, with or without a hole in the mesh there."""
+    curves = edge_curves(neutral, opening, RIM_SAMPLES)
+    if curves is None:
+        return None
+    return tuple(np.unique(nearest_vertices(vertices, curve)) for curve in curves)
 
 
 def _side(vertices, edges, neutral, upper_ids, lower_ids, band, rims=None):
