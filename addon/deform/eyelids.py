@@ -121,7 +121,7 @@ def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | 
     mid = opening(t_mid)
     if not mid > 0.0:
         return None
-    return np.where((t > 0.0) & (t < 1.0), np.clip(opening(t) / mid, 0.0, 1.5), 0.0)
+    return np.where((t > 0.0) & (t < 1.0), np.clip(opening(t) / mid, 0.0, 1.0), 0.0)
 
 
 def _fall(x: np.ndarray) -> np.ndarray:
