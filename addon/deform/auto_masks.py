@@ -75,15 +75,17 @@ def nearest_vertices(vertices: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=1)
 
 
-def edge_curves(neutral: np.ndarray, opening: tuple[str, str, str, str], samples: int = 24) -> np.ndarray | None:
+def edge_curves(
+    neutral: np.ndarray, opening: tuple[str, str, str, str], samples: int = 24, corner: float = RIM_CORNER
+) -> np.ndarray | None:
     """(2, samples, 3) points along the upper and the lower edge of an opening: the parabola through its corners
     and that side's middle FP (`opening` = (corner, corner, upper middle, lower middle) FP ids), leaving out the
-    `RIM_CORNER` of its length at each corner, where the two edges meet; None when an FP is missing."""
+    `corner` share of its length at each corner, where the two edges meet; None when an FP is missing."""
     points = np.array([neutral[fp_index(f)] for f in opening])
     if not np.all(np.isfinite(points)):
         return None
     chord = points[1] - points[0]
-    s = np.linspace(RIM_CORNER, 1.0 - RIM_CORNER, samples)[:, None]
+    s = np.linspace(corner, 1.0 - corner, samples)[:, None]
     curves = []
     for middle in points[2:]:
         # where along the corner-to-corner line the middle FP falls: the parabola's parameter there
