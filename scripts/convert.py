@@ -430,10 +430,8 @@ def render_frame(scene, frame: int, scratch: Path) -> np.ndarray:
 
 
 def save_png(pixels: np.ndarray, path: Path) -> None:
-    """Write (height, width, 4) float pixels (bottom row first, as Blender stores images) as a PNG: RGB when every
-    pixel is opaque (a quarter smaller), else RGBA."""
-    opaque = bool((pixels[..., 3] >= 1.0).all())
-    image = bpy.data.images.new(path.stem, pixels.shape[1], pixels.shape[0], alpha=not opaque)
+    """Write (height, width, 4) float pixels (bottom row first, as Blender stores images) as a PNG."""
+    image = bpy.data.images.new(path.stem, pixels.shape[1], pixels.shape[0], alpha=True)
     image.pixels.foreach_set(np.ascontiguousarray(pixels, dtype=np.float32).ravel())
     image.filepath_raw = str(path)
     image.file_format = "PNG"
