@@ -27,7 +27,7 @@ from ..deform.masks import image_masks, vertex_uvs
 from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
 from ..mpeg4.control_mesh import MASK_NAMES, triangle_parts
-from . import face_data, rest_shape
+from . import face_data, inner_parts, rest_shape
 from .face_data import CREATED_PROP
 from .reporting import report_outside_operator
 
@@ -234,21 +234,33 @@ class BindInputs:
     masks: dict[str, np.ndarray]
     params: dict
     key: str
+    rigid: np.ndarray  # the vertices of the rigid parts inside the face (eyeballs, teeth, tongue): bound to nothing
 
     def bind(self) -> Binding:
         """The binding as it will be saved: its local coordinates rounded to float32 (about 1e-7 of a control
         triangle's size, 1e-9 m on a face; weights, rest shape and control mesh stay float64, so the rest frame
         and the eq. 8 weight sums stay exact). The session plays the rounded values too, so a saved and
-        reopened file plays bit for bit the same."""
-        return bind_face(
-            self.rest.astype(np.float64),
+        reopened file plays bit for bit the same.
+
+        Only the skin is bound: the rigid parts move as wholes (`inner_parts`), and binding them too made the
+        coverage raise the mouth's control triangles to reach the tongue and teeth deep in the mouth, which moved
+        the lips and chin of a face with its parts joined in 10-20 mm away from the same face with separate parts
+        (and pushed the skin inside the mouth through itself)."""
+        rest = self.rest.astype(np.float64)
+        skin = np.setdiff1d(np.arange(len(rest)), self.rigid)
+        masks = {name: weights[skin] for name, weights in self.masks.items()}
+        binding = bind_face(
+            rest[skin],
             self.control_rest,
             self.triangles,
-            vertex_masks=self.masks or None,
-            triangle_masks=self.triangle_masks if self.masks else None,
+            vertex_masks=masks or None,
+            triangle_masks=self.triangle_masks if masks else None,
             local_float32=True,
             **self.params,
         )
+        if len(skin) == len(rest):
+            return binding
+        return dataclasses.replace(binding, rest_vertices=rest, pair_vertex=skin[binding.pair_vertex].astype(np.int32))
 
 
 def _masks(face, fresh: bool, made: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
@@ -283,9 +295,11 @@ def gather(
     fp_ids,
     fresh=True,
     made_masks: dict[str, np.ndarray] | None = None,
+    made_parts: dict[str, np.ndarray] | None = None,
 ) -> BindInputs:
     """The inputs of a binding with the face's current parameters; changes nothing in the scene. `fp_ids`: the
-    control mesh's FP ids, in its vertex order."""
+    control mesh's FP ids, in its vertex order; `made_parts`: part groups set-up is about to write (taken as the
+    face's rigid parts instead of its part groups)."""
     settings = face.mpeg4_face
     masks = _masks(face, fresh, made_masks)
     tri_masks = [m if m in masks else None for m in triangle_masks]
@@ -295,8 +309,13 @@ def gather(
     params = {name: float(value) for name, value in params.items()}
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
-    key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)
-    return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key)
+    members = made_parts or inner_parts.group_members(face)
+    rigid = np.unique(np.concatenate([*members.values(), np.zeros(0, np.intp)])).astype(np.intp)
+    keyed = {**params, "fade_below": FADE_BELOW}
+    if len(rigid):  # a face without parts keeps the key it was saved with
+        keyed["rigid"] = hashlib.blake2b(rigid.astype(np.int64).tobytes(), digest_size=16).hexdigest()
+    key = binding_key(rest, control_rest, triangles, keyed, masks)
+    return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key, rigid)
 
 
 def control_data(face) -> tuple[np.ndarray, np.ndarray, list[str | None]]:

@@ -63,11 +63,13 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     if parts is not None:  # an eyeball inside the face object is no lid (its masks are 0 there: "the other lid")
         upper[parts.all_vertices] = lower[parts.all_vertices] = 0.0
     triangles = face_data.mesh_fans(face.data)[0]  # the weights are made so that no face turns over
-    inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, axes, triangles)
+    # lid masks set-up made from the FPs say no more of the margins than the FPs: the lids' opening from their FPs
+    trace = not {"upper_eyelid", "lower_eyelid"} & set(settings.made_masks.split(","))
+    inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, axes, triangles, trace)
     made = _made.get(face.session_uid)
     if made is not None and binding_store.same_inputs(made[0], inputs):
         return made[1]  # a setting's rebind: the lids' fold-free weights (0.2 s at 68k vertices) are as they were
-    rig = bind_eyelids(*inputs[:7], triangles=triangles)
+    rig = bind_eyelids(*inputs[:7], triangles=triangles, trace_opening=trace)
     _made[face.session_uid] = inputs, rig
     return rig
 

@@ -157,7 +157,8 @@ def plan(face) -> Plan:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
     made = _planned_masks(face, rest, neutral, notes) if face.mpeg4_face.use_masks else {}
-    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made)
+    parts = inner_parts.plan_parts(face, rest, _edges(face), neutral, axes, notes)
+    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made, made_parts=parts)
     try:
         binding = inputs.bind()
     except np.linalg.LinAlgError as exc:
@@ -165,7 +166,6 @@ def plan(face) -> Plan:
             f"the feature points cannot bind {face.name} ({exc}): check for points placed on top of each other"
         ) from exc
     key = inputs.key
-    parts = inner_parts.plan_parts(face, rest, _edges(face), neutral, axes, notes)
     neck = head_motion.plan_head_turn(face, rest, neutral, axes, notes)
     return Plan(
         empties,

@@ -5,11 +5,17 @@ control triangles from moving skin across the mouth and eye openings), with the 
 ones have: `lower_lip` is the jaw side of the mouth, `upper_lip` = 1 - `lower_lip`; `upper_eyelid` is 0
 on the lower lids and 1 elsewhere, `lower_eyelid` 0 on the upper lids.
 
-A vertex's side is decided by geodesic distance along the mesh's edges to the FPs on each side of the
-opening: where the mouth or an eye is an opening in the mesh, paths between the two sides must go
-round its corners, so the sides part along the opening itself. The sides blend over a band of
-`SIDE_BAND` (x the opening's width) so the masks are soft, and a lid's membership fades out between
-`LID_REACH` x the eye's width from its lid FPs (the skin of a lid ends at its crease).
+A vertex's side is decided by geodesic distance along the mesh's edges to each side of the opening: where
+the mouth or an eye is an opening in the mesh, paths between the two sides must go round its corners, so
+the sides part along the opening itself. Each side is measured from its edge of the opening (`rim_vertices`:
+the vertices along the curve through the corners and the side's middle FP) and its FPs. Measured from the
+FPs alone (as before), a lid's membership was a disc about its FPs: it faded along the lid's own margin
+toward the corners, so a blink closed the middle of a lid ahead of the rest (the zig-zag edge and the
+bunched skin above it on the sample with its groups deleted), and on a remesh it followed whichever edges
+led there. From the edge curve it is a band along the whole margin, the same on any topology. The sides
+blend over a band of `SIDE_BAND` (x the opening's width) so the masks are soft, and a lid's membership fades
+out between `LID_REACH` x the eye's width from its side: the hand-made lids of the sample end 2-3 mm above
+the margin (its tarsal plate), where skin farther up, turned with the lid, bunched at the blink.
 """
 
 from __future__ import annotations
@@ -22,9 +28,12 @@ from ..mpeg4.control_mesh import MASK_SETS
 from ..mpeg4.feature_points import fp_index
 
 SIDE_BAND = 0.15  # x mouth or eye width: the band over which a vertex goes from one side to the other
-LID_REACH = (0.35, 0.7)  # x eye width: a lid's membership is 1 up to the first, 0 past the second
+LID_REACH = (0.1, 0.3)  # x eye width: a lid's membership is 1 up to the first, 0 past the second
 EYE_WIDTH_FPS = (("3.7", "3.11"), ("3.8", "3.12"))
 MOUTH_WIDTH_FPS = ("2.4", "2.5")
+# each eye's (corner, corner, upper lid's middle, lower lid's middle) FPs, for its edges (`rim_vertices`)
+EYE_OPENINGS = ((*EYE_WIDTH_FPS[0], "3.1", "3.3"), (*EYE_WIDTH_FPS[1], "3.2", "3.4"))
+RIM_SAMPLES, RIM_CORNER = 24, 0.1  # points along an opening's edge; the share of it left out at each corner
 
 
 def geodesic_distance(vertices: np.ndarray, edges: np.ndarray, sources: np.ndarray) -> np.ndarray:
@@ -66,12 +75,49 @@ def nearest_vertices(vertices: np.ndarray, points: np.ndarray) -> np.ndarray:
     return np.argmin(d, axis=1)
 
 
-def _side(vertices, edges, neutral, upper_ids, lower_ids, band):
-    """(N,) how far each vertex is on the lower side (0..1), and its distance to the lower side's FPs."""
+def edge_curves(
+    neutral: np.ndarray, opening: tuple[str, str, str, str], samples: int = 24, corner: float = RIM_CORNER
+) -> np.ndarray | None:
+    """(2, samples, 3) points along the upper and the lower edge of an opening: the parabola through its corners
+    and that side's middle FP (`opening` = (corner, corner, upper middle, lower middle) FP ids), leaving out the
+    `corner` share of its length at each corner, where the two edges meet; None when an FP is missing."""
+    points = np.array([neutral[fp_index(f)] for f in opening])
+    if not np.all(np.isfinite(points)):
+        return None
+    chord = points[1] - points[0]
+    s = np.linspace(corner, 1.0 - corner, samples)[:, None]
+    curves = []
+    for middle in points[2:]:
+        # where along the corner-to-corner line the middle FP falls: the parabola's parameter there
+        at = float(np.clip((middle - points[0]) @ chord / (chord @ chord), 0.2, 0.8))
+        # Lagrange's quadratic through (0, corner), (at, middle), (1, other corner)
+        curves.append(
+            points[0] * ((s - at) * (s - 1.0)) / at
+            + middle * (s * (s - 1.0)) / (at * (at - 1.0))
+            + points[1] * (s * (s - at)) / (1.0 - at)
+        )
+    return np.stack(curves)
+
+
+def rim_vertices(vertices: np.ndarray, neutral: np.ndarray, opening: tuple[str, str, str, str]) -> tuple | None:
+    """(upper rim, lower rim): the vertices nearest `RIM_SAMPLES` points along each edge of an opening
+    (`edge_curves`); None when an FP is missing. The edges are curves in space, so their vertices are the same
+    on any topology, with or without a hole in the mesh there."""
+    curves = edge_curves(neutral, opening, RIM_SAMPLES)
+    if curves is None:
+        return None
+    return tuple(np.unique(nearest_vertices(vertices, curve)) for curve in curves)
+
+
+def _side(vertices, edges, neutral, upper_ids, lower_ids, band, rims=None):
+    """(N,) how far each vertex is on the lower side (0..1), and its distance to the lower and the upper side
+    (the side's FPs, with its edge of each opening: `rim_vertices`)."""
     seeds = {}
-    for name, ids in (("upper", upper_ids), ("lower", lower_ids)):
+    for k, (name, ids) in enumerate((("upper", upper_ids), ("lower", lower_ids))):
         points = [neutral[fp_index(f)] for f in sorted(ids) if np.all(np.isfinite(neutral[fp_index(f)]))]
         seeds[name] = nearest_vertices(vertices, np.array(points)) if points else np.array([], dtype=np.intp)
+        if rims is not None:
+            seeds[name] = np.concatenate([seeds[name], rims[k]])
     d_up = geodesic_distance(vertices, edges, seeds["upper"])
     d_low = geodesic_distance(vertices, edges, seeds["lower"])
     with np.errstate(invalid="ignore"):
@@ -84,25 +130,38 @@ def _width(neutral, pair) -> float:
     return float(np.linalg.norm(a - b)) if np.all(np.isfinite(a)) and np.all(np.isfinite(b)) else np.nan
 
 
+def _rims(vertices, neutral, openings) -> tuple[np.ndarray, np.ndarray] | None:
+    """The upper and lower edges' vertices of those of `openings` whose FPs are placed (`rim_vertices`), joined;
+    None when there are none (then the FPs alone say the sides)."""
+    rims = [r for r in (rim_vertices(vertices, neutral, ids) for ids in openings) if r is not None]
+    if not rims:
+        return None
+    return np.concatenate([r[0] for r in rims]), np.concatenate([r[1] for r in rims])
+
+
 def make_masks(vertices: np.ndarray, edges: np.ndarray, neutral: np.ndarray) -> dict[str, np.ndarray]:
     """The four masks of a rest mesh ((N, 3) vertices, (E, 2) edges) from its (84, 3) neutral FPs.
 
-    A mask whose FPs are missing (no inner-lip or eyelid points, or no mouth or eye corners to measure
-    the opening's width) is left out.
+    A mask whose FPs are missing (no inner-lip or eyelid points, or no mouth or eye corners to measure the
+    opening's width) is left out.
     """
     vertices = np.asarray(vertices, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
     masks = {}
     mouth = _width(neutral, MOUTH_WIDTH_FPS)
     if np.isfinite(mouth) and mouth > 0:
+        # the lips' edges are not taken: the inner lips of a closed mouth touch, so the nearest vertices to one
+        # lip's edge curve are as often the other lip's (with them, 62 crossing pairs at the demo's speech on the
+        # sample with its groups deleted; 0 without)
         jaw, _d, _u = _side(vertices, edges, neutral, MASK_SETS["upper_lip"], MASK_SETS["lower_lip"], SIDE_BAND * mouth)
         masks["upper_lip"] = 1.0 - jaw
         masks["lower_lip"] = jaw
     widths = [w for w in (_width(neutral, pair) for pair in EYE_WIDTH_FPS) if np.isfinite(w)]
     eye = float(np.mean(widths)) if widths else np.nan
     if np.isfinite(eye) and eye > 0:
+        rims = _rims(vertices, neutral, EYE_OPENINGS)
         lower, d_low, d_up = _side(
-            vertices, edges, neutral, MASK_SETS["upper_eyelid"], MASK_SETS["lower_eyelid"], SIDE_BAND * eye
+            vertices, edges, neutral, MASK_SETS["upper_eyelid"], MASK_SETS["lower_eyelid"], SIDE_BAND * eye, rims
         )
         near, far = LID_REACH[0] * eye, LID_REACH[1] * eye
         lower_lid = lower * _smoothstep((far - d_low) / (far - near))

@@ -46,6 +46,7 @@ EYE_FPS = (("3.1", "3.3", "3.11", "3.7", "3.5"), ("3.2", "3.4", "3.8", "3.12", "
 _TURN_ROWS = np.array([[fp_index(up), fp_index(low), fp_index(pupil)] for up, low, _i, _o, pupil in EYE_FPS])
 MID_LID_FPS = frozenset(fp_id for eye in EYE_FPS for fp_id in eye[:2])
 PROFILE_BINS = 24  # bins along the eye in which the opening is measured
+ON_EYEBALL = (0.75, 0.95)  # x eyeball radius from its centre: skin turns with a lid from nothing at the first to all
 REACH_RADII = (1.5, 2.0)  # the lids' turn fades out between these multiples of the eyeball radius from its centre
 # Turns (rad, + up) each lid's weights are made fold-free for: the upper lid rises at most TURN_OPENING (the
 # levator's 2 mm and a little of an upward gaze: the wider this, the more skin above the lid must turn with it)
@@ -121,7 +122,7 @@ def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | 
     mid = opening(t_mid)
     if not mid > 0.0:
         return None
-    return np.where((t > 0.0) & (t < 1.0), np.clip(opening(t) / mid, 0.0, 1.5), 0.0)
+    return np.where((t > 0.0) & (t < 1.0), np.clip(opening(t) / mid, 0.0, 1.0), 0.0)
 
 
 def _fall(x: np.ndarray) -> np.ndarray:
@@ -163,6 +164,7 @@ def bind_eyelids(
     radii: np.ndarray,
     axes: np.ndarray = BLENDER_FACE_AXES,
     triangles: np.ndarray | None = None,
+    trace_opening: bool = True,
 ) -> EyelidRig | None:
     """Rig the lids of a rest face; None when an eye's lid FPs are missing.
 
@@ -170,7 +172,10 @@ def bind_eyelids(
     `neutral` (84, 3) rest FP positions (NaN where missing); `centres` (2, 3) and `radii` (2,) the left and
     right eyeballs, all in mesh coordinates. With the mesh's `triangles` (T, 3), the weights are made so that
     no face turns over (`fold_free_weights`) and the turns are kept within the range that holds for
-    (`_turn_range`).
+    (`_turn_range`). The share of the turn along the eye follows the opening traced on the mesh through the lid
+    weights (`opening_profile`), or with `trace_opening` False (lid weights made from the FPs, which know no
+    more of the margins than the FPs do: margins traced through them bend where the weights do) a sine arch
+    between the corners (`lid_profile`), a function of the position along the eye alone.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -185,7 +190,7 @@ def bind_eyelids(
     rows = np.arange(len(face))
     near = distance[rows, eye] / radii[eye]
     # skin on the eyeball: not inside it (the socket the eyeball hides) nor far from it (brow, cheek)
-    on_eyeball = 1.0 - _fall((near - 0.95) / 0.05)
+    on_eyeball = 1.0 - _fall((near - ON_EYEBALL[0]) / (ON_EYEBALL[1] - ON_EYEBALL[0]))
     fade = _fall((near - REACH_RADII[0]) / (REACH_RADII[1] - REACH_RADII[0])) * on_eyeball
     in_front = face[:, 2] > centres[eye, 2]
     up = np.clip(np.asarray(upper_lid, dtype=np.float64), 0.0, 1.0)
@@ -201,13 +206,12 @@ def bind_eyelids(
         rest_angles[e] = elevation(fps[[upper, lower, pupil]], centres[e])
         t = (x - inner_x) / (outer_x - inner_x)
         elev = elevation(face[keep[on]], centres[e])
-        margins = trace_margins(t, elev, up[on], low[on])
-        profile = (
-            None if margins is None else opening_profile(margins, t, (fps[upper, 0] - inner_x) / (outer_x - inner_x))
-        )
+        margins = trace_margins(t, elev, up[on], low[on]) if trace_opening else None
+        mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
+        profile = None if margins is None else opening_profile(margins, t, mid)
         if profile is not None:
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
-        else:  # no opening traced on the mesh: a sine arch along the eye
+        else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
     weights = np.stack([up_weight * fade, low_weight * fade], axis=1)

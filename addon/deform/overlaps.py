@@ -35,16 +35,21 @@ def _edge_hits(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
 def crossings(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | None = None) -> int:
     """How many pairs of vertex-disjoint triangles of (K, 3) `triangles` pass through each other at (N, 3)
     `points`, among pairs with a triangle that has a corner flagged in (N,) bool `moving` (all when None)."""
+    return len(crossing_pairs(points, triangles, moving))
+
+
+def crossing_pairs(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | None = None) -> np.ndarray:
+    """(P, 2) the pairs of `crossings` (rows of `triangles`, the smaller first)."""
     points = np.asarray(points, dtype=np.float64)
     tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(tris) < 2:
-        return 0
+        return np.empty((0, 2), np.int64)
     corners = points[tris]
     centres = corners.mean(axis=1)
     radius = np.linalg.norm(corners - centres[:, None], axis=2).max(axis=1)
     active = np.arange(len(tris)) if moving is None else np.flatnonzero(np.asarray(moving)[tris].any(axis=1))
     if len(active) == 0:
-        return 0
+        return np.empty((0, 2), np.int64)
     # triangles in classes of similar size (factors of 2), each class searched within its own largest radius: one
     # large triangle (a neck's cap) does not widen every search
     size_class = np.floor(np.log2(np.maximum(radius, radius.max() * 1e-6))).astype(np.int64)
@@ -61,13 +66,13 @@ def crossings(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | No
     near = np.linalg.norm(centres[pairs[:, 0]] - centres[pairs[:, 1]], axis=1) <= radius[pairs].sum(axis=1)
     pairs = pairs[near]
     if len(pairs) == 0:
-        return 0
+        return pairs
     hit = np.zeros(len(pairs), bool)
     for one, other in ((0, 1), (1, 0)):
         a, b, c = (corners[pairs[:, other], k] for k in range(3))
         for i, j in ((0, 1), (1, 2), (2, 0)):
             hit |= _edge_hits(corners[pairs[:, one], i], corners[pairs[:, one], j], a, b, c)
-    return int(hit.sum())
+    return pairs[hit]
 
 
 def edge_roughness(points: np.ndarray, chain: np.ndarray, closed: bool = True) -> np.ndarray:

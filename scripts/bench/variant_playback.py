@@ -2,6 +2,7 @@
 lid edges.
 
     .venv/bin/python -m scripts.bench.variant_playback FACE.blend|DIR ... [--streams S.fap ...] [--every K]
+        [--profile N]
 
 Each face file (or every .blend in a folder, e.g. what `scripts.bench.variants OUT` wrote) is opened, its face
 (the object named Head, else the active mesh) set up with Set Up Face, and each stream imported with the default
@@ -10,11 +11,17 @@ the frames; the median and the largest frame time, and how many frames took more
 frames, and over the frames in which the face moved); the most faces turned over in a frame (`folds`); the most
 crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame); and how far the upper lids' edges (the
 vertices along their FPs, `lid_edges`) lie off a smooth curve through their neighbours, at rest and at most.
+`--profile N` then plays each of the N slowest frames again (from the frame before it) under cProfile and prints
+its time again and the functions it spent most in: a frame slow in the timed pass but not again was slowed by
+other jobs.
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
+import io
+import pstats
 import sys
 import tempfile
 import time
@@ -109,6 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("faces", nargs="+", type=Path, help=".blend files, or folders of them")
     parser.add_argument("--streams", nargs="*", type=Path, default=list(DEFAULT_STREAMS))
     parser.add_argument("--every", type=int, default=1, help="measure crossings every K-th frame")
+    parser.add_argument("--profile", type=int, default=0, help="profile the N slowest frames again")
     args = parser.parse_args(argv)
     files = [f for p in args.faces for f in (sorted(p.glob("*.blend")) if p.is_dir() else [p])]
     addon.register()
@@ -137,9 +145,29 @@ def main(argv: list[str] | None = None) -> int:
                 f"{max(got['folds'])} | {max(got['crossed'], default=0)} | {rest_rough * 1000:.2f} → "
                 f"{max(rough, default=0.0) * 1000:.2f} |"
             )
+            if args.profile:
+                profile_slowest(got["times"], args.profile)
         saved.unlink()
         saved.parent.rmdir()
     return 0
+
+
+def profile_slowest(times: np.ndarray, count: int, rows: int = 6) -> None:
+    """Play each of the `count` slowest of the frames timed in `times` (from the scene's second frame on) again,
+    from the frame before it, under cProfile; print its time then and the `rows` functions it spent most in."""
+    scene = bpy.context.scene
+    for k in np.argsort(-times)[:count]:
+        frame = scene.frame_start + 1 + int(k)
+        scene.frame_set(frame - 1)
+        profile = cProfile.Profile()
+        start = time.perf_counter()
+        profile.runcall(scene.frame_set, frame)
+        again = time.perf_counter() - start
+        text = io.StringIO()
+        pstats.Stats(profile, stream=text).sort_stats("tottime").print_stats(rows)
+        calls = [line for line in text.getvalue().splitlines() if line.strip()[:1].isdigit()][1:]
+        print(f"frame {frame}: {times[k] * 1000:.1f} ms timed, {again * 1000:.1f} ms again under cProfile")
+        print("\n".join(calls))
 
 
 if __name__ == "__main__":

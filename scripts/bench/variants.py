@@ -99,21 +99,19 @@ def triangulate(face) -> None:
 
 
 def subdivide(face, jitter: float = 0.25, seed: int = 0) -> None:
-    """One cut per edge, then every new vertex moved along the surface by up to `jitter` x its edge length."""
+    """One cut per edge, then every new vertex moved along the surface by up to `jitter` x its shortest edge (the
+    median edge of the mesh moved the lids' fine vertices past their neighbours: folded at rest)."""
     bmesh, bm = _edit(face)
     old = len(bm.verts)
-    bm.verts.ensure_lookup_table()
-    lengths = np.array([e.calc_length() for e in bm.edges])
     bmesh.ops.subdivide_edges(bm, edges=list(bm.edges), cuts=1, use_grid_fill=True)
     bm.normal_update()
     bm.verts.ensure_lookup_table()
     rng = np.random.default_rng(seed)
-    step = 0.5 * float(np.median(lengths)) * jitter
     for v in bm.verts[old:]:
         move = rng.uniform(-1.0, 1.0, 3)
         normal = np.array(v.normal)
         move -= normal * (move @ normal)
-        v.co += type(v.co)(move * step)
+        v.co += type(v.co)(move * jitter * min(e.calc_length() for e in v.link_edges))
     bm.to_mesh(face.data)
     bm.free()
 

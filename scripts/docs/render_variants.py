@@ -1,7 +1,7 @@
 """Each face variant set up and playing the demo stream: the face at rest, mid-stream and at the fullest blink, and
 close-ups of the left eye at the blink and of the mouth mid-stream (Workbench), one row per variant.
 
-    .venv/bin/python -m scripts.docs.render_variants DIR [--out docs/real_meshes_variants.png] [--tile 256]
+    .venv/bin/python -m scripts.docs.render_variants DIR [--out docs/real_meshes_variants.png] [--tile 192]
 
 DIR holds the variants (`python -m scripts.bench.variants DIR`), or is one .blend with FP empties placed; the
 face is the object named Head, else the largest mesh. The rows come in the order of the files' names, printed
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("variants", type=Path, help="folder of variant .blend files (or one .blend)")
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "real_meshes_variants.png")
-    parser.add_argument("--tile", type=int, default=256)
+    parser.add_argument("--tile", type=int, default=192)
     parser.add_argument("--only", nargs="*", help="these variants (file stems)")
     args = parser.parse_args(argv)
     found = sorted(args.variants.glob("*.blend")) if args.variants.is_dir() else [args.variants]

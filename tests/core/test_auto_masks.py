@@ -87,9 +87,26 @@ def test_eyelid_masks_cover_the_lids_and_end_past_them():
     upper_lid, lower_lid = 1.0 - masks["lower_eyelid"], 1.0 - masks["upper_eyelid"]
     x, z = verts[:, 0], verts[:, 2]
     width = 0.026
-    assert np.all(upper_lid[(np.abs(x) < 0.005) & (z > 0) & (z < 0.005)] == pytest.approx(1.0))
-    assert np.all(lower_lid[(np.abs(x) < 0.005) & (z < 0) & (z > -0.005)] == pytest.approx(1.0))
+    assert np.all(upper_lid[(np.abs(x) < 0.005) & (z > 0) & (z < 0.004)] == pytest.approx(1.0))
+    assert np.all(lower_lid[(np.abs(x) < 0.005) & (z < 0) & (z > -0.004)] == pytest.approx(1.0))
     inside = np.abs(x) < 0.008  # between the corners, each lid stays on its own side of the opening
     assert np.all(upper_lid[inside & (z < 0)] < 1e-9) and np.all(lower_lid[inside & (z > 0)] < 1e-9)
     far = np.hypot(x, z) > LID_REACH[1] * width + 0.01
     assert np.all(upper_lid[far] == 0.0) and np.all(lower_lid[far] == 0.0)
+
+
+def test_lid_edges_run_along_the_whole_margin():
+    # each side's edge is the curve through the corners and its middle FP: vertices on its own side, spanning the
+    # eye between the corners (but for a tenth of it at each), so a lid's membership is a band along its margin
+    from addon.deform.auto_masks import EYE_OPENINGS, rim_vertices
+
+    verts, edges = _slit_grid(slit=0.013)
+    upper, lower = rim_vertices(verts, _eye_fps(), EYE_OPENINGS[0])
+    assert np.all(verts[upper, 2] > 0) and np.all(verts[lower, 2] < 0)
+    for rim in (upper, lower):
+        assert verts[rim, 0].min() < -0.009 and verts[rim, 0].max() > 0.009
+    assert rim_vertices(verts, _eye_fps(), EYE_OPENINGS[1]) is None  # the right eye's FPs are not placed
+    masks = make_masks(verts, edges, _eye_fps())
+    upper_lid = 1.0 - masks["lower_eyelid"]
+    margin = (np.abs(verts[:, 0]) < 0.009) & (verts[:, 2] > 0) & (verts[:, 2] < 0.002)
+    assert np.all(upper_lid[margin] > 0.99)  # the whole margin, not a disc about 3.1

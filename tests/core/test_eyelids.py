@@ -228,3 +228,22 @@ def test_apply_matches_a_plain_rotation_on_random_rigs():
             expected[rig.vertices[i]] += (rot @ rig.local[i] - rig.local[i]) @ rig.axes
         lids.apply_eyelids(rig, out, fps)
         np.testing.assert_allclose(out, expected, rtol=0.0, atol=1e-12)
+
+
+def test_opening_from_the_fps_closes_smoothly_without_crossing():
+    # lid weights made from the FPs: the share of the turn along the eye a sine arch between the corners
+    # (`lid_profile`), not margins traced through the weights; a full blink leaves a smooth margin that
+    # meets the lower lid near the middle and never passes it
+    rig = bind_eyelids(REST, UPPER, LOWER, NEUTRAL, CENTRES, np.array([R_EYE, R_EYE]), AXES, trace_opening=False)
+    fps = NEUTRAL.copy()
+    for e, up in enumerate(("3.1", "3.2")):
+        _turned_fp(fps, up, e, LOW0 - UP0)
+    out = REST.copy()
+    apply_eyelids(rig, out, fps)
+    for eye in (0, 1):
+        up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
+        assert np.all(up >= low - TRACE)
+        middle = np.abs(XS) < 0.2 * CORNER
+        np.testing.assert_allclose(up[middle], low[middle], atol=3 * TRACE)
+        bend = np.abs(np.diff(up[INSIDE], 2))  # a smooth curve: no kink between neighbours (0.5 mm apart)
+        assert bend.max() < 0.01

@@ -245,3 +245,23 @@ def test_a_guard_and_the_membrane_take_turns_until_both_are_content():
         positions, moved, made = run(refolds)
         assert made == calls and centre() in moved
         assert not inverted_faces(rest, positions.astype(np.float64), triangles).any()  # the membrane ends it
+
+
+def test_the_guards_rounds_share_the_frames_budget():
+    """The rounds of `open_folds_guarded` take their steps from one `max_steps`: a budget the first opening uses up
+    leaves no round for the guard (each round had a budget of its own: 7 at the 2 mm remesh's slowest frames)."""
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0)).astype(np.float32)
+    needed = unfold.open_folds(mesh, folded.copy()).steps
+    assert needed > 0
+    for budget, rounds in ((needed, 0), (50 * needed, unfold.GUARD_ROUNDS)):
+        positions, calls = folded.copy(), []
+
+        def guard(positions=positions, calls=calls) -> bool:
+            calls.append(1)
+            positions[centre()] = folded[centre()]  # folds the centre back every time
+            return True
+
+        unfold.open_folds_guarded(mesh, positions, guard, max_steps=budget)
+        assert len(calls) == rounds
