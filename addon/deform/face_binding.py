@@ -16,7 +16,9 @@ face vertex is what spreads a brow's or a lid's motion over the forehead, temple
 expressions leave still (eq. 8 normalises a far vertex's one faint weight to the triangle's full motion). So
 only the skin over the mouth-and-jaw triangles must be covered, by raising those triangles' radii alone; the
 upper face's triangles keep a fraction of their own §3 radius (LOCAL_RADIUS_FRACTIONS, by part of the face)
-and skin beyond their reach fades to rest (``fade_below``) instead of following.
+and skin beyond their reach fades to rest (``fade_below``) instead of following. The eyes' triangles reach least:
+the lids' own motion is their turn over the eyeballs (`eyelids`), and what the eye corners' FPs move in a sculpt
+is the lid margin, not the skin around it; the brows' triangles reach further, over the band above the brow.
 """
 
 from __future__ import annotations
@@ -25,14 +27,15 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..mpeg4.control_mesh import EYES_AND_BROWS, MOUTH_AND_JAW, OTHER_UPPER
+from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from .planar_bones import Binding, bind, cover_over_control_mesh
 
 FADE_BELOW = 0.2
 FACE_DEPTH_PER_ES0 = 0.25
 # of the §3 radius, by `control_mesh.triangle_parts` (the mouth and jaw's triangles still cover their skin);
-# chosen on a grid over the development units with leave-one-unit-and-twin-out checks (docs/eyes_brows.md)
-LOCAL_RADIUS_FRACTIONS = {EYES_AND_BROWS: 0.15, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
+# chosen on a grid over the development units with leave-one-unit-and-twin-out checks
+# (`scripts.bench.still_skin_fractions`, docs/eyes_brows.md)
+LOCAL_RADIUS_FRACTIONS = {EYES: 0.05, BROWS: 0.3, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
 
 
 def face_depth(es0: float, control_rest: np.ndarray) -> float:

@@ -2,7 +2,7 @@
 
     .venv/bin/python -m scripts.bench.still_skin_fractions --targets DIR [--json OUT]
 
-For every point of a small grid of `face_binding.LOCAL_RADIUS_FRACTIONS` (eyes and brows x other upper face x
+For every point of a small grid of `face_binding.LOCAL_RADIUS_FRACTIONS` (eyes x brows x other upper face x
 mouth and jaw), the add-on as `scripts.bench.evaluate --method add_on` plays it (Set Up Face on the sample head
 with those fractions) is scored on every unit: E pooled over the units, the region E and the faces turned over
 at 1.0 / 1.5 times the FP motion. Then leave-one-out: each unit, with its left/right twin, is scored with the
@@ -21,10 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from addon.deform import face_binding
-from addon.mpeg4.control_mesh import EYES_AND_BROWS, MOUTH_AND_JAW, OTHER_UPPER
+from addon.mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from scripts.bench import evaluate
 
-GRID = ((0.15, 0.2, 0.25, 0.3), (0.35, 0.5, 0.7), (1.0, 1.25, 1.5))  # eyes and brows, other upper, mouth and jaw
+GRID = ((0.05, 0.1, 0.15), (0.15, 0.3, 0.5), (0.5, 0.7), (1.25, 1.5))  # eyes, brows, other upper, mouth and jaw
+PARTS = (EYES, BROWS, OTHER_UPPER, MOUTH_AND_JAW)
 
 
 def twin(name: str) -> str:
@@ -40,9 +41,7 @@ def score_grid(targets: Path) -> dict[tuple[float, ...], dict[str, evaluate.Scor
     default = dict(face_binding.LOCAL_RADIUS_FRACTIONS)
     try:
         for point in itertools.product(*GRID):
-            face_binding.LOCAL_RADIUS_FRACTIONS = dict(
-                zip((EYES_AND_BROWS, OTHER_UPPER, MOUTH_AND_JAW), point, strict=True)
-            )
+            face_binding.LOCAL_RADIUS_FRACTIONS = dict(zip(PARTS, point, strict=True))
             face = evaluate.load_face(evaluate.DEFAULT_FACE)
             method = evaluate.AddOnMethod(face)
             scores = {}
@@ -80,8 +79,8 @@ def main() -> int:
     args = parser.parse_args()
     results = score_grid(Path(args.targets))
     names = " | ".join(evaluate.REGION_NAMES)
-    print(f"| eyes and brows | other upper | mouth and jaw | pooled E | {names} | folds 1.0 / 1.5 |")
-    print("|" + "---:|" * (5 + len(evaluate.REGION_NAMES)))
+    print(f"| eyes | brows | other upper | mouth and jaw | pooled E | {names} | folds 1.0 / 1.5 |")
+    print("|" + "---:|" * (6 + len(evaluate.REGION_NAMES)))
     table = {}
     for point, (scores, region) in sorted(results.items(), key=lambda item: evaluate.summary(*item[1])["e_pooled"]):
         s = evaluate.summary(scores, region)
