@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..deform.face_binding import FADE_BELOW, bind_face
+from ..deform.face_binding import FADE_BELOW, FOLLOW_SMOOTHING_PER_ES0, bind_face
 from ..deform.masks import image_masks, vertex_uvs
 from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
@@ -234,6 +234,7 @@ class BindInputs:
     masks: dict[str, np.ndarray]
     params: dict
     key: str
+    edges: np.ndarray | None = None  # the mesh's edges, for Still Skin Around Eyes' smoothing
 
     def bind(self) -> Binding:
         """The binding as it will be saved: its local coordinates rounded to float32 (about 1e-7 of a control
@@ -246,6 +247,7 @@ class BindInputs:
             self.triangles,
             vertex_masks=self.masks or None,
             triangle_masks=self.triangle_masks if self.masks else None,
+            edges=self.edges,
             local_float32=True,
             **self.params,
         )
@@ -293,10 +295,18 @@ def gather(
     # Python floats in the key's text: NumPy 2 writes a numpy scalar as np.float64(...), which would make a binding
     # saved under NumPy 1 (Blender 5.0 and older) look stale under NumPy 2
     params = {name: float(value) for name, value in params.items()}
+    edges = None
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
-    key = binding_key(rest, control_rest, triangles, {**params, "fade_below": FADE_BELOW}, masks)
-    return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key)
+        edges = face_data.mesh_edges(face.data)
+    key_params = {**params, "fade_below": FADE_BELOW}
+    if edges is not None:  # the smoothing's width and the mesh's edges it runs along
+        key_params |= {
+            "follow_smoothing": FOLLOW_SMOOTHING_PER_ES0,
+            "edges": hashlib.blake2b(edges.tobytes(), digest_size=16).hexdigest(),
+        }
+    key = binding_key(rest, control_rest, triangles, key_params, masks)
+    return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key, edges)
 
 
 def control_data(face) -> tuple[np.ndarray, np.ndarray, list[str | None]]:
