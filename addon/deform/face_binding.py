@@ -25,7 +25,8 @@ the rest staying at rest) jumps from vertex to vertex at the edge of the moving 
 at a brow lowering). Given the mesh's edges, that share is smoothed over FOLLOW_SMOOTHING_PER_ES0 x ES0 of skin
 (`smooth_follow`), never raised (a vertex takes no more of the motion than the paper's weights give it) and kept at
 the control FPs (within half that width, the share may fall only linearly from 1 at the FP: skin at an FP the user
-drags still follows it).
+drags still follows it); it is smoothed among the skin within SMOOTHED_REACH widths of a control FP, so that a body
+joined under the head leaves the face as it is on the head alone.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ FACE_DEPTH_PER_ES0 = 0.25
 # (`scripts.bench.still_skin_fractions`, docs/eyes_brows.md)
 LOCAL_RADIUS_FRACTIONS = {EYES: 0.05, BROWS: 0.3, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
 FOLLOW_SMOOTHING_PER_ES0 = 0.4  # the width of skin `smooth_follow` spreads a vertex's share of the motion over
+SMOOTHED_REACH = 3.0  # widths from the nearest control FP: the skin `smooth_follow` smooths among
 
 
 def face_depth(es0: float, control_rest: np.ndarray) -> float:
@@ -106,17 +108,24 @@ def bind_face(
     near = np.full(len(rest), np.inf)
     for point in np.asarray(control_rest)[np.unique(triangles)]:
         near = np.minimum(near, np.linalg.norm(rest - point, axis=1))
-    return smooth_follow(binding, edges, width, np.clip(1.0 - near / (0.5 * width), 0.0, 1.0))
+    pinned = np.clip(1.0 - near / (0.5 * width), 0.0, 1.0)
+    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width)
 
 
-def smooth_follow(binding: Binding, edges: np.ndarray, width: float, pinned: np.ndarray) -> Binding:
+def smooth_follow(
+    binding: Binding, edges: np.ndarray, width: float, pinned: np.ndarray, domain: np.ndarray | None = None
+) -> Binding:
     """`binding` with each vertex's share of the control mesh's motion (the sum of its eq. 8 weights) lowered to
     the share smoothed over about `width` of skin along the (E, 2) mesh `edges`, or to (N,) `pinned`, whichever is
-    more, where that is less than the share; the steps are counted on the mean length of the edges between vertices
-    that move at all, so a denser mesh or a body around the head smooths over the same skin."""
+    more, where that is less than the share. Smoothed among the vertices that move and those in (N,) bool `domain`
+    (all when None: the add-on passes the skin within SMOOTHED_REACH widths of a control FP, so a body under the
+    head does not change the face's result). The steps are counted on the mean length of the edges between
+    vertices that move, so a denser mesh smooths over the same skin."""
     rest = binding.rest_vertices
     share = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(rest))
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    if domain is not None:
+        edges = edges[(np.asarray(domain) | (share > 0.0))[edges].all(axis=1)]
     moving = edges[(share[edges] > 0.0).all(axis=1)]
     if len(moving) == 0:
         return binding
