@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from ..deform.face_binding import FADE_BELOW, bind_face
+from ..deform.face_binding import FADE_BELOW, FOLLOW_SMOOTHING_PER_ES0, bind_face
 from ..deform.masks import image_masks, vertex_uvs
 from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
@@ -235,6 +235,7 @@ class BindInputs:
     params: dict
     key: str
     rigid: np.ndarray  # the vertices of the rigid parts inside the face (eyeballs, teeth, tongue): bound to nothing
+    edges: np.ndarray | None = None  # the mesh's edges, for Still Skin Around Eyes' smoothing
 
     def bind(self) -> Binding:
         """The binding as it will be saved: its local coordinates rounded to float32 (about 1e-7 of a control
@@ -249,12 +250,19 @@ class BindInputs:
         rest = self.rest.astype(np.float64)
         skin = np.setdiff1d(np.arange(len(rest)), self.rigid)
         masks = {name: weights[skin] for name, weights in self.masks.items()}
+        edges = None
+        if self.edges is not None:  # the skin's own edges, numbered as the skin's vertices
+            renumber = np.full(len(rest), -1, dtype=np.int64)
+            renumber[skin] = np.arange(len(skin))
+            edges = renumber[self.edges]
+            edges = edges[(edges >= 0).all(axis=1)]
         binding = bind_face(
             rest[skin],
             self.control_rest,
             self.triangles,
             vertex_masks=masks or None,
             triangle_masks=self.triangle_masks if masks else None,
+            edges=edges,
             local_float32=True,
             **self.params,
         )
@@ -307,15 +315,22 @@ def gather(
     # Python floats in the key's text: NumPy 2 writes a numpy scalar as np.float64(...), which would make a binding
     # saved under NumPy 1 (Blender 5.0 and older) look stale under NumPy 2
     params = {name: float(value) for name, value in params.items()}
+    edges = None
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
+        edges = face_data.mesh_edges(face.data)
     members = made_parts or inner_parts.group_members(face)
     rigid = np.unique(np.concatenate([*members.values(), np.zeros(0, np.intp)])).astype(np.intp)
     keyed = {**params, "fade_below": FADE_BELOW}
     if len(rigid):  # a face without parts keeps the key it was saved with
         keyed["rigid"] = hashlib.blake2b(rigid.astype(np.int64).tobytes(), digest_size=16).hexdigest()
+    if edges is not None:  # the smoothing's width and the mesh's edges it runs along
+        keyed |= {
+            "follow_smoothing": FOLLOW_SMOOTHING_PER_ES0,
+            "edges": hashlib.blake2b(edges.tobytes(), digest_size=16).hexdigest(),
+        }
     key = binding_key(rest, control_rest, triangles, keyed, masks)
-    return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key, rigid)
+    return BindInputs(rest, control_rest, triangles, tri_masks, masks, params, key, rigid, edges)
 
 
 def control_data(face) -> tuple[np.ndarray, np.ndarray, list[str | None]]:

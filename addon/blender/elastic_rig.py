@@ -60,12 +60,6 @@ def neutral_fps(face) -> dict[str, np.ndarray]:
     }
 
 
-def mesh_edges(mesh) -> np.ndarray:
-    edges = np.empty(len(mesh.edges) * 2, dtype=np.int64)
-    mesh.edges.foreach_get("vertices", edges)
-    return edges.reshape(-1, 2)
-
-
 EYES = {"eye_l": "left_eye", "eye_r": "right_eye"}
 
 
@@ -106,7 +100,7 @@ def plan(face) -> Plan:
     if rest is None:
         raise Mpeg4Error(f"{face.name} has no rest shape: run Set Up Face again")
     masks = binding_store.vertex_masks(face) if face.mpeg4_face.use_masks else {}
-    weights = skin_weights(rest, mesh_edges(face.data), skeleton, masks)
+    weights = skin_weights(rest, face_data.mesh_edges(face.data), skeleton, masks)
     parts = {}
     for field, bone in PART_BONES.items():
         ob = getattr(settings, field)

@@ -179,6 +179,13 @@ def neutral_positions(empties: dict[str, bpy.types.Object]) -> np.ndarray:
     )
 
 
+def mesh_edges(mesh: bpy.types.Mesh) -> np.ndarray:
+    """(E, 2) the mesh's edges as vertex indices."""
+    edges = np.empty(len(mesh.edges) * 2, dtype=np.int64)
+    mesh.edges.foreach_get("vertices", edges)
+    return edges.reshape(-1, 2)
+
+
 def mesh_fans(mesh: bpy.types.Mesh) -> tuple[np.ndarray, np.ndarray]:
     """The mesh's polygons as triangle fans: (K, 3) vertex indices and each triangle's polygon (`folds`)."""
     return fan_triangles(*mesh_corners(mesh))

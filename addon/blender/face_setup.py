@@ -157,7 +157,7 @@ def plan(face) -> Plan:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
     made = _planned_masks(face, rest, neutral, notes) if face.mpeg4_face.use_masks else {}
-    parts = inner_parts.plan_parts(face, rest, _edges(face), neutral, axes, notes)
+    parts = inner_parts.plan_parts(face, rest, face_data.mesh_edges(face.data), neutral, axes, notes)
     inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made, made_parts=parts)
     try:
         binding = inputs.bind()
@@ -187,12 +187,6 @@ def plan(face) -> Plan:
     )
 
 
-def _edges(face) -> np.ndarray:
-    edges = np.empty(len(face.data.edges) * 2, dtype=np.int64)
-    face.data.edges.foreach_get("vertices", edges)
-    return edges.reshape(-1, 2)
-
-
 def _check_fps(face, rest: np.ndarray, placed: dict, neutral: dict, axes: np.ndarray, notes: list) -> None:
     """Refuse an FP set that breaks playback (a feature's FPs placed in part); warn of swapped pairs, FPs placed
     far off the surface and openings the mesh closes, naming the FPs."""
@@ -212,7 +206,7 @@ def _check_fps(face, rest: np.ndarray, placed: dict, neutral: dict, axes: np.nda
     far = face_checks.far_off(placed, neutral, separation)
     if far:
         notes.append(Warn(f"FP {', '.join(far)} were placed far off the surface and snapped onto it: check them"))
-    fused = face_checks.fused_openings(rest, _edges(face), neutral)
+    fused = face_checks.fused_openings(rest, face_data.mesh_edges(face.data), neutral)
     if fused:
         notes.append(
             Warn(
@@ -227,7 +221,7 @@ def _planned_masks(face, rest: np.ndarray, neutral: dict[str, np.ndarray], notes
     missing = binding_store.missing_masks(face)
     if not missing:
         return {}
-    made = make_masks(rest, _edges(face), face_data.neutral_array(neutral))
+    made = make_masks(rest, face_data.mesh_edges(face.data), face_data.neutral_array(neutral))
     made = {name: made[name] for name in missing if name in made}
     empty = [name for name in made if face.vertex_groups.get(name) is not None]
     if empty:

@@ -83,7 +83,8 @@ class MPEG4_PG_face(bpy.types.PropertyGroup):
     still_upper_face: BoolProperty(
         name="Still Skin Around Eyes",
         description="The brows', lids' and cheeks' control triangles move only the skin near them, and the skin "
-        "between brow, lid, temple and cheek that none of them reaches stays still, as on a real face. Off: the "
+        "between brow, lid, temple and cheek that none of them reaches stays still, the moving skin fading smoothly "
+        "into it, as on a real face. Off: the "
         "Planar Bones paper's coverage, where every face vertex follows its nearest triangle and a brow raise "
         "moves the whole forehead and temple",
         default=True,

@@ -16,23 +16,38 @@ face vertex is what spreads a brow's or a lid's motion over the forehead, temple
 expressions leave still (eq. 8 normalises a far vertex's one faint weight to the triangle's full motion). So
 only the skin over the mouth-and-jaw triangles must be covered, by raising those triangles' radii alone; the
 upper face's triangles keep a fraction of their own §3 radius (LOCAL_RADIUS_FRACTIONS, by part of the face)
-and skin beyond their reach fades to rest (``fade_below``) instead of following.
+and skin beyond their reach fades to rest (``fade_below``) instead of following. The eyes' triangles reach least:
+the lids' own motion is their turn over the eyeballs (`eyelids`), and what the eye corners' FPs move in a sculpt
+is the lid margin, not the skin around it; the brows' triangles reach further, over the band above the brow.
+Whether a vertex lies within a local radius depends on how far the skin bulges off its triangle's plane, not on
+where it lies on the face, so the share of the control mesh's motion a vertex takes (the sum of its eq. 8 weights,
+the rest staying at rest) jumps from vertex to vertex at the edge of the moving skin (a ragged outline, a crease
+at a brow lowering). Given the mesh's edges, that share is smoothed over FOLLOW_SMOOTHING_PER_ES0 x ES0 of skin
+(`smooth_follow`), never raised (a vertex takes no more of the motion than the paper's weights give it) and kept at
+the control FPs (within half that width, the share may fall only linearly from 1 at the FP: skin at an FP the user
+drags still follows it); it is smoothed among the skin within SMOOTHED_REACH widths of a control FP, so that a body
+joined under the head leaves the face as it is on the head alone.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..mpeg4.control_mesh import EYES_AND_BROWS, MOUTH_AND_JAW, OTHER_UPPER
+from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
+from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from .planar_bones import Binding, bind, cover_over_control_mesh
 
 FADE_BELOW = 0.2
 FACE_DEPTH_PER_ES0 = 0.25
 # of the §3 radius, by `control_mesh.triangle_parts` (the mouth and jaw's triangles still cover their skin);
-# chosen on a grid over the development units with leave-one-unit-and-twin-out checks (docs/eyes_brows.md)
-LOCAL_RADIUS_FRACTIONS = {EYES_AND_BROWS: 0.15, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
+# chosen on a grid over the development units with leave-one-unit-and-twin-out checks
+# (`scripts.bench.still_skin_fractions`, docs/eyes_brows.md)
+LOCAL_RADIUS_FRACTIONS = {EYES: 0.05, BROWS: 0.3, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
+FOLLOW_SMOOTHING_PER_ES0 = 0.4  # the width of skin `smooth_follow` spreads a vertex's share of the motion over
+SMOOTHED_REACH = 3.0  # widths from the nearest control FP: the skin `smooth_follow` smooths among
 
 
 def face_depth(es0: float, control_rest: np.ndarray) -> float:
@@ -56,10 +71,12 @@ def bind_face(
     vertex_masks: Mapping[str, np.ndarray] | None = None,
     triangle_masks: Sequence[str | None] | None = None,
     triangle_parts: Sequence[int] | None = None,
+    edges: np.ndarray | None = None,
     local_float32: bool = False,
 ) -> Binding:
     """`bind` as the add-on binds a face; ``triangle_parts`` (T,) `control_mesh.triangle_parts`: the upper face's
-    triangles reach only locally (None: the paper's cover everywhere)."""
+    triangles reach only locally (None: the paper's cover everywhere), and with the mesh's (E, 2) ``edges`` each
+    vertex's share of the motion is smoothed over the skin (`smooth_follow`)."""
     cover = face_cover(rest, control_rest, triangles, es0)
     fraction, raisable = radius_fraction, None
     if triangle_parts is not None:
@@ -71,7 +88,7 @@ def bind_face(
         lower = triangles[raisable]
         cover &= len(lower) > 0 and cover_over_control_mesh(rest, control_rest, lower, face_depth(es0, control_rest))
         fraction = scale * radius_fraction
-    return bind(
+    binding = bind(
         rest,
         control_rest,
         triangles,
@@ -84,3 +101,36 @@ def bind_face(
         raisable=raisable,
         local_float32=local_float32,
     )
+    if triangle_parts is None or edges is None:
+        return binding
+    width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
+    # the skin at a control FP follows it fully, and less so up to half the width away
+    near = np.full(len(rest), np.inf)
+    for point in np.asarray(control_rest)[np.unique(triangles)]:
+        near = np.minimum(near, np.linalg.norm(rest - point, axis=1))
+    pinned = np.clip(1.0 - near / (0.5 * width), 0.0, 1.0)
+    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width)
+
+
+def smooth_follow(
+    binding: Binding, edges: np.ndarray, width: float, pinned: np.ndarray, domain: np.ndarray | None = None
+) -> Binding:
+    """`binding` with each vertex's share of the control mesh's motion (the sum of its eq. 8 weights) lowered to
+    the share smoothed over about `width` of skin along the (E, 2) mesh `edges`, or to (N,) `pinned`, whichever is
+    more, where that is less than the share. Smoothed among the vertices that move and those in (N,) bool `domain`
+    (all when None: the add-on passes the skin within SMOOTHED_REACH widths of a control FP, so a body under the
+    head does not change the face's result). The steps are counted on the mean length of the edges between
+    vertices that move, so a denser mesh smooths over the same skin."""
+    rest = binding.rest_vertices
+    share = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(rest))
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    if domain is not None:
+        edges = edges[(np.asarray(domain) | (share > 0.0))[edges].all(axis=1)]
+    moving = edges[(share[edges] > 0.0).all(axis=1)]
+    if len(moving) == 0:
+        return binding
+    length = float(np.linalg.norm(rest[moving[:, 0]] - rest[moving[:, 1]], axis=1).mean())
+    smoothed = smooth_over_edges(share, edges, smoothing_steps(width, length))
+    lowered = np.minimum(share, np.maximum(smoothed, pinned))
+    scale = np.divide(lowered, share, out=np.zeros_like(share), where=share > 0.0)
+    return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale[binding.pair_vertex])

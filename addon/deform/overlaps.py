@@ -6,6 +6,8 @@
 - `edge_roughness`: how far each vertex of an ordered chain (a lid's edge) lies off the smooth curve through its
   neighbours, the cubic through the two on each side (p = (-a + 4b + 4c - d) / 6 holds for every cubic): a
   zig-zag lid edge shows there while its faces keep their orientation.
+- `edge_chain`: the vertices along a lid's edge at rest (nearest to points on the line through its FPs), and
+  `lid_gap`: how far an upper lid's edge stays from the lower lid's where the lids should meet (a blink).
 """
 
 from __future__ import annotations
@@ -86,3 +88,46 @@ def edge_roughness(points: np.ndarray, chain: np.ndarray, closed: bool = True) -
     if not closed:
         off[:2] = off[-2:] = 0.0
     return off
+
+
+def edge_chain(rest: np.ndarray, candidates: np.ndarray, line: np.ndarray, samples: int) -> np.ndarray:
+    """The ordered `candidates` (vertex indices) nearest `samples` points evenly along the polyline `line` (K, 3)
+    at (N, 3) `rest` positions, each once, keeping one per quarter of a sample step along the line's chord (the
+    row behind a margin vertex is not the edge): a lid's edge from the FPs along it (inner corner, middle,
+    outer corner)."""
+    rest = np.asarray(rest, dtype=np.float64)
+    line = np.asarray(line, dtype=np.float64)
+    candidates = np.asarray(candidates, dtype=np.int64)
+    t = np.linspace(0.0, len(line) - 1.0, samples)
+    k = np.minimum(t.astype(int), len(line) - 2)
+    points = line[k] + (t - k)[:, None] * (line[k + 1] - line[k])
+    nearest = candidates[np.argmin(np.linalg.norm(rest[candidates][None] - points[:, None], axis=2), axis=1)]
+    chain = nearest[np.sort(np.unique(nearest, return_index=True)[1])]
+    chord = line[-1] - line[0]
+    along = (rest[chain] - line[0]) @ chord / np.linalg.norm(chord)
+    step = 0.25 * np.linalg.norm(chord) / samples
+    keep = [0]
+    for j in range(1, len(chain)):
+        if along[j] > along[keep[-1]] + step:
+            keep.append(j)
+    return chain[keep]
+
+
+def _polyline_distances(points: np.ndarray, polyline: np.ndarray) -> np.ndarray:
+    """(P,) distance of each point from the polyline (L, 3)."""
+    a, b = polyline[:-1], polyline[1:]
+    ab = b - a
+    rel = points[:, None] - a[None]
+    t = np.clip(np.einsum("psj,sj->ps", rel, ab) / np.maximum(np.einsum("sj,sj->s", ab, ab), EPS), 0.0, 1.0)
+    return np.linalg.norm(rel - t[..., None] * ab[None], axis=2).min(axis=1)
+
+
+def lid_gap(points: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> float:
+    """The widest distance, at (N, 3) `points`, from a vertex of the middle half of the `upper` lid's edge chain to
+    the `lower` lid's edge (the polyline through its chain): 0 where the lids meet along their middle."""
+    points = np.asarray(points, dtype=np.float64)
+    upper = np.asarray(upper, dtype=np.int64)
+    middle = upper[len(upper) // 4 : len(upper) - len(upper) // 4]
+    if len(middle) == 0 or len(lower) < 2:
+        return float("nan")
+    return float(_polyline_distances(points[middle], points[np.asarray(lower, dtype=np.int64)]).max())

@@ -39,6 +39,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from .errors import ScipyMissingError, SkinWeightError
 from .skeleton import Skeleton
 
@@ -47,7 +48,6 @@ SEED_BAND = 0.02  # seeds: vertices within this fraction of the scale of the nea
 CUT_JUMP = 0.5  # an edge is cut where a side mask jumps by at least this much along it (a gap, not a gradient)
 WEIGHT_TOLERANCE = 1e-6
 SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
-MAX_SMOOTHING_STEPS = 400
 
 
 def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
@@ -111,29 +111,6 @@ def geodesic_distances(
     graph = coo_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))), shape=(size, size))
     dist = dijkstra(graph.tocsr(), directed=True, indices=np.arange(n, size))
     return dist[:, :n].T
-
-
-def smooth_over_edges(values: np.ndarray, edges: np.ndarray, steps: int) -> np.ndarray:
-    """(N, K) `values` after `steps` steps of v <- (v + mean of the neighbours' v) / 2 over `edges`; a vertex
-    with no edge keeps its value."""
-    coo_matrix, _dijkstra = _scipy_graph()
-    n = len(values)
-    rows, cols = np.concatenate([edges[:, 0], edges[:, 1]]), np.concatenate([edges[:, 1], edges[:, 0]])
-    adjacency = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n)).tocsr()
-    degree = np.asarray(adjacency.sum(axis=1)).ravel()
-    lonely = degree == 0
-    for _ in range(steps):
-        mean = (adjacency @ values) / np.where(lonely, 1.0, degree)[:, None]
-        values = np.where(lonely[:, None], values, 0.5 * (values + mean))
-    return values
-
-
-def smoothing_steps(width: float, edge_length: float) -> int:
-    """Steps of `smooth_over_edges` that spread a value over about `width` on edges of `edge_length`: each step
-    adds edge_length² / 2 to the spread's variance."""
-    if width <= 0.0 or edge_length <= 0.0:
-        return 0
-    return min(MAX_SMOOTHING_STEPS, round(2.0 * (width / edge_length) ** 2))
 
 
 def skin_weights(

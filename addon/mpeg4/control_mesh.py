@@ -183,19 +183,24 @@ def template_indices(fp_ids: tuple[str, ...]) -> np.ndarray:
     return np.array([[row[fp_id] for fp_id in triangle] for triangle in CONTROL_TRIANGLES], dtype=np.int64)
 
 
-MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER = 0, 1, 2  # `triangle_parts`
-_PART_GROUPS = ((MOUTH_AND_JAW, frozenset({"2", "8"})), (EYES_AND_BROWS, frozenset({"3", "4"})))
+MOUTH_AND_JAW, EYES, OTHER_UPPER, BROWS = 0, 1, 2, 3  # `triangle_parts`
+_PART_GROUPS = ((MOUTH_AND_JAW, frozenset({"2", "8"})), (EYES, frozenset({"3"})), (BROWS, frozenset({"4"})))
+_EAR = "10"
 
 
 def triangle_parts(fp_ids, triangles: np.ndarray) -> np.ndarray:
     """(T,) the part of the face each control triangle belongs to: MOUTH_AND_JAW when a corner is on the lips,
-    the jaw or the chin (FP groups 2, 8), else EYES_AND_BROWS when a corner is on an eye or a brow (3, 4), else
-    OTHER_UPPER (cheeks, nose, hairline and ears: groups 5, 9, 10, 11)."""
+    the jaw or the chin (FP groups 2, 8) and none on an ear (10: the side of the head the jaw turns about), else
+    EYES when a corner is on an eye (3), else BROWS when one is on a brow (4), else OTHER_UPPER (cheeks, nose,
+    hairline and ears: groups 5, 9, 10, 11)."""
     group = np.array([fp_id.split(".")[0] for fp_id in fp_ids])
     corners = group[np.asarray(triangles, dtype=np.intp).reshape(-1, 3)]
     parts = np.full(len(corners), OTHER_UPPER, dtype=np.int8)
-    for part, groups in reversed(_PART_GROUPS):  # mouth and jaw last: it wins
-        parts[np.isin(corners, list(groups)).any(axis=1)] = part
+    for part, groups in reversed(_PART_GROUPS):  # the first of _PART_GROUPS wins
+        touches = np.isin(corners, list(groups)).any(axis=1)
+        if part == MOUTH_AND_JAW:
+            touches &= ~(corners == _EAR).any(axis=1)
+        parts[touches] = part
     return parts
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import bpy
 import numpy as np
 
+from addon.blender.face_data import mesh_edges
 from addon.elastic.parameters import TRAINED, Parameters
 from addon.elastic.pose import pose_from_fps
 from addon.elastic.skeleton import place_skeleton
@@ -23,12 +24,6 @@ def fp_empties(head: bpy.types.Object) -> dict[str, np.ndarray]:
         for obj in bpy.data.collections[f"{head.name} FPs"].objects
         if obj.type == "EMPTY" and "mpeg4_fp" in obj
     }
-
-
-def mesh_edges(mesh: bpy.types.Mesh) -> np.ndarray:
-    edges = np.empty(2 * len(mesh.edges), np.int32)
-    mesh.edges.foreach_get("vertices", edges)
-    return edges.reshape(-1, 2)
 
 
 class ElasticBonesMethod:

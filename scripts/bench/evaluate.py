@@ -24,7 +24,12 @@ counting motion where the sculpt has none. Spill (per target and per region): th
 vertices the sculpt leaves still (moved less than `STILL_MM`) and how many of those the method moves more
 than `SPILL_MM`; a method that moves skin the sculpt keeps still has a high share. Fold-overs: the faces of
 the head that a method turns over against their rest normal (`addon.deform.folds`), summed over the
-targets, with each target's FP motion at 1.0 and 1.5 times its size; the sculpts' own count is given too.
+targets, with each target's FP motion at 1.0 and 1.5 times its size; the sculpts' own count is given too. Overlaps:
+the pairs of the head's triangles that pass through each other (`addon.deform.overlaps.crossings`: a lid through
+the lid below, a lip through the other), summed over the targets at their FP motion, and the sculpts' own. A full
+blink (`BLINK`: each upper mid-lid FP moved onto the lower one, 3.1 onto 3.3 and 3.2 onto 3.4): the lid gap, the
+widest distance from the middle half of an upper lid's edge to the lower lid's edge (`overlaps.lid_gap`, the edges
+the vertices along the lids' FPs, `overlaps.edge_chain`), at rest and at the blink, and the crossing pairs then.
 
 Coverage (`bind(cover=...)`, planar_bones and soffd): the paper raises affection radii so that "every
 vertex of the targeted face geometry" lies in a volume. `face` (default) is exactly what the add-on binds
@@ -60,6 +65,7 @@ from addon.blender.face_data import group_weights, mesh_fans
 from addon.deform import METHODS
 from addon.deform.face_binding import FADE_BELOW, face_cover
 from addon.deform.folds import count_inverted
+from addon.deform.overlaps import crossings, edge_chain, lid_gap
 from addon.mpeg4.control_mesh import (
     MASK_NAMES,
     TRIANGLE_MASKS,
@@ -97,6 +103,12 @@ REGION_REACH_PER_ES0 = 0.5  # a vertex farther than this from every control FP i
 FOLD_SCALES = (1.0, 1.5)
 STILL_MM = 0.1  # a vertex the sculpt moves less than this is still skin
 SPILL_MM = 0.3  # still skin a method moves more than this is counted as moved
+BLINK = (("3.1", "3.3"), ("3.2", "3.4"))  # a full blink: each upper mid-lid FP onto the lower one
+LID_LINES = (  # per eye, the FPs along the upper and the lower lid's edge (inner corner, middle, outer corner)
+    (("3.11", "3.1", "3.7"), ("3.11", "3.3", "3.7")),
+    (("3.8", "3.2", "3.12"), ("3.8", "3.4", "3.12")),
+)
+LID_SAMPLES = 24  # points along a lid's FP line whose nearest vertices make its edge
 
 
 @dataclass(frozen=True)
@@ -285,6 +297,7 @@ class Score:
     motion: np.ndarray  # (N,) per-vertex ‖sculpted − neutral‖, metres
     moved: np.ndarray  # (N,) per-vertex ‖deformed − neutral‖, metres
     folds: tuple[int, ...] = ()  # faces turned over at each of FOLD_SCALES
+    crossed: int = 0  # pairs of the head's triangles passing through each other (`overlaps.crossings`)
 
     @property
     def e(self) -> float:
@@ -303,11 +316,43 @@ class Score:
         return share, int(np.count_nonzero(self.moved[inside][still] > 1e-3 * SPILL_MM))
 
 
-def score(deformed: np.ndarray, sculpted: np.ndarray, rest: np.ndarray, folds: tuple[int, ...] = ()) -> Score:
+def score(
+    deformed: np.ndarray, sculpted: np.ndarray, rest: np.ndarray, folds: tuple[int, ...] = (), crossed: int = 0
+) -> Score:
     errors = np.linalg.norm(deformed - sculpted, axis=1)
     motion = np.linalg.norm(sculpted - rest, axis=1)
     moved = np.linalg.norm(deformed - rest, axis=1)
-    return Score(float(errors.sum()), float(motion.sum()), errors, motion, moved, folds)
+    return Score(float(errors.sum()), float(motion.sum()), errors, motion, moved, folds, crossed)
+
+
+def overlaps(face: SampleFace, deformed: np.ndarray) -> int:
+    """Pairs of the head's triangles passing through each other at `deformed`, among those with a corner moved."""
+    return crossings(deformed, face.fans[0], np.any(deformed != face.rest, axis=1))
+
+
+def lid_chains(face: SampleFace) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per eye, the upper and the lower lid's edge at rest (`LID_LINES`), as ordered vertex indices."""
+    row = {fp_id: i for i, fp_id in enumerate(face.fp_ids)}
+    every = np.arange(len(face.rest))
+    return [
+        tuple(edge_chain(face.rest, every, face.control_rest[[row[f] for f in ids]], LID_SAMPLES) for ids in lids)
+        for lids in LID_LINES
+    ]
+
+
+def blink(deformer, face: SampleFace) -> dict:
+    """A full blink (`BLINK`): the widest lid gap (mm) at rest and at the blink, and the crossing pairs then."""
+    row = {fp_id: i for i, fp_id in enumerate(face.fp_ids)}
+    control = face.control_rest.copy()
+    for upper, lower in BLINK:
+        control[row[upper]] = face.control_rest[row[lower]]
+    closed = deformer.evaluate(control)
+    chains = lid_chains(face)
+    return {
+        "rest_gap_mm": 1e3 * max(lid_gap(face.rest, upper, lower) for upper, lower in chains),
+        "gap_mm": 1e3 * max(lid_gap(closed, upper, lower) for upper, lower in chains),
+        "crossings": overlaps(face, closed),
+    }
 
 
 def folds(deformer, face: SampleFace, control: np.ndarray) -> tuple[int, ...]:
@@ -336,8 +381,10 @@ def run(args: argparse.Namespace) -> dict:
         bind_seconds = time.perf_counter() - start
         scores = {}
         for name, (sculpted, control) in motions.items():
-            scores[name] = score(deformer.evaluate(control), sculpted, face.rest, folds(deformer, face, control))
-        results[method] = {"bind_seconds": bind_seconds, "scores": scores}
+            deformed = deformer.evaluate(control)
+            crossed = overlaps(face, deformed)
+            scores[name] = score(deformed, sculpted, face.rest, folds(deformer, face, control), crossed)
+        results[method] = {"bind_seconds": bind_seconds, "scores": scores, "blink": blink(deformer, face)}
     results = {method: results[method] for method in args.method}
     return {"face": face, "motions": motions, "results": results}
 
@@ -350,6 +397,11 @@ def sculpt_folds(run_result: dict) -> tuple[int, ...]:
         sum(count_inverted(face.rest, face.rest + k * (sculpted - face.rest), *face.fans) for sculpted in sculpts)
         for k in FOLD_SCALES
     )
+
+
+def sculpt_overlaps(run_result: dict) -> int:
+    """Triangle pairs the sculpts themselves pass through each other, summed over the targets."""
+    return sum(overlaps(run_result["face"], sculpted) for sculpted, _control in run_result["motions"].values())
 
 
 def summary(scores: dict[str, Score], region: np.ndarray) -> dict:
@@ -365,6 +417,7 @@ def summary(scores: dict[str, Score], region: np.ndarray) -> dict:
             name: pooled_spill(scores.values(), region == index) for index, name in enumerate(REGION_NAMES)
         },
         "folds": [sum(s.folds[k] for s in scores.values()) for k in range(len(FOLD_SCALES))],
+        "overlaps": sum(s.crossed for s in scores.values()),
     }
 
 
@@ -439,6 +492,22 @@ def markdown(run_result: dict, command: str) -> str:
         f"Faces turned over (summed over the {len(run_result['motions'])} targets, FP motion x {scales}): "
         + ", ".join(f"{m} {' / '.join(str(c) for c in count)}" for m, count in counts.items())
     )
+    counts = {"the sculpts": sculpt_overlaps(run_result), **{m: summaries[m]["overlaps"] for m in methods}}
+    lines.append("")
+    lines.append(
+        "Skin through skin (triangle pairs crossing, summed over the targets at their FP motion): "
+        + ", ".join(f"{m} {count}" for m, count in counts.items())
+    )
+    lines.append("")
+    lines.append(
+        "A full blink (3.1 onto 3.3, 3.2 onto 3.4), the widest lid gap at rest -> closed (mm) and the crossing"
+        " pairs closed: "
+        + ", ".join(
+            f"{m} {results[m]['blink']['rest_gap_mm']:.2f} -> {results[m]['blink']['gap_mm']:.2f},"
+            f" {results[m]['blink']['crossings']}"
+            for m in methods
+        )
+    )
     lines.append("")
     lines.append("Bind time (s): " + ", ".join(f"{m} {results[m]['bind_seconds']:.3f}" for m in methods))
     return "\n".join(lines)
@@ -456,15 +525,18 @@ def to_json(run_result: dict, command: str, args: argparse.Namespace) -> dict:
         },
         "fold_scales": list(FOLD_SCALES),
         "sculpt_folds": list(sculpt_folds(run_result)),
+        "sculpt_overlaps": sculpt_overlaps(run_result),
         "methods": {
             method: {
                 "bind_seconds": data["bind_seconds"],
+                "blink": data["blink"],
                 "overall": summary(data["scores"], run_result["face"].region),
                 "targets": {
                     name: {
                         "e": s.e,
                         "p95_mm": s.p95_mm,
                         "folds": list(s.folds),
+                        "overlaps": s.crossed,
                         "spill": target_spill(s, run_result["face"].region),
                     }
                     for name, s in data["scores"].items()

@@ -1,13 +1,13 @@
-"""Choose Still Skin Around Eyes' radius fractions on the development units, with leave-one-out checks.
+"""Choose Still Skin Around Eyes' radius fractions and smoothing width on the development units, leave-one-out.
 
     .venv/bin/python -m scripts.bench.still_skin_fractions --targets DIR [--json OUT]
 
-For every point of a small grid of `face_binding.LOCAL_RADIUS_FRACTIONS` (eyes and brows x other upper face x
-mouth and jaw), the add-on as `scripts.bench.evaluate --method add_on` plays it (Set Up Face on the sample head
-with those fractions) is scored on every unit: E pooled over the units, the region E and the faces turned over
-at 1.0 / 1.5 times the FP motion. Then leave-one-out: each unit, with its left/right twin, is scored with the
-grid point that is best (pooled E) on the other units; the pooled E of those scores is the figure for
-expressions the choice has not seen, and the grid points so chosen are counted. About 3 minutes.
+For every point of a small grid of `face_binding.LOCAL_RADIUS_FRACTIONS` (eyes x brows x other upper face x mouth
+and jaw) x `face_binding.FOLLOW_SMOOTHING_PER_ES0`, the add-on as `scripts.bench.evaluate --method add_on` plays it
+(Set Up Face on the sample head with those values) is scored on every unit: E pooled over the units, the region E
+and the faces turned over at 1.0 / 1.5 times the FP motion. Then leave-one-out: each unit, with its left/right twin,
+is scored with the grid point that is best (pooled E) on the other units; the pooled E of those scores is the figure
+for expressions the choice has not seen, and the grid points so chosen are counted. About 4 minutes.
 """
 
 from __future__ import annotations
@@ -21,10 +21,12 @@ from pathlib import Path
 import numpy as np
 
 from addon.deform import face_binding
-from addon.mpeg4.control_mesh import EYES_AND_BROWS, MOUTH_AND_JAW, OTHER_UPPER
+from addon.mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from scripts.bench import evaluate
 
-GRID = ((0.15, 0.2, 0.25, 0.3), (0.35, 0.5, 0.7), (1.0, 1.25, 1.5))  # eyes and brows, other upper, mouth and jaw
+# eyes, brows, other upper, mouth and jaw; smoothing width per ES0
+GRID = ((0.05, 0.1), (0.3, 0.5), (0.5, 0.7), (1.5,), (0.27, 0.4, 0.55))
+PARTS = (EYES, BROWS, OTHER_UPPER, MOUTH_AND_JAW)
 
 
 def twin(name: str) -> str:
@@ -37,12 +39,11 @@ def twin(name: str) -> str:
 
 def score_grid(targets: Path) -> dict[tuple[float, ...], dict[str, evaluate.Score]]:
     results = {}
-    default = dict(face_binding.LOCAL_RADIUS_FRACTIONS)
+    default = dict(face_binding.LOCAL_RADIUS_FRACTIONS), face_binding.FOLLOW_SMOOTHING_PER_ES0
     try:
         for point in itertools.product(*GRID):
-            face_binding.LOCAL_RADIUS_FRACTIONS = dict(
-                zip((EYES_AND_BROWS, OTHER_UPPER, MOUTH_AND_JAW), point, strict=True)
-            )
+            face_binding.LOCAL_RADIUS_FRACTIONS = dict(zip(PARTS, point, strict=False))
+            face_binding.FOLLOW_SMOOTHING_PER_ES0 = point[-1]
             face = evaluate.load_face(evaluate.DEFAULT_FACE)
             method = evaluate.AddOnMethod(face)
             scores = {}
@@ -55,7 +56,7 @@ def score_grid(targets: Path) -> dict[tuple[float, ...], dict[str, evaluate.Scor
                     scores[evaluate.target_name(path)] = evaluate.score(deformed, face.rest + offsets, face.rest, folds)
             results[point] = (scores, face.region)
     finally:
-        face_binding.LOCAL_RADIUS_FRACTIONS = default
+        face_binding.LOCAL_RADIUS_FRACTIONS, face_binding.FOLLOW_SMOOTHING_PER_ES0 = default
     return results
 
 
@@ -80,8 +81,8 @@ def main() -> int:
     args = parser.parse_args()
     results = score_grid(Path(args.targets))
     names = " | ".join(evaluate.REGION_NAMES)
-    print(f"| eyes and brows | other upper | mouth and jaw | pooled E | {names} | folds 1.0 / 1.5 |")
-    print("|" + "---:|" * (5 + len(evaluate.REGION_NAMES)))
+    print(f"| eyes | brows | other upper | mouth and jaw | smoothing | pooled E | {names} | folds 1.0 / 1.5 |")
+    print("|" + "---:|" * (7 + len(evaluate.REGION_NAMES)))
     table = {}
     for point, (scores, region) in sorted(results.items(), key=lambda item: evaluate.summary(*item[1])["e_pooled"]):
         s = evaluate.summary(scores, region)

@@ -33,7 +33,7 @@ import numpy as np
 import addon
 from addon.blender import face_data, inner_parts, rest_shape
 from addon.deform.folds import count_inverted
-from addon.deform.overlaps import crossings, edge_roughness
+from addon.deform.overlaps import crossings, edge_chain, edge_roughness
 from addon.mpeg4.feature_points import fp_index
 from scripts.bench import evaluate_folds
 
@@ -61,19 +61,7 @@ def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
         line = np.array([neutral[fp_index(k)] for k in ids])
         if not np.isfinite(line).all():
             continue
-        t = np.linspace(0.0, 2.0, LID_SAMPLES)
-        k = np.minimum(t.astype(int), 1)
-        points = line[k] + (t - k)[:, None] * (line[k + 1] - line[k])
-        on_skin = np.flatnonzero(skin)
-        nearest = on_skin[np.argmin(np.linalg.norm(rest[on_skin][None] - points[:, None], axis=2), axis=1)]
-        chain = nearest[np.sort(np.unique(nearest, return_index=True)[1])]
-        along = (rest[chain] - line[0]) @ (line[2] - line[0]) / np.linalg.norm(line[2] - line[0])
-        step = 0.25 * np.linalg.norm(line[2] - line[0]) / LID_SAMPLES
-        keep = [0]
-        for k in range(1, len(chain)):  # one vertex across the lid (the row behind a margin vertex is not the edge)
-            if along[k] > along[keep[-1]] + step:
-                keep.append(k)
-        chain = chain[keep]
+        chain = edge_chain(rest, np.flatnonzero(skin), line, LID_SAMPLES)
         if len(chain) >= 5:
             chains.append(chain)
     return chains

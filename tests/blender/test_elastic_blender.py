@@ -42,7 +42,7 @@ def core_result(head):
     neutral = elastic_rig.neutral_fps(head)
     skeleton = place_skeleton(neutral)
     rest = positions(head.data).astype(np.float64)
-    weights = skin_weights(rest, elastic_rig.mesh_edges(head.data), skeleton, binding_store.vertex_masks(head))
+    weights = skin_weights(rest, face_data.mesh_edges(head.data), skeleton, binding_store.vertex_masks(head))
     transforms = pose_from_fps(skeleton, neutral, moved_fps(head), TRAINED)
     return rest, weights, linear_blend_skinning(rest, weights, transforms)
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from addon.blender.face_data import group_weights, mesh_fans
+from addon.blender.face_data import group_weights, mesh_edges, mesh_fans
 from addon.deform.folds import count_inverted
 from addon.elastic.parameters import TRAINED, Parameters
 from addon.elastic.pose import pose_from_faps, pose_from_fps
@@ -12,7 +12,7 @@ from addon.elastic.skinning import linear_blend_skinning, skin_weights
 from addon.mpeg4.control_mesh import MASK_NAMES
 from addon.mpeg4.faps import N_FAPS
 from addon.mpeg4.fapu import compute_fapu
-from scripts.bench.elastic_bones import fp_empties, mesh_edges
+from scripts.bench.elastic_bones import fp_empties
 
 from .helpers import ROOT
 

@@ -39,10 +39,11 @@ def core_result(head, stream_path, frame_index):
     tri_masks = [m or None for m in control["mpeg4_triangle_masks"]]
     rest = rest_shape.stored_rest(head.data).astype(np.float64)
     # the add-on's configuration (`bind_face`): the face within ES0/4 of the control mesh, fading to rest, the upper
-    # face's triangles reaching only locally (Still Skin Around Eyes, on by default)
+    # face's triangles reaching only locally and the share of the motion smoothed over the skin (Still Skin Around
+    # Eyes, on by default)
     parts = triangle_parts(ids, tris)
     binding = bind_face(rest, rest_control, tris, es0=fapu.ES0, vertex_masks=masks, triangle_masks=tri_masks,
-                        triangle_parts=parts)  # fmt: skip
+                        triangle_parts=parts, edges=face_data.mesh_edges(head.data))  # fmt: skip
     driving = hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control)
     out = evaluate(binding, driving)
     triangles = face_data.mesh_fans(head.data)[0]

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from addon.mpeg4.control_mesh import (
+    BROWS,
     CONTROL_TRIANGLES,
-    EYES_AND_BROWS,
+    EYES,
     MASK_NAMES,
     MOUTH_AND_JAW,
     OTHER_UPPER,
@@ -60,16 +61,18 @@ def test_template_is_its_own_mirror_image():
 
 
 def test_triangle_parts_by_hand_and_mirrored():
-    ids = ["2.1", "8.3", "3.7", "4.5", "5.3", "9.1", "11.1"]
-    triangles = np.array([[0, 4, 5], [1, 2, 3], [2, 3, 4], [4, 5, 6], [3, 6, 4]])
-    assert triangle_parts(ids, triangles).tolist() == [MOUTH_AND_JAW, MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER,
-                                                       EYES_AND_BROWS]  # fmt: skip
+    ids = ["2.1", "8.3", "3.7", "4.5", "5.3", "9.1", "11.1", "10.7"]
+    triangles = np.array([[0, 4, 5], [1, 2, 3], [2, 3, 4], [4, 5, 6], [3, 6, 4], [0, 4, 7], [0, 2, 7]])
+    assert triangle_parts(ids, triangles).tolist() == [MOUTH_AND_JAW, MOUTH_AND_JAW, EYES, OTHER_UPPER, BROWS,
+                                                       OTHER_UPPER, EYES]  # fmt: skip
     assert triangle_parts(ids, np.zeros((0, 3), int)).shape == (0,)
     mirror = {fp.id: fp.mirror or fp.id for fp in FEATURE_POINTS}
     ids = control_fp_ids(FP_IDS)
     parts = dict(zip(map(frozenset, CONTROL_TRIANGLES), triangle_parts(ids, template_indices(ids)), strict=True))
     assert all(parts[frozenset(mirror[f] for f in t)] == part for t, part in parts.items())
-    assert set(parts.values()) == {MOUTH_AND_JAW, EYES_AND_BROWS, OTHER_UPPER}
+    assert set(parts.values()) == {MOUTH_AND_JAW, EYES, BROWS, OTHER_UPPER}
+    # the jaw's triangles to the ear lobes are the side of the head, not the jaw
+    assert parts[frozenset(("5.1", "2.13", "10.7"))] == OTHER_UPPER
 
 
 def test_masks_are_valid_and_match_the_lip_and_eyelid_fps():

@@ -13,13 +13,10 @@ from addon.elastic.pose import fp_transforms, pose_from_faps, pose_from_fps
 from addon.elastic.rules import RULES, Rule, check_rules
 from addon.elastic.skeleton import BONES, Bone, Skeleton, check_bone_table, place_skeleton
 from addon.elastic.skinning import (
-    MAX_SMOOTHING_STEPS,
     check_weights,
     cut_openings,
     linear_blend_skinning,
     skin_weights,
-    smooth_over_edges,
-    smoothing_steps,
 )
 from addon.elastic.transforms import about_point, rotation_matrix
 from addon.geometry.face_axes import BLENDER_FACE_AXES
@@ -337,22 +334,3 @@ def test_the_vectorised_fp_drive_equals_the_bone_by_bone_reference():
     np.testing.assert_allclose(
         fp_transforms(skeleton, fps, fps, gains), np.broadcast_to(np.eye(4), expected.shape), atol=1e-15
     )
-
-
-def test_smoothing_over_edges_by_hand():
-    """Path 0-1-2 and a lone vertex 3: each step moves a value halfway to its neighbours' mean; a vertex with no
-    edge keeps its value; a constant stays constant; nothing crosses a missing (cut) edge."""
-    edges = np.array([[0, 1], [1, 2]])
-    values = np.array([[1.0, 2.0], [0.0, 2.0], [0.0, 2.0], [5.0, 2.0]])
-    once = smooth_over_edges(values, edges, 1)
-    np.testing.assert_allclose(once, [[0.5, 2.0], [0.25, 2.0], [0.0, 2.0], [5.0, 2.0]])
-    np.testing.assert_allclose(smooth_over_edges(values, edges, 2)[:, 0], [0.375, 0.25, 0.125, 5.0])
-    cut = smooth_over_edges(values, np.array([[1, 2]]), 3)
-    assert cut[0, 0] == 1.0 and cut[2, 0] == 0.0  # vertex 0 has no edge left: it keeps its value
-
-
-def test_smoothing_steps_spread_over_the_same_width_at_any_resolution():
-    assert smoothing_steps(0.005, 0.0035) == 4  # the sample head's edges: 4 steps
-    assert smoothing_steps(0.005, 0.0035 / 4) == 65  # a 16 times denser mesh: (4 x)² as many
-    assert smoothing_steps(0.005, 0.01) == 0 and smoothing_steps(0.0, 0.001) == 0
-    assert smoothing_steps(0.005, 1e-9) == MAX_SMOOTHING_STEPS

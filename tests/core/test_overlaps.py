@@ -1,8 +1,9 @@
 """Skin passing through skin and rough lid edges, measured beside the fold count (no scene)."""
 
 import numpy as np
+import pytest
 
-from addon.deform.overlaps import crossings, edge_roughness
+from addon.deform.overlaps import crossings, edge_chain, edge_roughness, lid_gap
 
 
 def _sheet(offset: float):
@@ -31,6 +32,31 @@ def test_a_smooth_lid_edge_is_on_its_curve_and_a_zig_zag_is_not():
     circle[10, 2] += 0.001
     rough = edge_roughness(circle, chain)
     assert rough[10] > 0.0005 and np.argmax(rough) == 10
+
+
+def _lids(opening: float):
+    """Two lid margins 20 mm wide, 1 mm apart along them, the upper one `opening` above the lower in the middle
+    (a sine arch, as an eye's opening) and 0.2 mm at the corners, each with a second row of vertices 2 mm behind."""
+    x = np.linspace(0.0, 0.02, 21)
+    arch = opening * np.sin(np.pi * x / 0.02)
+    upper = np.column_stack([x, np.zeros(21), arch])
+    lower = np.column_stack([x, np.zeros(21), np.full(21, -0.0002)])
+    behind = np.array([0.0, 0.002, 0.0])
+    return np.concatenate([upper, lower, upper + behind, lower + behind])
+
+
+def test_a_lid_edge_is_found_along_its_fps_and_its_gap_measured_where_the_lids_should_meet():
+    points = _lids(0.009)
+    line_upper = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.009], [0.02, 0.0, 0.0]])
+    upper = edge_chain(points, np.arange(len(points)), line_upper, 24)
+    assert np.all(upper < 21) and np.all(np.diff(points[upper, 0]) > 0)  # the margin, in order, not the row behind
+    lower = edge_chain(points, np.arange(21, 84), line_upper * [1, 1, 0], 24)
+    assert np.array_equal(lower, np.arange(21, 42))  # the lower margin, from the candidates given
+    # the middle half of the upper margin: its widest distance from the lower one is the opening under the mid FP
+    assert lid_gap(points, upper, lower) == pytest.approx(0.0092)
+    closed = _lids(0.0003)
+    assert lid_gap(closed, upper, lower) == pytest.approx(0.0005)
+    assert np.isnan(lid_gap(closed, upper[:0], lower))  # no edge to measure
 
 
 def test_unfold_skin_takes_fewer_steps_a_frame_the_finer_the_mesh():
