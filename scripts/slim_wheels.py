@@ -103,6 +103,17 @@ def slim(wheel: Path, out_dir: Path | None = None) -> Path:
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     partial = target.with_name(f"{target.name}.{os.getpid()}.part")
+    try:
+        _write_slim(wheel, partial, trim)
+    except BaseException:
+        partial.unlink(missing_ok=True)  # no half-written wheel left behind
+        raise
+    partial.replace(target)
+    stamp.write_text(source_digest)
+    return target
+
+
+def _write_slim(wheel: Path, partial: Path, trim: Trim) -> None:
     with zipfile.ZipFile(wheel) as src:
         members = src.infolist()
         info = _dist_info([m.filename for m in members])
@@ -127,6 +138,3 @@ def slim(wheel: Path, out_dir: Path | None = None) -> Path:
             rows.append([record, "", ""])
             csv.writer(out, lineterminator="\n").writerows(rows)
             dst.writestr(next(m for m in members if m.filename == record), out.getvalue().encode("utf-8"))
-    partial.replace(target)
-    stamp.write_text(source_digest)
-    return target

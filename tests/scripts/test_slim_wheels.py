@@ -134,3 +134,12 @@ def test_nothing_in_the_addon_names_the_dropped_language_model():
     for path in (ROOT / "addon").rglob("*.py"):
         text = path.read_text(encoding="utf-8")
         assert "en-us.lm" not in text.replace("en-us-phone.lm", ""), path
+
+
+def test_a_wheel_without_its_record_is_refused_and_leaves_no_partial_file(tmp_path):
+    broken = tmp_path / "scipy-1.15.3-cp311-cp311-win_amd64.whl"
+    with zipfile.ZipFile(broken, "w") as wheel:
+        wheel.writestr("scipy/__init__.py", "")
+    with pytest.raises(slim_wheels.WheelError, match="one .dist-info/RECORD"):
+        slim_wheels.slim(broken)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [broken.name]
