@@ -304,10 +304,11 @@ def gather(
     fresh=True,
     made_masks: dict[str, np.ndarray] | None = None,
     made_parts: dict[str, np.ndarray] | None = None,
+    mesh_edges: np.ndarray | None = None,
 ) -> BindInputs:
     """The inputs of a binding with the face's current parameters; changes nothing in the scene. `fp_ids`: the
     control mesh's FP ids, in its vertex order; `made_parts`: part groups set-up is about to write (taken as the
-    face's rigid parts instead of its part groups)."""
+    face's rigid parts instead of its part groups); `mesh_edges`: the face's edges when the caller has read them."""
     settings = face.mpeg4_face
     masks = _masks(face, fresh, made_masks)
     tri_masks = [m if m in masks else None for m in triangle_masks]
@@ -318,7 +319,7 @@ def gather(
     edges = None
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
-        edges = face_data.mesh_edges(face.data)
+        edges = face_data.mesh_edges(face.data) if mesh_edges is None else mesh_edges
     members = made_parts or inner_parts.group_members(face)
     rigid = np.unique(np.concatenate([*members.values(), np.zeros(0, np.intp)])).astype(np.intp)
     keyed = {**params, "fade_below": FADE_BELOW}

@@ -138,6 +138,7 @@ def plan(face) -> Plan:
     fp_empties.check_adoptable(face, empties)
     notes = []
     rest = _rest_now(face)
+    edges = face_data.mesh_edges(face.data)  # read once: the checks, the masks, the parts and the binding use them
     planned = fp_empties.planned_locations(face, empties, rest)
     now = face_data.local_positions(face, empties)
     snapped = sum(1 for fp_id in planned if np.abs(planned[fp_id] - now[fp_id]).max() > 1e-6)
@@ -145,7 +146,7 @@ def plan(face) -> Plan:
         notes.append(f"snapped {snapped} feature points onto the surface")
     neutral = fp_empties.neutral_locations(empties, planned)
     axes = face_frame(neutral)
-    _check_fps(face, rest, now, neutral, axes, notes)
+    _check_fps(rest, edges, now, neutral, axes, notes)
     ids, tris, tri_masks = build_control(face, neutral, axes)
     points = np.array([neutral[fp_id] for fp_id in ids], dtype=np.float64)
     _check_triangles(ids, points, tris)
@@ -156,9 +157,11 @@ def plan(face) -> Plan:
     except FapuError as exc:
         fapu = (0.0,) * 5
         notes.append(Warn(f"FAP import needs FAPU: {exc}"))
-    made = _planned_masks(face, rest, neutral, notes) if face.mpeg4_face.use_masks else {}
-    parts = inner_parts.plan_parts(face, rest, face_data.mesh_edges(face.data), neutral, axes, notes)
-    inputs = binding_store.gather(face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made, made_parts=parts)
+    made = _planned_masks(face, rest, edges, neutral, notes) if face.mpeg4_face.use_masks else {}
+    parts = inner_parts.plan_parts(face, rest, edges, neutral, axes, notes)
+    inputs = binding_store.gather(
+        face, rest, points, tris, tri_masks, fapu[1], ids, made_masks=made, made_parts=parts, mesh_edges=edges
+    )
     try:
         binding = inputs.bind()
     except np.linalg.LinAlgError as exc:
@@ -187,7 +190,7 @@ def plan(face) -> Plan:
     )
 
 
-def _check_fps(face, rest: np.ndarray, placed: dict, neutral: dict, axes: np.ndarray, notes: list) -> None:
+def _check_fps(rest: np.ndarray, edges: np.ndarray, placed: dict, neutral: dict, axes: np.ndarray, notes: list) -> None:
     """Refuse an FP set that breaks playback (a feature's FPs placed in part); warn of swapped pairs, FPs placed
     far off the surface and openings the mesh closes, naming the FPs."""
     refusals, warnings = face_checks.missing_fps(neutral)
@@ -206,7 +209,7 @@ def _check_fps(face, rest: np.ndarray, placed: dict, neutral: dict, axes: np.nda
     far = face_checks.far_off(placed, neutral, separation)
     if far:
         notes.append(Warn(f"FP {', '.join(far)} were placed far off the surface and snapped onto it: check them"))
-    fused = face_checks.fused_openings(rest, face_data.mesh_edges(face.data), neutral)
+    fused = face_checks.fused_openings(rest, edges, neutral)
     if fused:
         notes.append(
             Warn(
@@ -216,12 +219,14 @@ def _check_fps(face, rest: np.ndarray, placed: dict, neutral: dict, axes: np.nda
         )
 
 
-def _planned_masks(face, rest: np.ndarray, neutral: dict[str, np.ndarray], notes: list) -> dict[str, np.ndarray]:
+def _planned_masks(
+    face, rest: np.ndarray, edges: np.ndarray, neutral: dict[str, np.ndarray], notes: list
+) -> dict[str, np.ndarray]:
     """The mask vertex groups the face lacks, made from the FPs (geodesic sides of the openings)."""
     missing = binding_store.missing_masks(face)
     if not missing:
         return {}
-    made = make_masks(rest, face_data.mesh_edges(face.data), face_data.neutral_array(neutral))
+    made = make_masks(rest, edges, face_data.neutral_array(neutral))
     made = {name: made[name] for name in missing if name in made}
     empty = [name for name in made if face.vertex_groups.get(name) is not None]
     if empty:
