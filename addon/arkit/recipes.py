@@ -2,7 +2,7 @@
 
 The loader checks the whole file before it returns: all 52 names exactly once each (as ARKit spells them),
 a 'why' for each, known low-level FAPs with finite values within the standard's range, an optional
-'cannot' (what FAPs cannot express) and an optional dedicated part deformation from `PART_DEFORMATIONS`.
+'cannot' (what FAPs cannot express) and an optional dedicated deformation (deformations.py) by its name.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import numpy as np
 from ..mpeg4.fap_tables import TableReader
 from ..mpeg4.faps import LEFT_RIGHT_PAIRS, N_FAPS
 from . import ArkitError
+from .deformations import FP_DEFORMATIONS, PART_DEFORMATIONS
 
 DATA = Path(__file__).resolve().with_name("data")
 READ = TableReader(ArkitError)
@@ -36,7 +37,7 @@ ARKIT_NAMES = (
 N_SHAPES = len(ARKIT_NAMES)
 ARKIT_INDEX = MappingProxyType({name: k for k, name in enumerate(ARKIT_NAMES)})
 # dedicated deformations a recipe may name, for what no FAP moves
-PART_DEFORMATIONS = ("tongue_forward",)
+DEDICATED_DEFORMATIONS = FP_DEFORMATIONS + PART_DEFORMATIONS
 
 # FAPs that a left/right mirror negates besides swapping the pairs: sideways motions of midline points,
 # and the eyeballs' yaw (both eyes share one sign convention)
@@ -50,7 +51,7 @@ class RecipeTable:
     targets: np.ndarray  # (52, 68) float64, read-only
     why: tuple[str, ...]
     cannot: MappingProxyType  # name -> what FAPs cannot express of it
-    parts: MappingProxyType  # name -> the dedicated part deformation it names
+    deformations: MappingProxyType  # name -> the dedicated deformation it names
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -84,10 +85,10 @@ def _table(path) -> RecipeTable:
     entries = READ.list_of(doc["shapes"], f"{source}: shapes")
     targets = np.zeros((N_SHAPES, N_FAPS))
     why = [""] * N_SHAPES
-    cannot, parts = {}, {}
+    cannot, deformations = {}, {}
     for k, entry in enumerate(entries):
         where = f"{source}: shapes entry {k + 1}"
-        entry = READ.object_with(entry, {"name", "why", "faps"}, {"cannot", "part"}, where)
+        entry = READ.object_with(entry, {"name", "why", "faps"}, {"cannot", "deformation"}, where)
         name = entry["name"]
         if name not in ARKIT_INDEX:
             raise ArkitError(f"{where}: {name!r} is not one of ARKit's 52 blendshape names")
@@ -98,17 +99,18 @@ def _table(path) -> RecipeTable:
         why[i] = READ.text(entry["why"], f"{where}: 'why'")
         if "cannot" in entry:
             cannot[name] = READ.text(entry["cannot"], f"{where}: 'cannot'")
-        if "part" in entry:
-            if entry["part"] not in PART_DEFORMATIONS:
-                raise ArkitError(f"{where}: part {entry['part']!r} is not one of {', '.join(PART_DEFORMATIONS)}")
-            parts[name] = entry["part"]
+        if "deformation" in entry:
+            named = entry["deformation"]
+            if named not in DEDICATED_DEFORMATIONS:
+                raise ArkitError(f"{where}: deformation {named!r} is not one of {', '.join(DEDICATED_DEFORMATIONS)}")
+            deformations[name] = named
         for number, value in READ.fap_values(entry["faps"], where).items():
             targets[i, number - 1] = value
     missing = [name for name, text in zip(ARKIT_NAMES, why, strict=True) if not text]
     if missing:
         raise ArkitError(f"{source}: {len(missing)} ARKit shape(s) missing: {', '.join(missing)}")
     targets.flags.writeable = False
-    return RecipeTable(targets, tuple(why), MappingProxyType(cannot), MappingProxyType(parts))
+    return RecipeTable(targets, tuple(why), MappingProxyType(cannot), MappingProxyType(deformations))
 
 
 def load_recipes(path: Path | str | None = None) -> RecipeTable:

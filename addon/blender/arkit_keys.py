@@ -7,8 +7,10 @@ modifier), and the change from the face at rest becomes a shape key named as ARK
 to the reference key (so a shape-key stack the face already has is kept and adds on top). The parts that
 follow feature points (eyeballs, lower teeth, tongue) are read as their drivers or bones place them, and
 each part a recipe moves gets the same-named key of its own: eyeLook* turn the eyeballs, jawOpen moves the
-lower teeth and the tongue. tongueOut's 'tongue_forward' moves the tongue part forward by the tip's thrust,
-which no FAP carries to the tongue body. Afterwards the empties are put back and the face shown as before.
+lower teeth and the tongue. Where a recipe names a dedicated deformation (arkit.deformations), the points are
+moved by it before the engine deforms the face (jawOpen's 'jaw_hinge', mouthPucker's and mouthFunnel's
+'lips_forward'), and tongueOut's 'tongue_forward' moves the tongue part forward by the tip's thrust, which no
+FAP carries to the tongue body. Afterwards the empties are put back and the face shown as before.
 
 Every key made is listed on its mesh (`KEYS_PROP`), so running again replaces exactly them and Remove
 Set-Up takes them (and a Basis key made for them) away; a key of the user's with an ARKit name is never
@@ -21,6 +23,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from ..arkit.deformations import deform_points
 from ..arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, load_recipes
 from ..errors import Mpeg4Error
 from ..mpeg4.decode import fap_to_fp
@@ -38,12 +41,15 @@ NEW_PREFIX = "MPEG-4 new "  # the name of a key being made, until the run succee
 STILL = 1e-9  # a part whose transform changes less than this (model units, radians) has no key
 
 
-def _face_points(face, empties, values: np.ndarray) -> np.ndarray:
-    """(84, 3) face-local FP positions for FAP values (68,), with the face's group gains and ranges."""
+def _face_points(face, empties, values: np.ndarray, deformation: str | None = None) -> np.ndarray:
+    """(84, 3) face-local FP positions for FAP values (68,), with the face's group gains and ranges, moved further
+    by the dedicated `deformation` a recipe names."""
     settings = face.mpeg4_face
     shaped = shape_faps(values[None], fap_io.group_gains(face), limit=settings.use_soft_limits)
     neutral = face_data.neutral_positions(empties)
-    return fap_to_fp(neutral, shaped, fap_io.face_fapu(face), eye_pivots=fap_io.eye_pivots(face))[0]
+    axes = face_data.face_axes(face)
+    points = fap_to_fp(neutral, shaped, fap_io.face_fapu(face), axes=axes, eye_pivots=fap_io.eye_pivots(face))[0]
+    return deform_points(deformation, neutral, points, axes)
 
 
 def _pose(empties, points: np.ndarray) -> None:
@@ -195,7 +201,8 @@ def make_keys(context, face) -> list[str]:
     parts, notes = _parts(face)
     for ob in [face, *parts.values()]:
         _check_names(ob)
-    points = [_face_points(face, empties, table.recipe(name)) for name in ARKIT_NAMES]  # all checked first
+    # all checked first
+    points = [_face_points(face, empties, table.recipe(name), table.deformations.get(name)) for name in ARKIT_NAMES]
 
     scene = context.scene
     frame = (scene.frame_current, scene.frame_subframe)
@@ -227,7 +234,7 @@ def make_keys(context, face) -> list[str]:
                 posed = _part_matrices(parts)
                 for part, ob in parts.items():
                     change = posed[part]
-                    if part == "tongue" and table.parts.get(name) == "tongue_forward":
+                    if part == "tongue" and table.deformations.get(name) == "tongue_forward":
                         change = Matrix.Translation(_tongue_thrust(face, points[i], neutral)) @ change
                     co = _moved_part(ob, part_rest[part], change, part_basis[part])
                     if co is not None:

@@ -23,7 +23,12 @@ def test_table_has_every_arkit_name_once_with_a_why():
     assert all(np.any(table.recipe(name)) for name in ARKIT_NAMES)
     assert not table.targets[:, :2].any()  # low-level FAPs only
     assert set(table.cannot) >= {"cheekPuff", "tongueOut", "mouthRollLower", "mouthRollUpper"}
-    assert table.parts == {"tongueOut": "tongue_forward"}
+    assert table.deformations == {
+        "jawOpen": "jaw_hinge",
+        "mouthFunnel": "lips_forward",
+        "mouthPucker": "lips_forward",
+        "tongueOut": "tongue_forward",
+    }
 
 
 def test_left_and_right_recipes_mirror_each_other():
@@ -60,6 +65,7 @@ def test_a_bad_table_is_refused_naming_the_entry(tmp_path):
         "unknown fap": lambda d: d["shapes"][0]["faps"].update(close_eye=3),
         "out of range": lambda d: d["shapes"][0]["faps"].update(open_jaw=99999),
         "unknown part": lambda d: d["shapes"][0].update(part="warp"),
+        "unknown deformation": lambda d: d["shapes"][0].update(deformation="warp"),
     }
     for case, edit in cases.items():
         changed = json.loads(json.dumps(doc))

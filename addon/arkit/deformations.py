@@ -1,0 +1,134 @@
+"""The small dedicated deformations the recipe table names where FAPs cannot say an ARKit shape (no bpy).
+
+Each one takes the feature points where a recipe's FAPs put them and moves some of them further, the way the
+shape moves the face and no FAP does; the face's engine then deforms the skin from these points as it plays
+FAPs. They shape Make ARKit Shape Keys only: a capture turned into a FAP stream, and the round trip FAP ->
+ARKit -> FAP, stay with the recipes' FAP values (a stream carries FAPs, and a face plays a stream as the
+standard says).
+
+- `jaw_hinge` (jawOpen): the mandible turns about the jaw joints instead of sliding straight down. open_jaw
+  (FAP 3) is the vertical displacement of the chin 2.1, and the chin drops exactly that far; the turn also
+  draws it back, as the mouth opens on a real jaw (ARKit: "opening of the lower jaw").
+- `lips_forward` (mouthPucker, mouthFunnel): the whole of both lips comes forward with their mid-points.
+  push_b_lip / push_t_lip (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move
+  the inner mid-points 2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of
+  both lips' (AU 18/22: orbicularis oris purses and everts the lips all round).
+- `tongue_forward` (tongueOut) moves a part, not feature points: the Blender layer moves the tongue part forward
+  by the tip's thrust beyond the tongue body (arkit_keys), which the tongue part follows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.face_axes import BLENDER_FACE_AXES
+from ..mpeg4.decode import JAW_RIDERS
+from ..mpeg4.feature_points import fp_index
+
+# the ear's lower contact points with the face (left, right): the jaw joints' axis (see `hinge_axis`)
+HINGE_FPS = ("10.3", "10.4")
+# each lip's points that no FAP pushes forward, with the point whose push they follow; the corners follow both lips
+LIP_FOLLOWERS = {
+    "2.2": ("8.1", "2.6", "2.7", "8.5", "8.6"),
+    "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
+}
+LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
+FP_DEFORMATIONS = ("jaw_hinge", "lips_forward")
+PART_DEFORMATIONS = ("tongue_forward",)
+
+
+def hinge_axis(face_neutral: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """A point on the jaw joints' axis and its unit direction (face frame), or None without both ear points.
+
+    Our reading: the mandible's condyles sit in front of the ear where it joins the face low, at the tragus;
+    MPEG-4 has no FP on the joint, and the ear's lower contact points 10.3 / 10.4 are the nearest (on the
+    sample head the axis they give passes within 4 mm of the one the sculpted mouth-open unit turns about).
+    """
+    left, right = face_neutral[[fp_index(fp) for fp in HINGE_FPS]]
+    direction = left - right
+    length = np.linalg.norm(direction)
+    if not (np.all(np.isfinite(direction)) and length > 0.0):
+        return None
+    return 0.5 * (left + right), direction / length
+
+
+def rotate_about(points: np.ndarray, origin: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """(K, 3) points each turned by its own angle (K,) about the line through `origin` along unit `axis`
+    (right-handed; Rodrigues' formula)."""
+    v = points - origin
+    c, s = np.cos(angle)[:, None], np.sin(angle)[:, None]
+    along = (v @ axis)[:, None] * axis
+    return origin + v * c + np.cross(axis, v) * s + along * (1.0 - c)
+
+
+def hinge_angle(chin: np.ndarray, origin: np.ndarray, axis: np.ndarray, drop: float) -> float:
+    """The turn about the hinge (radians, about `axis`) that lowers `chin` by `drop` (face frame, y up).
+
+    The chin's height about the axis is h cos(a) + d sin(a) - h for a chin at `h` below and `d` in front of the
+    axis (the turn lowers it); solving R sin(a + alpha) = drop + h, R = hypot(h, d), alpha = atan2(h, d). A
+    drop beyond R - h (the chin at the bottom of its circle) stops there.
+    """
+    v = chin - origin
+    v = v - (v @ axis) * axis
+    down = np.cross(axis, v)[1]  # the chin's height change per radian at rest: -d for a forward chin
+    h, d = -v[1], -down
+    reach = np.hypot(h, d)
+    if reach == 0.0:
+        return 0.0
+    return float(np.arcsin(np.clip((drop + h) / reach, -1.0, 1.0)) - np.arctan2(h, d))
+
+
+def jaw_hinge(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with the jaw's straight drop turned about the jaw joints.
+
+    The chin 2.1 and the points that ride on the mandible (decode.JAW_RIDERS, each by its share: the lip
+    corners half) lose the straight drop open_jaw gave them and turn instead, by the angle that lowers the
+    chin as far as open_jaw did; what other FAPs added to them stays. Without the ear points the drop stays
+    straight.
+    """
+    axes = np.asarray(axes, dtype=np.float64)
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    face_points = np.asarray(points, dtype=np.float64) @ axes.T
+    hinge = hinge_axis(face_neutral)
+    chin = fp_index("2.1")
+    drop = face_neutral[chin, 1] - face_points[chin, 1]
+    if hinge is None or not np.all(np.isfinite(face_neutral[chin])) or drop == 0.0:
+        return np.array(points, dtype=np.float64)
+    origin, axis = hinge
+    angle = hinge_angle(face_neutral[chin], origin, axis, drop)
+    riders = {"2.1": 1.0, **JAW_RIDERS}
+    rows = np.array([fp_index(fp) for fp in riders])
+    share = np.array(list(riders.values()))
+    rest = face_neutral[rows]
+    turned = rotate_about(rest, origin, axis, share * angle)
+    straight = np.zeros_like(rest)
+    straight[:, 1] = -share * drop
+    moved = face_points.copy()
+    known = np.all(np.isfinite(rest), axis=1)
+    moved[rows[known]] += (turned - rest - straight)[known]
+    return moved @ axes
+
+
+def lips_forward(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
+    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
+    axes = np.asarray(axes, dtype=np.float64)
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    moved = np.asarray(points, dtype=np.float64) @ axes.T
+    push = {mid: moved[fp_index(mid), 2] - face_neutral[fp_index(mid), 2] for mid in LIP_FOLLOWERS}
+    if not all(np.isfinite(p) for p in push.values()):
+        return np.array(points, dtype=np.float64)
+    for mid, followers in LIP_FOLLOWERS.items():
+        moved[[fp_index(fp) for fp in followers], 2] += push[mid]
+    moved[[fp_index(fp) for fp in LIP_CORNERS], 2] += 0.5 * sum(push.values())
+    return moved @ axes
+
+
+def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axes=BLENDER_FACE_AXES) -> np.ndarray:
+    """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
+    that moves a part rather than feature points)."""
+    if name == "jaw_hinge":
+        return jaw_hinge(neutral, points, axes)
+    if name == "lips_forward":
+        return lips_forward(neutral, points, axes)
+    return np.array(points, dtype=np.float64)

@@ -1,0 +1,92 @@
+"""The recipe table's dedicated deformations (arkit/deformations.py), on hand-worked points (no bpy)."""
+
+import numpy as np
+
+from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, lips_forward
+from addon.mpeg4.decode import JAW_RIDERS
+from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
+
+FACE_FRAME = np.eye(3)  # x left, y up, z forward: mesh coordinates are the face frame
+
+
+def _face() -> np.ndarray:
+    """84 points spread over a box, the ears' lower contacts 10.3/10.4 at (+-0.05, 0, 0), the chin 2.1 at
+    0.1 below and 0.1 in front of them."""
+    points = np.random.default_rng(7).uniform(-0.1, 0.1, (N_FEATURE_POINTS, 3))
+    points[fp_index("10.3")] = (0.05, 0.0, 0.0)
+    points[fp_index("10.4")] = (-0.05, 0.0, 0.0)
+    points[fp_index("2.1")] = (0.0, -0.1, 0.1)
+    return points
+
+
+def _turned(point, angle):
+    """`point` turned by `angle` about the x axis through the origin (right-handed: y toward z)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([point[0], c * point[1] - s * point[2], s * point[1] + c * point[2]])
+
+
+def test_the_chin_turns_about_the_ears_and_drops_as_far_as_open_jaw_says():
+    neutral = _face()
+    angle = np.radians(30.0)
+    drop = -0.1 + 0.1 * np.cos(angle) + 0.1 * np.sin(angle)  # 36.6 mm: h (cos a - 1) + d sin a
+    assert np.isclose(hinge_angle(neutral[fp_index("2.1")], np.zeros(3), np.array([1.0, 0.0, 0.0]), drop), angle)
+    straight = neutral.copy()
+    riders = {"2.1": 1.0, **JAW_RIDERS}
+    for fp, share in riders.items():
+        straight[fp_index(fp), 1] -= share * drop  # open_jaw as decode moves the jaw
+    straight[fp_index("2.3"), 1] += 0.004  # a lip FAP on top of the jaw
+    moved = jaw_hinge(neutral, straight, FACE_FRAME)
+    chin = moved[fp_index("2.1")]
+    np.testing.assert_allclose(chin, [0.0, -0.1 - drop, -0.05 + 0.1 * np.cos(angle)], atol=1e-12)
+    assert chin[2] < 0.1 - 0.06  # drawn back 63 mm as it drops 37
+    for fp in ("2.4", "2.10", "9.9"):  # the corners turn half as far, the chin and teeth all the way
+        expected = _turned(neutral[fp_index(fp)], riders[fp] * angle)
+        np.testing.assert_allclose(moved[fp_index(fp)], expected, atol=1e-12, err_msg=fp)
+    lip = fp_index("2.3")
+    np.testing.assert_allclose(moved[lip], _turned(neutral[lip], angle) + [0.0, 0.004, 0.0], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in riders}]
+    np.testing.assert_array_equal(moved[others], straight[others])  # the upper lip, nose, eyes stay
+
+
+def test_the_jaw_turn_is_the_same_in_any_mesh_frame():
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up, -Y
+    straight = neutral.copy()
+    straight[fp_index("2.1"), 1] -= 0.02
+    in_face = jaw_hinge(neutral, straight, FACE_FRAME)
+    in_blender = jaw_hinge(neutral @ axes, straight @ axes, axes)
+    np.testing.assert_allclose(in_blender, in_face @ axes, atol=1e-12)
+
+
+def test_without_the_ear_points_the_jaw_drops_straight():
+    neutral = _face()
+    neutral[fp_index("10.4")] = np.nan
+    straight = neutral.copy()
+    straight[fp_index("2.1"), 1] -= 0.02
+    np.testing.assert_array_equal(jaw_hinge(neutral, straight, FACE_FRAME), straight)
+
+
+def test_the_whole_lip_comes_forward_with_its_mid_point():
+    neutral = _face()
+    pushed = neutral.copy()
+    pushed[fp_index("2.2"), 2] += 0.010  # push_t_lip
+    pushed[fp_index("2.3"), 2] += 0.006  # push_b_lip
+    pushed[fp_index("8.5"), 1] -= 0.002  # a lip FAP's own motion stays
+    moved = lips_forward(neutral, pushed, FACE_FRAME)
+    forward = moved[:, 2] - neutral[:, 2]
+    for fp in ("2.2", "8.1", "2.6", "2.7", "8.5", "8.6"):
+        assert np.isclose(forward[fp_index(fp)], 0.010), fp
+    for fp in ("2.3", "8.2", "2.8", "2.9", "8.7", "8.8"):
+        assert np.isclose(forward[fp_index(fp)], 0.006), fp
+    for fp in ("2.4", "2.5", "8.3", "8.4"):
+        assert np.isclose(forward[fp_index(fp)], 0.008), fp
+    assert np.isclose(moved[fp_index("8.5"), 1], pushed[fp_index("8.5"), 1])
+    lips = {fp_index(fp) for fp in "2.2 2.3 2.4 2.5 2.6 2.7 2.8 2.9 8.1 8.2 8.3 8.4 8.5 8.6 8.7 8.8".split()}
+    others = [k for k in range(N_FEATURE_POINTS) if k not in lips]
+    np.testing.assert_array_equal(moved[others], pushed[others])
+
+
+def test_a_recipe_without_a_point_deformation_keeps_its_points():
+    neutral = _face()
+    pushed = neutral + 0.001
+    np.testing.assert_array_equal(deform_points(None, neutral, pushed), pushed)
+    np.testing.assert_array_equal(deform_points("tongue_forward", neutral, pushed), pushed)
