@@ -9,10 +9,13 @@ standard says).
 - `jaw_hinge` (jawOpen): the mandible turns about the jaw joints instead of sliding straight down. open_jaw
   (FAP 3) is the vertical displacement of the chin 2.1, and the chin drops exactly that far; the turn also
   draws it back, as the mouth opens on a real jaw (ARKit: "opening of the lower jaw").
-- `lips_forward` (mouthPucker, mouthFunnel): the whole of both lips comes forward with their mid-points.
-  push_b_lip / push_t_lip (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move
-  the inner mid-points 2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of
-  both lips' (AU 18/22: orbicularis oris purses and everts the lips all round).
+- `whole_lip_push` (mouthPucker, mouthFunnel, mouthRoll*, cheekPuff: the lips pursed, everted or rolled in by
+  orbicularis oris, or pushed by air): a lip pushed forward (or back) moves as a whole. push_b_lip / push_t_lip
+  (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move the inner mid-points
+  2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' (AU 18/22:
+  orbicularis oris purses and everts the lips all round; ARKit's rolls move a lip "toward the inside of the
+  mouth"). The shrugs keep the push at the mid-point: mentalis lifts the lower lip from below its middle, and
+  the corners stay.
 - `tongue_forward` (tongueOut) moves a part, not feature points: the Blender layer moves the tongue part forward
   by the tip's thrust beyond the tongue body (arkit_keys), which the tongue part follows.
 """
@@ -33,7 +36,7 @@ LIP_FOLLOWERS = {
     "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
 }
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
-FP_DEFORMATIONS = ("jaw_hinge", "lips_forward")
+FP_DEFORMATIONS = ("jaw_hinge", "whole_lip_push")
 PART_DEFORMATIONS = ("tongue_forward",)
 
 
@@ -109,7 +112,7 @@ def jaw_hinge(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDE
     return moved @ axes
 
 
-def lips_forward(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
     (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
     axes = np.asarray(axes, dtype=np.float64)
@@ -129,6 +132,6 @@ def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axe
     that moves a part rather than feature points)."""
     if name == "jaw_hinge":
         return jaw_hinge(neutral, points, axes)
-    if name == "lips_forward":
-        return lips_forward(neutral, points, axes)
+    if name == "whole_lip_push":
+        return whole_lip_push(neutral, points, axes)
     return np.array(points, dtype=np.float64)

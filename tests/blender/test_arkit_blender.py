@@ -9,7 +9,7 @@ import pytest
 from addon.arkit.captures import live_link_header
 from addon.arkit.mapping import weights_to_faps
 from addon.arkit.recipes import ARKIT_NAMES
-from addon.blender import arkit_keys, elastic_rig, fap_io, rest_shape
+from addon.blender import arkit_keys, elastic_rig, face_data, fap_io, rest_shape
 from addon.errors import Mpeg4Error
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
@@ -52,6 +52,14 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     jaw = offsets["jawOpen"]
     chin = moved["jawOpen"].argmax()
     assert jaw[chin, 2] < -0.01 and rest[chin, 2] < np.median(rest[:, 2])  # the chin drops
+    # ... turning about the jaw joints: drawn back (+Y) as it drops, the chin bottom 2.1 by what open_jaw says
+    fps = {fp_id: np.array(ob.location) for fp_id, ob in face_data.fp_empties(head).items()}
+    near = {fp_id: np.linalg.norm(rest - point, axis=1).argmin() for fp_id, point in fps.items()}
+    assert jaw[near["2.1"], 1] > 0.015 and jaw[near["2.1"], 2] < -0.012
+    # the pursed lips come forward (-Y) all round, not only at their mid-points 2.2 / 2.3
+    pucker = offsets["mouthPucker"]
+    for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):
+        assert pucker[near[fp_id], 1] < -0.003, fp_id
     assert offsets["browInnerUp"][moved["browInnerUp"].argmax(), 2] > 0.004
     # eyeLook* turn the eyeballs, jawOpen moves the lower teeth and the tongue
     eye_l, eye_r = bpy.data.objects["Eye L"], bpy.data.objects["Eye R"]

@@ -25,8 +25,11 @@ def test_table_has_every_arkit_name_once_with_a_why():
     assert set(table.cannot) >= {"cheekPuff", "tongueOut", "mouthRollLower", "mouthRollUpper"}
     assert table.deformations == {
         "jawOpen": "jaw_hinge",
-        "mouthFunnel": "lips_forward",
-        "mouthPucker": "lips_forward",
+        "mouthFunnel": "whole_lip_push",
+        "mouthPucker": "whole_lip_push",
+        "mouthRollLower": "whole_lip_push",
+        "mouthRollUpper": "whole_lip_push",
+        "cheekPuff": "whole_lip_push",
         "tongueOut": "tongue_forward",
     }
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, lips_forward
+from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, whole_lip_push
 from addon.mpeg4.decode import JAW_RIDERS
 from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
 
@@ -65,13 +65,13 @@ def test_without_the_ear_points_the_jaw_drops_straight():
     np.testing.assert_array_equal(jaw_hinge(neutral, straight, FACE_FRAME), straight)
 
 
-def test_the_whole_lip_comes_forward_with_its_mid_point():
+def test_the_whole_lip_moves_with_its_mid_points_push():
     neutral = _face()
     pushed = neutral.copy()
     pushed[fp_index("2.2"), 2] += 0.010  # push_t_lip
     pushed[fp_index("2.3"), 2] += 0.006  # push_b_lip
     pushed[fp_index("8.5"), 1] -= 0.002  # a lip FAP's own motion stays
-    moved = lips_forward(neutral, pushed, FACE_FRAME)
+    moved = whole_lip_push(neutral, pushed, FACE_FRAME)
     forward = moved[:, 2] - neutral[:, 2]
     for fp in ("2.2", "8.1", "2.6", "2.7", "8.5", "8.6"):
         assert np.isclose(forward[fp_index(fp)], 0.010), fp
