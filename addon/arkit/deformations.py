@@ -81,35 +81,46 @@ def hinge_angle(chin: np.ndarray, origin: np.ndarray, axis: np.ndarray, drop: fl
     return float(np.arcsin(np.clip((drop + h) / reach, -1.0, 1.0)) - np.arctan2(h, d))
 
 
+def jaw_turn(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES):
+    """The mandible's turn for FP positions whose chin 2.1 open_jaw has dropped: (a point on the hinge axis, its
+    unit direction, the angle in radians), in mesh coordinates; None without the ear points or without a drop."""
+    axes = np.asarray(axes, dtype=np.float64)
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    chin = fp_index("2.1")
+    drop = face_neutral[chin, 1] - (np.asarray(points, dtype=np.float64)[chin] @ axes.T)[1]
+    hinge = hinge_axis(face_neutral)
+    if hinge is None or not np.isfinite(drop) or drop == 0.0:
+        return None
+    origin, axis = hinge
+    return origin @ axes, axis @ axes, hinge_angle(face_neutral[chin], origin, axis, drop)
+
+
 def jaw_hinge(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with the jaw's straight drop turned about the jaw joints.
 
     The chin 2.1 and the points that ride on the mandible (decode.JAW_RIDERS, each by its share: the lip
     corners half) lose the straight drop open_jaw gave them and turn instead, by the angle that lowers the
-    chin as far as open_jaw did; what other FAPs added to them stays. Without the ear points the drop stays
-    straight.
+    chin as far as open_jaw did (`jaw_turn`); what other FAPs added to them stays. Without the ear points the
+    drop stays straight.
     """
-    axes = np.asarray(axes, dtype=np.float64)
-    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
-    face_points = np.asarray(points, dtype=np.float64) @ axes.T
-    hinge = hinge_axis(face_neutral)
+    moved = np.array(points, dtype=np.float64)
+    turn = jaw_turn(neutral, points, axes)
+    if turn is None:
+        return moved
+    origin, axis, angle = turn
+    neutral = np.asarray(neutral, dtype=np.float64)
+    up = np.asarray(axes, dtype=np.float64)[1]  # the face's up, in mesh coordinates
     chin = fp_index("2.1")
-    drop = face_neutral[chin, 1] - face_points[chin, 1]
-    if hinge is None or not np.all(np.isfinite(face_neutral[chin])) or drop == 0.0:
-        return np.array(points, dtype=np.float64)
-    origin, axis = hinge
-    angle = hinge_angle(face_neutral[chin], origin, axis, drop)
+    drop = (neutral[chin] - moved[chin]) @ up
     riders = {"2.1": 1.0, **JAW_RIDERS}
     rows = np.array([fp_index(fp) for fp in riders])
     share = np.array(list(riders.values()))
-    rest = face_neutral[rows]
+    rest = neutral[rows]
     turned = rotate_about(rest, origin, axis, share * angle)
-    straight = np.zeros_like(rest)
-    straight[:, 1] = -share * drop
-    moved = face_points.copy()
+    straight = -(share * drop)[:, None] * up
     known = np.all(np.isfinite(rest), axis=1)
     moved[rows[known]] += (turned - rest - straight)[known]
-    return moved @ axes
+    return moved
 
 
 def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:

@@ -8,9 +8,10 @@ to the reference key (so a shape-key stack the face already has is kept and adds
 follow feature points (eyeballs, lower teeth, tongue) are read as their drivers or bones place them, and
 each part a recipe moves gets the same-named key of its own: eyeLook* turn the eyeballs, jawOpen moves the
 lower teeth and the tongue. Where a recipe names a dedicated deformation (arkit.deformations), the points are
-moved by it before the engine deforms the face (jawOpen's 'jaw_hinge', mouthPucker's and mouthFunnel's
-'lips_forward'), and tongueOut's 'tongue_forward' moves the tongue part forward by the tip's thrust, which no
-FAP carries to the tongue body. Afterwards the empties are put back and the face shown as before.
+moved by it before the engine deforms the face (jawOpen's 'jaw_hinge', which turns the lower teeth and the
+tongue about the jaw joints too, and 'whole_lip_push'), and tongueOut's 'tongue_forward' moves the tongue part
+forward by the tip's thrust, which no FAP carries to the tongue body. Afterwards the empties are put back and the
+face shown as before.
 
 Every key made is listed on its mesh (`KEYS_PROP`), so running again replaces exactly them and Remove
 Set-Up takes them (and a Basis key made for them) away; a key of the user's with an ARKit name is never
@@ -23,7 +24,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ..arkit.deformations import deform_points
+from ..arkit.deformations import deform_points, jaw_turn
 from ..arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, load_recipes
 from ..errors import Mpeg4Error
 from ..mpeg4.decode import fap_to_fp
@@ -192,6 +193,19 @@ def _tongue_thrust(face, points: np.ndarray, neutral: np.ndarray) -> Vector:
     return face.matrix_world.to_3x3() @ Vector(extra)
 
 
+def _jaw_turn(face, points: np.ndarray, neutral: np.ndarray) -> Matrix | None:
+    """'jaw_hinge': the mandible's turn about the jaw joints (world), which the lower teeth and the tongue make
+    with it (their drivers follow FPs by translation alone)."""
+    turn = jaw_turn(neutral, points, face_data.face_axes(face))
+    if turn is None:
+        return None
+    origin, axis, angle = turn
+    world = face.matrix_world
+    pivot = world @ Vector(origin)
+    axis = (world.to_3x3() @ Vector(axis)).normalized()
+    return Matrix.Translation(pivot) @ Matrix.Rotation(angle, 4, axis) @ Matrix.Translation(-pivot)
+
+
 def make_keys(context, face) -> list[str]:
     """Make (or make again) the 52 ARKit shape keys on `face` and its following parts; returns report lines."""
     empties = fap_io.require_setup(face)
@@ -232,10 +246,14 @@ def make_keys(context, face) -> list[str]:
                 _pose(empties, points[i])
                 _add_key(face, name, basis + _deformed(face) - rest, made)
                 posed = _part_matrices(parts)
+                deformation = table.deformations.get(name)
+                mandible = _jaw_turn(face, points[i], neutral) if deformation == "jaw_hinge" else None
                 for part, ob in parts.items():
                     change = posed[part]
-                    if part == "tongue" and table.deformations.get(name) == "tongue_forward":
+                    if part == "tongue" and deformation == "tongue_forward":
                         change = Matrix.Translation(_tongue_thrust(face, points[i], neutral)) @ change
+                    elif part in ("lower_teeth", "tongue") and mandible is not None:
+                        change = mandible @ part_rest[part]
                     co = _moved_part(ob, part_rest[part], change, part_basis[part])
                     if co is not None:
                         _add_key(ob, name, co, made)

@@ -136,8 +136,9 @@ def scores(face: evaluate.SampleFace, keys: dict[str, np.ndarray], pairs) -> dic
 
 def summary(face: evaluate.SampleFace, results: dict) -> dict:
     scored = {name: r["score"] for name, r in results.items()}
+    error = sum(s.error_sum for s in scored.values())
     return {
-        "e_pooled": sum(s.error_sum for s in scored.values()) / sum(s.motion_sum for s in scored.values()),
+        "e_pooled": error / sum(s.motion_sum for s in scored.values()),
         "below_1": sum(s.e < 1.0 for s in scored.values()),
         "count": len(scored),
         "regions": evaluate.region_e(scored, face.region),
@@ -145,6 +146,7 @@ def summary(face: evaluate.SampleFace, results: dict) -> dict:
             name: {
                 "sculpt": r["sculpt"],
                 "e": r["score"].e,
+                "error_share": r["score"].error_sum / error,  # of the pooled error
                 "p95_mm": r["score"].p95_mm,
                 "best_weight": r["best_weight"],
                 "e_best": r["e_best"],
@@ -155,11 +157,12 @@ def summary(face: evaluate.SampleFace, results: dict) -> dict:
 
 
 def print_table(report: dict) -> None:
-    print("| ARKit shape(s) | sculpt | E at weight 1 | p95 (mm) | best weight | E at best weight |")
-    print("|---|---|---:|---:|---:|---:|")
+    print("| ARKit shape(s) | sculpt | E at weight 1 | share of error | p95 (mm) | best weight | E at best weight |")
+    print("|---|---|---:|---:|---:|---:|---:|")
     for name, row in report["per_shape"].items():
         print(
-            f"| {name} | {row['sculpt']} | {row['e']:.3f} | {row['p95_mm']:.2f} | {row['best_weight']:.2f} | "
+            f"| {name} | {row['sculpt']} | {row['e']:.3f} | {row['error_share']:.0%} | {row['p95_mm']:.2f} | "
+            f"{row['best_weight']:.2f} | "
             f"{row['e_best']:.3f} |"
         )
     regions = " / ".join(f"{k} {v:.3f}" for k, v in report["regions"].items())

@@ -73,6 +73,14 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
         assert "jawOpen" in ob.data.shape_keys.key_blocks
         drop = _offset(ob, "jawOpen") @ np.array(ob.matrix_world.to_3x3()).T
         assert drop[:, 2].mean() < -0.005
+    # ... turning with the jaw about its joints: the front teeth swing back and down, the back teeth move less
+    teeth = bpy.data.objects["Teeth Lower"]
+    world = np.array(teeth.matrix_world.to_3x3())
+    swing = _offset(teeth, "jawOpen") @ world.T
+    depth = _key(teeth, "Basis") @ world.T
+    front, back = depth[:, 1].argmin(), depth[:, 1].argmax()
+    assert swing[front, 1] > 0.005 and swing[front, 2] < -0.005
+    assert np.linalg.norm(swing[back]) < 0.8 * np.linalg.norm(swing[front])
     tongue = bpy.data.objects["Tongue"]
     forward = _offset(tongue, "tongueOut") @ np.array(tongue.matrix_world.to_3x3()).T
     assert forward[:, 1].mean() < -0.005  # the tongue comes out (-Y is forward)
