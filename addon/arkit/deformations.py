@@ -1,14 +1,17 @@
 """The small dedicated deformations the recipe table names where FAPs cannot say an ARKit shape (no bpy).
 
-Each one takes the feature points where a recipe's FAPs put them and moves some of them further, the way the
-shape moves the face and no FAP does; the face's engine then deforms the skin from these points as it plays
-FAPs. They shape Make ARKit Shape Keys only: a capture turned into a FAP stream, and the round trip FAP ->
-ARKit -> FAP, stay with the recipes' FAP values (a stream carries FAPs, and a face plays a stream as the
-standard says).
+Each one moves the face further than a recipe's FAPs do, the way the shape moves the face and no FAP does:
+most take the feature points where the FAPs put them and move some of them, and the face's engine then
+deforms the skin from these points as it plays FAPs; the jaw's turn moves the skin the engine deformed. They
+shape Make ARKit Shape Keys only: a capture turned into a FAP stream, and the round trip FAP -> ARKit -> FAP,
+stay with the recipes' FAP values (a stream carries FAPs, and a face plays a stream as the standard says).
 
-- `jaw_hinge` (jawOpen): the mandible turns about the jaw joints instead of sliding straight down. open_jaw
-  (FAP 3) is the vertical displacement of the chin 2.1, and the chin drops exactly that far; the turn also
-  draws it back, as the mouth opens on a real jaw (ARKit: "opening of the lower jaw").
+- `jaw_hinge` (jawOpen) moves the skin: the mandible turns about the jaw joints instead of sliding straight
+  down. open_jaw (FAP 3) is the vertical displacement of the chin 2.1, and the chin drops exactly that far;
+  the turn also draws it back, as the mouth opens on a real jaw (ARKit: "opening of the lower jaw"). The
+  engine deforms the face from the straight drop, and each vertex then turns by its own share of the jaw
+  (what the engine's weights gave it of the chin's drop), so the skin between the chin and the hinge swings
+  with the jaw instead of being interpolated straight down between the points.
 - `whole_lip_push` (mouthPucker, mouthFunnel, mouthRoll*, cheekPuff: the lips pursed, everted or rolled in by
   orbicularis oris, or pushed by air): a lip pushed forward (or back) moves as a whole. push_b_lip / push_t_lip
   (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move the inner mid-points
@@ -25,7 +28,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
-from ..mpeg4.decode import JAW_RIDERS
 from ..mpeg4.feature_points import fp_index
 
 # the ear's lower contact points with the face (left, right): the jaw joints' axis (see `hinge_axis`)
@@ -36,7 +38,8 @@ LIP_FOLLOWERS = {
     "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
 }
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
-FP_DEFORMATIONS = ("jaw_hinge", "whole_lip_push")
+FP_DEFORMATIONS = ("whole_lip_push",)
+SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
 
@@ -95,31 +98,39 @@ def jaw_turn(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER
     return origin @ axes, axis @ axes, hinge_angle(face_neutral[chin], origin, axis, drop)
 
 
-def jaw_hinge(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
-    """(84, 3) FP positions (mesh coordinates) with the jaw's straight drop turned about the jaw joints.
+def jaw_hinge(
+    neutral: np.ndarray,
+    points: np.ndarray,
+    rest: np.ndarray,
+    straight: np.ndarray,
+    axes: np.ndarray = BLENDER_FACE_AXES,
+) -> np.ndarray:
+    """(N, 3) points (mesh coordinates) of a face whose jaw open_jaw dropped straight, turned about the jaw joints.
 
-    The chin 2.1 and the points that ride on the mandible (decode.JAW_RIDERS, each by its share: the lip
-    corners half) lose the straight drop open_jaw gave them and turn instead, by the angle that lowers the
-    chin as far as open_jaw did (`jaw_turn`); what other FAPs added to them stays. Without the ear points the
-    drop stays straight.
+    `neutral` / `points`: the 84 FPs at rest and where the recipe's FAPs put them (the chin 2.1 dropped);
+    `rest` / `straight`: any points of the face (its skin's vertices, or the FPs themselves) at rest and as the
+    face's engine moved them from `points`. Each point follows the mandible by its own share of the jaw: how
+    far it dropped against the chin (0..1; on the FPs decode.JAW_RIDERS: the chin, lower lip and teeth all,
+    the lip corners half; on the skin whatever the engine's weights give each vertex). That share of the
+    straight drop is taken back and the point turns instead by that share of the angle that lowers the chin
+    as far as open_jaw did (`jaw_turn`): a vertex riding on the jaw swings about the hinge, perpendicular to
+    its radius, instead of sliding down, and what other FAPs added to it stays. Without the ear points, or
+    without a drop, the points stay as the engine put them.
     """
-    moved = np.array(points, dtype=np.float64)
+    moved = np.array(straight, dtype=np.float64)
     turn = jaw_turn(neutral, points, axes)
     if turn is None:
         return moved
     origin, axis, angle = turn
-    neutral = np.asarray(neutral, dtype=np.float64)
     up = np.asarray(axes, dtype=np.float64)[1]  # the face's up, in mesh coordinates
     chin = fp_index("2.1")
-    drop = (neutral[chin] - moved[chin]) @ up
-    riders = {"2.1": 1.0, **JAW_RIDERS}
-    rows = np.array([fp_index(fp) for fp in riders])
-    share = np.array(list(riders.values()))
-    rest = neutral[rows]
-    turned = rotate_about(rest, origin, axis, share * angle)
-    straight = -(share * drop)[:, None] * up
-    known = np.all(np.isfinite(rest), axis=1)
-    moved[rows[known]] += (turned - rest - straight)[known]
+    drop = (np.asarray(neutral, dtype=np.float64)[chin] - np.asarray(points, dtype=np.float64)[chin]) @ up
+    rest = np.asarray(rest, dtype=np.float64)
+    known = np.all(np.isfinite(rest), axis=1) & np.all(np.isfinite(moved), axis=1)
+    share = np.zeros(len(rest))
+    share[known] = np.clip(((rest[known] - moved[known]) @ up) / drop, 0.0, 1.0)
+    turned = rotate_about(rest[known], origin, axis, share[known] * angle)
+    moved[known] += turned - rest[known] + (share[known] * drop)[:, None] * up
     return moved
 
 
@@ -140,9 +151,7 @@ def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = B
 
 def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axes=BLENDER_FACE_AXES) -> np.ndarray:
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
-    that moves a part rather than feature points)."""
-    if name == "jaw_hinge":
-        return jaw_hinge(neutral, points, axes)
+    that moves the skin or a part rather than feature points)."""
     if name == "whole_lip_push":
         return whole_lip_push(neutral, points, axes)
     return np.array(points, dtype=np.float64)

@@ -17,7 +17,7 @@ import numpy as np
 from ..mpeg4.fap_tables import TableReader
 from ..mpeg4.faps import LEFT_RIGHT_PAIRS, N_FAPS
 from . import ArkitError
-from .deformations import FP_DEFORMATIONS, PART_DEFORMATIONS
+from .deformations import FP_DEFORMATIONS, PART_DEFORMATIONS, SKIN_DEFORMATIONS
 
 DATA = Path(__file__).resolve().with_name("data")
 READ = TableReader(ArkitError)
@@ -37,7 +37,7 @@ ARKIT_NAMES = (
 N_SHAPES = len(ARKIT_NAMES)
 ARKIT_INDEX = MappingProxyType({name: k for k, name in enumerate(ARKIT_NAMES)})
 # dedicated deformations a recipe may name, for what no FAP moves
-DEDICATED_DEFORMATIONS = FP_DEFORMATIONS + PART_DEFORMATIONS
+DEDICATED_DEFORMATIONS = FP_DEFORMATIONS + SKIN_DEFORMATIONS + PART_DEFORMATIONS
 
 # FAPs that a left/right mirror negates besides swapping the pairs: sideways motions of midline points,
 # and the eyeballs' yaw (both eyes share one sign convention)

@@ -8,9 +8,10 @@ to the reference key (so a shape-key stack the face already has is kept and adds
 follow feature points (eyeballs, lower teeth, tongue) are read as their drivers or bones place them, and
 each part a recipe moves gets the same-named key of its own: eyeLook* turn the eyeballs, jawOpen moves the
 lower teeth and the tongue. Where a recipe names a dedicated deformation (arkit.deformations), the points are
-moved by it before the engine deforms the face (jawOpen's 'jaw_hinge', which turns the lower teeth and the
-tongue about the jaw joints too, and 'whole_lip_push'), and tongueOut's 'tongue_forward' moves the tongue part
-forward by the tip's thrust, which no FAP carries to the tongue body. Afterwards the empties are put back and the
+moved by it before the engine deforms the face ('whole_lip_push'); jawOpen's 'jaw_hinge' turns the skin the
+engine deformed about the jaw joints, each vertex by its share of the jaw's drop, and the lower teeth and the
+tongue with it; tongueOut's 'tongue_forward' moves the tongue part forward by the tip's thrust, which no FAP
+carries to the tongue body. Afterwards the empties are put back and the
 face shown as before.
 
 Every key made is listed on its mesh (`KEYS_PROP`), so running again replaces exactly them and Remove
@@ -24,7 +25,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ..arkit.deformations import deform_points, jaw_turn
+from ..arkit.deformations import deform_points, jaw_hinge, jaw_turn
 from ..arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, load_recipes
 from ..errors import Mpeg4Error
 from ..mpeg4.decode import fap_to_fp
@@ -244,9 +245,12 @@ def make_keys(context, face) -> list[str]:
         with progress(context, len(ARKIT_NAMES)) as step:
             for i, name in enumerate(ARKIT_NAMES):
                 _pose(empties, points[i])
-                _add_key(face, name, basis + _deformed(face) - rest, made)
-                posed = _part_matrices(parts)
                 deformation = table.deformations.get(name)
+                shape = _deformed(face)
+                if deformation == "jaw_hinge":  # the skin turns with the jaw, each vertex by its share
+                    shape = jaw_hinge(neutral, points[i], rest, shape, face_data.face_axes(face))
+                _add_key(face, name, basis + shape - rest, made)
+                posed = _part_matrices(parts)
                 mandible = _jaw_turn(face, points[i], neutral) if deformation == "jaw_hinge" else None
                 for part, ob in parts.items():
                     change = posed[part]

@@ -34,8 +34,8 @@ def test_the_chin_turns_about_the_ears_and_drops_as_far_as_open_jaw_says():
     riders = {"2.1": 1.0, **JAW_RIDERS}
     for fp, share in riders.items():
         straight[fp_index(fp), 1] -= share * drop  # open_jaw as decode moves the jaw
-    straight[fp_index("2.3"), 1] += 0.004  # a lip FAP on top of the jaw
-    moved = jaw_hinge(neutral, straight, FACE_FRAME)
+    straight[fp_index("2.3"), 2] += 0.004  # a lip FAP on top of the jaw
+    moved = jaw_hinge(neutral, straight, neutral, straight, FACE_FRAME)  # the FPs: each by its JAW_RIDERS share
     chin = moved[fp_index("2.1")]
     np.testing.assert_allclose(chin, [0.0, -0.1 - drop, -0.05 + 0.1 * np.cos(angle)], atol=1e-12)
     assert chin[2] < 0.1 - 0.06  # drawn back 63 mm as it drops 37
@@ -43,17 +43,46 @@ def test_the_chin_turns_about_the_ears_and_drops_as_far_as_open_jaw_says():
         expected = _turned(neutral[fp_index(fp)], riders[fp] * angle)
         np.testing.assert_allclose(moved[fp_index(fp)], expected, atol=1e-12, err_msg=fp)
     lip = fp_index("2.3")
-    np.testing.assert_allclose(moved[lip], _turned(neutral[lip], angle) + [0.0, 0.004, 0.0], atol=1e-12)
+    np.testing.assert_allclose(moved[lip], _turned(neutral[lip], angle) + [0.0, 0.0, 0.004], atol=1e-12)
     others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in riders}]
     np.testing.assert_array_equal(moved[others], straight[others])  # the upper lip, nose, eyes stay
+
+
+def test_the_skin_between_the_hinge_and_the_chin_turns_about_the_hinge():
+    neutral = _face()
+    drop = 0.02
+    straight = neutral.copy()
+    straight[fp_index("2.1"), 1] -= drop
+    # skin vertices halfway between the hinge and the chin, as an engine moved them: straight down by their
+    # share of the jaw (all of it, half, none), one also pushed sideways by another FAP
+    rest = np.array([[0.0, -0.05, 0.05], [0.01, -0.05, 0.05], [0.0, -0.05, 0.06], [0.0, 0.05, 0.05]])
+    share = np.array([1.0, 1.0, 0.5, 0.0])
+    engine = (
+        rest - (share * drop)[:, None] * [0.0, 1.0, 0.0] + [[0.0, 0.0, 0.0], [0.003, 0.0, 0.0], [0, 0, 0], [0, 0, 0]]
+    )
+    moved = jaw_hinge(neutral, straight, rest, engine, FACE_FRAME)
+    angle = hinge_angle(neutral[fp_index("2.1")], np.zeros(3), np.array([1.0, 0.0, 0.0]), drop)
+    motion = moved - rest
+    radius = rest * [0.0, 1.0, 1.0]  # from the hinge axis (the x axis)
+    for k in range(3):  # turned: as far from the axis as before, moving across the radius, not along it
+        assert np.linalg.norm(motion[k]) > 0.004
+        assert np.isclose(np.linalg.norm(moved[k] * [0.0, 1.0, 1.0]), np.linalg.norm(radius[k]), atol=1e-12)
+        along = motion[k] @ radius[k] / (np.linalg.norm(motion[k]) * np.linalg.norm(radius[k]))
+        assert abs(along) <= np.sin(share[k] * angle / 2) + 1e-9  # a chord's tilt from the tangent, no more
+    np.testing.assert_allclose(moved[0], _turned(rest[0], angle), atol=1e-12)  # all of the jaw's turn
+    np.testing.assert_allclose(moved[2], _turned(rest[2], 0.5 * angle), atol=1e-12)  # half of it
+    np.testing.assert_allclose(moved[1], _turned(rest[1], angle) + [0.003, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_array_equal(moved[3], rest[3])  # off the jaw: stays
+    straight_down = (engine - rest)[0] @ radius[0] / (drop * np.linalg.norm(radius[0]))
+    assert abs(straight_down) > 0.7  # what the engine alone gives: along the radius by cos 45 degrees
 
 
 def test_the_jaw_turn_is_the_same_in_any_mesh_frame():
     neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up, -Y
     straight = neutral.copy()
     straight[fp_index("2.1"), 1] -= 0.02
-    in_face = jaw_hinge(neutral, straight, FACE_FRAME)
-    in_blender = jaw_hinge(neutral @ axes, straight @ axes, axes)
+    in_face = jaw_hinge(neutral, straight, neutral, straight, FACE_FRAME)
+    in_blender = jaw_hinge(neutral @ axes, straight @ axes, neutral @ axes, straight @ axes, axes)
     np.testing.assert_allclose(in_blender, in_face @ axes, atol=1e-12)
 
 
@@ -62,7 +91,7 @@ def test_without_the_ear_points_the_jaw_drops_straight():
     neutral[fp_index("10.4")] = np.nan
     straight = neutral.copy()
     straight[fp_index("2.1"), 1] -= 0.02
-    np.testing.assert_array_equal(jaw_hinge(neutral, straight, FACE_FRAME), straight)
+    np.testing.assert_array_equal(jaw_hinge(neutral, straight, neutral, straight, FACE_FRAME), straight)
 
 
 def test_the_whole_lip_moves_with_its_mid_points_push():
