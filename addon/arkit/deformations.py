@@ -19,6 +19,11 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   orbicularis oris purses and everts the lips all round; ARKit's rolls move a lip "toward the inside of the
   mouth"). The shrugs keep the push at the mid-point: mentalis lifts the lower lip from below its middle, and
   the corners stay.
+- `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
+  lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
+  nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
+  9.3: each side's nostril points (9.1 and the nose's bottom edge 9.5 on the left; 9.2, 9.4 on the right)
+  rise as far as the recipe lifted the upper lip's outer point beside them (8.5, 8.6), no size of their own.
 - `tongue_forward` (tongueOut) moves a part, not feature points: the Blender layer moves the tongue part forward
   by the tip's thrust beyond the tongue body (arkit_keys), which the tongue part follows.
 """
@@ -38,7 +43,10 @@ LIP_FOLLOWERS = {
     "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
 }
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
-FP_DEFORMATIONS = ("whole_lip_push",)
+# each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
+# outer point beside them that the same muscle lifts
+NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
+FP_DEFORMATIONS = ("whole_lip_push", "nostril_lift")
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
@@ -149,9 +157,23 @@ def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = B
     return moved @ axes
 
 
+def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each side's nostril points raised as far as the upper lip's
+    outer point beside them rose (not lowered when it came down)."""
+    up = np.asarray(axes, dtype=np.float64)[1]
+    moved = np.array(points, dtype=np.float64)
+    for lip, nostril in NOSTRILS.items():
+        rise = (moved[fp_index(lip)] - np.asarray(neutral, dtype=np.float64)[fp_index(lip)]) @ up
+        if np.isfinite(rise) and rise > 0.0:
+            moved[[fp_index(fp) for fp in nostril]] += rise * up
+    return moved
+
+
 def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axes=BLENDER_FACE_AXES) -> np.ndarray:
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
     that moves the skin or a part rather than feature points)."""
     if name == "whole_lip_push":
         return whole_lip_push(neutral, points, axes)
+    if name == "nostril_lift":
+        return nostril_lift(neutral, points, axes)
     return np.array(points, dtype=np.float64)

@@ -65,6 +65,9 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     change = np.abs(np.linalg.norm(np.cross(after, axis), axis=1) - np.linalg.norm(np.cross(before, axis), axis=1))
     assert carried.sum() > 100 and change.max() < 0.001  # 0.6 mm of the 22 they move (the engine's slack); 4 mm
     # when only the FPs turned and the skin between them was interpolated
+    # the sneer lifts its own side's nostril with the upper lip beside it (no FAP raises 9.1 / 9.2)
+    sneer = offsets["noseSneerLeft"]
+    assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
     # the pursed lips come forward (-Y) all round, not only at their mid-points 2.2 / 2.3
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):

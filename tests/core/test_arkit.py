@@ -30,6 +30,8 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "mouthRollLower": "whole_lip_push",
         "mouthRollUpper": "whole_lip_push",
         "cheekPuff": "whole_lip_push",
+        "noseSneerLeft": "nostril_lift",
+        "noseSneerRight": "nostril_lift",
         "tongueOut": "tongue_forward",
     }
 

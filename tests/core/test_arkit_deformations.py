@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, whole_lip_push
+from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, nostril_lift, whole_lip_push
 from addon.mpeg4.decode import JAW_RIDERS
 from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
 
@@ -114,8 +114,26 @@ def test_the_whole_lip_moves_with_its_mid_points_push():
     np.testing.assert_array_equal(moved[others], pushed[others])
 
 
+def test_the_nostril_rises_with_the_upper_lip_beside_it():
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    sneer = neutral.copy()
+    sneer[fp_index("8.5"), 1] += 0.003  # the left upper lip rises (lower_t_lip_lm_o < 0)
+    sneer[fp_index("8.6"), 1] -= 0.002  # the right one comes down: its nostril stays
+    sneer[fp_index("9.1"), 0] += 0.001  # stretch_l_nose widens the nostril: that stays too
+    moved = nostril_lift(neutral @ axes, sneer @ axes, axes) @ axes.T
+    for fp in ("9.1", "9.5"):
+        np.testing.assert_allclose(moved[fp_index(fp)], sneer[fp_index(fp)] + [0.0, 0.003, 0.0], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k not in (fp_index("9.1"), fp_index("9.5"))]
+    np.testing.assert_allclose(moved[others], sneer[others], atol=1e-12)
+    np.testing.assert_array_equal(
+        deform_points("nostril_lift", neutral, sneer, FACE_FRAME)[fp_index("9.5")],
+        neutral[fp_index("9.5")] + [0.0, 0.003, 0.0],
+    )
+
+
 def test_a_recipe_without_a_point_deformation_keeps_its_points():
     neutral = _face()
     pushed = neutral + 0.001
     np.testing.assert_array_equal(deform_points(None, neutral, pushed), pushed)
     np.testing.assert_array_equal(deform_points("tongue_forward", neutral, pushed), pushed)
+    np.testing.assert_array_equal(deform_points("jaw_hinge", neutral, pushed), pushed)  # it turns the skin
