@@ -56,7 +56,9 @@ def hinge_axis(face_neutral: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None
 
     Our reading: the mandible's condyles sit in front of the ear where it joins the face low, at the tragus;
     MPEG-4 has no FP on the joint, and the ear's lower contact points 10.3 / 10.4 are the nearest (on the
-    sample head the axis they give passes within 4 mm of the one the sculpted mouth-open unit turns about).
+    sample head the axis they give passes within 4 mm of the line perpendicular to the motions of 2.1 and 2.10 in
+    the sculpted mouth-open unit; a rigid fit of its whole chin turns about a line 28 mm lower, as the condyles
+    glide forward when the jaw opens wide: docs/arkit.md says why that is not adopted).
     """
     left, right = face_neutral[[fp_index(fp) for fp in HINGE_FPS]]
     direction = left - right
