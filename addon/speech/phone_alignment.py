@@ -7,9 +7,11 @@ is pronounced as espeak-ng says it in the transcript (`_espeak_words`: its phone
 phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's
 visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
 by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
-(`MIN_SCORE_PER_FRAME`). Without a transcript, phone recognition: the `allphone` search with the phone
-language model that ships with the model, giving CMU phones. CMU phones are written in lower case
-(`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
+(`MIN_SCORE_PER_FRAME`). The aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved,
+within one frame, to the strongest spectral change (`boundaries.refine_boundaries`). Without a transcript,
+phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
+phones. CMU phones are written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label
+reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -40,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import SpeechError, espeak
+from .boundaries import refine_boundaries
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -79,6 +82,9 @@ ACCURACY = ("STANDARD", "HIGH")
 # right transcript; the other wrong ones pass.
 MIN_SCORE_PER_FRAME = -50.0
 OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
+# The model's phones whose sound starts or stops abruptly (stops, affricates, fricatives, nasals, silence):
+# their boundaries are acoustic events that `boundaries.refine_boundaries` can place finer than a frame.
+ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
 ProgressSteps = Generator[float, None, list[TimedLabel]]
@@ -124,6 +130,12 @@ def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
                 raise SpeechError(f"{source}: espeak-ng phoneme {name!r} is listed twice")
             table[name] = tuple(group["cmu"])
     return table
+
+
+def _abrupt(label: str) -> bool:
+    """Whether a phone (espeak-ng's name or a CMU phone) starts or stops abruptly: `ABRUPT_PHONES`."""
+    name = label.lstrip("',%=!")
+    return name.startswith("_") or not ABRUPT_PHONES.isdisjoint(espeak_to_cmu().get(name, (name,)))
 
 
 def phone_segments(phones: list[TimedLabel], source: str = "the recording") -> list[Segment]:
@@ -447,7 +459,9 @@ def alignment_steps(
         except (AlignmentError, espeak.EspeakMissingError):
             listed = _dictionary_words(decoder, words)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
-    return _join(results, recording.duration)
+    # the aligner's boundaries are whole 10 ms frames: the abrupt ones move to the acoustic event within a frame
+    phones = _join(results, recording.duration)
+    return refine_boundaries(phones, recording.samples, 1.0 / FRAME_RATES["align"], _abrupt)
 
 
 def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
