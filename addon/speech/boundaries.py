@@ -9,6 +9,13 @@ each boundary to the peak of that change no further than one decoder frame away,
 `MIN_PHONE_SECONDS` long. Only boundaries with an abrupt sound on one side (a stop, fricative, nasal or
 silence: the caller says which labels are) are moved: between vowels, glides and liquids the spectrum glides
 and its largest change within a frame is no event ("please": /l/ into /i:/ moved 7 ms the wrong way).
+
+The aligner also hears faint sound as silence: the murmur of an /m/ after a pause (espeak-ng's "..., Mum":
+the first 80 ms of the /m/, 15-22 dB below the loudest frame, aligned as silence; a take that starts on
+"Maybe": 100 ms). `sound_into_silence` gives the sound at the edge of a silence back to the phone next to it:
+a frame is sound when it is `SOUND_MARGIN_DB` above the recording's noise floor (its quietest
+`FLOOR_PERCENTILE` %: pauses and closures) and within `SOUND_RANGE_DB` of its loudest frame (so that the
+floor of digital silence does not make a faint tail sound).
 """
 
 from __future__ import annotations
@@ -25,6 +32,9 @@ WINDOW_SECONDS = 0.010  # short-time spectrum window (Hamming)
 SIDE_SECONDS = 0.010  # spectra averaged on each side of an instant
 N_BANDS = 24  # mel-spaced bands
 MIN_PHONE_SECONDS = 0.010
+FLOOR_PERCENTILE = 10.0
+SOUND_MARGIN_DB = 10.0
+SOUND_RANGE_DB = 50.0
 _FFT = 256
 
 
@@ -50,10 +60,16 @@ def log_band_energies(samples: np.ndarray) -> np.ndarray:
     return np.log(power @ _band_matrix() + 1e-10)
 
 
-def spectral_change(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(times s, change): at each instant between two spectrum frames, the RMS difference (nepers) between the
-    mean log band energies of the SIDE_SECONDS after and before it; 0 where a side does not fit."""
-    energies = log_band_energies(samples)
+def _instants(frames: int) -> np.ndarray:
+    """Times (s) of the instants 0..frames between spectrum frames: instant t lies half-way between the
+    centres of frames t - 1 and t."""
+    return np.arange(frames + 1) * HOP_SECONDS + (WINDOW_SECONDS - HOP_SECONDS) / 2
+
+
+def spectral_change(energies: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(times s, change): at each instant between two frames of `log_band_energies`, the RMS difference
+    (nepers) between the mean log band energies of the SIDE_SECONDS after and before it; 0 where a side does
+    not fit."""
     side = int(round(SIDE_SECONDS / HOP_SECONDS))
     total = np.vstack([np.zeros((1, N_BANDS)), np.cumsum(energies, axis=0)])
     change = np.zeros(len(energies) + 1)
@@ -62,9 +78,14 @@ def spectral_change(samples: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         before = (total[t] - total[t - side]) / side
         after = (total[t + side] - total[t]) / side
         change[t] = np.sqrt(np.mean((after - before) ** 2, axis=1))
-    # instant t lies between frames t - 1 and t: half-way between their centres
-    times = (np.arange(len(change)) * HOP_SECONDS * RATE + WINDOW_SECONDS * RATE / 2 - HOP_SECONDS * RATE / 2) / RATE
-    return times, change
+    return _instants(len(energies)), change
+
+
+def sound_frames(energies: np.ndarray) -> np.ndarray:
+    """(frames,) True where a frame of `log_band_energies` holds sound (see the module docstring)."""
+    level = 10.0 * np.log10(np.exp(energies).sum(axis=1))
+    floor = np.percentile(level, FLOOR_PERCENTILE)
+    return level > max(floor + SOUND_MARGIN_DB, level.max() - SOUND_RANGE_DB)
 
 
 def refine_boundaries(
@@ -75,7 +96,7 @@ def refine_boundaries(
     long; times and order otherwise kept."""
     if len(phones) < 2:
         return list(phones)
-    times, change = spectral_change(samples)
+    times, change = spectral_change(log_band_energies(samples))
     out = list(phones)
     for i in range(1, len(out)):
         boundary = out[i].start
@@ -89,4 +110,31 @@ def refine_boundaries(
         moved = float(times[first + int(np.argmax(change[first:last]))])
         out[i - 1] = out[i - 1]._replace(end=moved)
         out[i] = out[i]._replace(start=moved)
+    return out
+
+
+def sound_into_silence(
+    phones: list[TimedLabel], samples: np.ndarray, silent: Callable[[str], bool]
+) -> list[TimedLabel]:
+    """Each run of sound frames at the edge of a `silent` phone (by label) that touches a phone of speech
+    given to that phone, the silence kept at least MIN_PHONE_SECONDS long."""
+    if len(phones) < 2:
+        return list(phones)
+    energies = log_band_energies(samples)
+    sound, times = sound_frames(energies), _instants(len(energies))
+    out = list(phones)
+    for i in range(1, len(out)):
+        before, after = out[i - 1], out[i]
+        if abs(before.end - after.start) > 1e-9 or silent(before.label) == silent(after.label):
+            continue
+        first = t = int(np.clip(np.searchsorted(times, after.start), 0, len(sound)))
+        if silent(before.label):  # speech after a silence starts where its sound does
+            while t > 0 and sound[t - 1] and times[t - 1] >= before.start + MIN_PHONE_SECONDS:
+                t -= 1
+        else:  # speech before a silence lasts while its sound does
+            while t < len(sound) and sound[t] and times[t + 1] <= after.end - MIN_PHONE_SECONDS:
+                t += 1
+        if t != first:
+            moved = float(times[t])
+            out[i - 1], out[i] = before._replace(end=moved), after._replace(start=moved)
     return out

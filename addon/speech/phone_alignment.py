@@ -8,7 +8,8 @@ phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's na
 visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
 by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
 (`MIN_SCORE_PER_FRAME`). The aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved,
-within one frame, to the strongest spectral change (`boundaries.refine_boundaries`). Without a transcript,
+within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
+gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript,
 phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
 phones. CMU phones are written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label
 reader knows them).
@@ -42,7 +43,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import SpeechError, espeak
-from .boundaries import refine_boundaries
+from .boundaries import refine_boundaries, sound_into_silence
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -459,9 +460,10 @@ def alignment_steps(
         except (AlignmentError, espeak.EspeakMissingError):
             listed = _dictionary_words(decoder, words)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
-    # the aligner's boundaries are whole 10 ms frames: the abrupt ones move to the acoustic event within a frame
+    # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound
     phones = _join(results, recording.duration)
-    return refine_boundaries(phones, recording.samples, 1.0 / FRAME_RATES["align"], _abrupt)
+    phones = refine_boundaries(phones, recording.samples, 1.0 / FRAME_RATES["align"], _abrupt)
+    return sound_into_silence(phones, recording.samples, lambda label: label == "sil")
 
 
 def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:

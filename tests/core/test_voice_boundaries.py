@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from addon.speech import espeak, phone_alignment, recording
-from addon.speech.boundaries import HOP_SECONDS, MIN_PHONE_SECONDS, refine_boundaries, spectral_change
+from addon.speech.boundaries import (
+    HOP_SECONDS,
+    MIN_PHONE_SECONDS,
+    log_band_energies,
+    refine_boundaries,
+    sound_into_silence,
+    spectral_change,
+)
 from addon.speech.recording import RATE
 from addon.speech.segments import TimedLabel
 from tests.markers import needs_espeak
@@ -28,8 +35,21 @@ def every_label(label: str) -> bool:
     return True
 
 
+def is_sil(label: str) -> bool:
+    return label == "sil"
+
+
+def quiet_faint_loud(noise: float = 0.0) -> np.ndarray:
+    """0.2 s of silence, 0.1 s of a faint 200 Hz murmur (-20 dB), 0.2 s of a loud 200 Hz tone; and the same
+    backwards after it."""
+    t = np.arange(int(0.5 * RATE)) / RATE
+    x = np.where(t < 0.2, 0.0, np.where(t < 0.3, 0.03, 0.3)) * np.sin(2 * np.pi * 200 * t)
+    x = np.concatenate([x, x[::-1]])
+    return x + np.random.default_rng(2).normal(0.0, noise, len(x))
+
+
 def test_spectral_change_peaks_at_the_event():
-    times, change = spectral_change(tone_then_noise())
+    times, change = spectral_change(log_band_energies(tone_then_noise()))
     assert times[np.argmax(change)] == pytest.approx(EVENT, abs=HOP_SECONDS)
     assert np.all(np.diff(times) == pytest.approx(HOP_SECONDS))
 
@@ -90,3 +110,29 @@ def test_aligned_abrupt_boundaries_are_nearer_espeaks_times_than_whole_frames():
     assert len(errors) == 20
     assert np.mean(errors) < 0.006
     assert np.count_nonzero(errors <= 0.005) >= 14
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.001])  # digital silence; noise 30 dB under the murmur
+def test_sound_the_aligner_gave_to_a_silence_goes_to_the_phone_next_to_it(noise):
+    x = quiet_faint_loud(noise)
+    phones = [TimedLabel(0.0, 0.27, "sil"), TimedLabel(0.27, 0.73, "m"), TimedLabel(0.73, 1.0, "sil")]
+    first, m, last = sound_into_silence(phones, x, is_sil)
+    # the murmur runs from 0.2 to 0.8 s; a 10 ms window sees it up to half a window early
+    assert m.start == pytest.approx(0.2, abs=0.006) and m.end == pytest.approx(0.8, abs=0.006)
+    assert (first.start, first.end, last.start, last.end) == (0.0, m.start, m.end, 1.0)
+
+
+def test_silences_next_to_silence_and_speech_next_to_speech_stay_and_silences_keep_their_length():
+    x = quiet_faint_loud()
+    speech = [TimedLabel(0.0, 0.27, "a"), TimedLabel(0.27, 0.73, "m"), TimedLabel(0.73, 1.0, "a")]
+    assert sound_into_silence(speech, x, is_sil) == speech
+    silences = [TimedLabel(0.0, 0.27, "sil"), TimedLabel(0.27, 1.0, "sil")]
+    assert sound_into_silence(silences, x, is_sil) == silences
+    # a silence the aligner put inside sound keeps MIN_PHONE_SECONDS
+    t = np.arange(RATE) / RATE
+    tone = np.where(t < 0.5, 0.0, 0.3 * np.sin(2 * np.pi * 200 * t))
+    phones = [TimedLabel(0.0, 0.45, "sil"), TimedLabel(0.45, 0.55, "m"), TimedLabel(0.55, 0.6, "sil")]
+    out = sound_into_silence([*phones, TimedLabel(0.6, 1.0, "a")], tone, is_sil)
+    assert out[1].start == 0.45  # silence is not taken from a phone
+    assert out[2].end - out[2].start == pytest.approx(MIN_PHONE_SECONDS, abs=HOP_SECONDS)
+    assert all(a.end == b.start for a, b in zip(out, out[1:], strict=False))
