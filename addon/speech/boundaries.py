@@ -38,11 +38,24 @@ SOUND_RANGE_DB = 50.0
 _FFT = 256
 
 
+def _mel(hz):
+    return 2595.0 * np.log10(1.0 + np.asarray(hz) / 700.0)
+
+
+def _band_edges_mel() -> np.ndarray:
+    return np.linspace(_mel(RATE / _FFT), _mel(RATE / 2), N_BANDS + 1)
+
+
+def band_centres_hz() -> np.ndarray:
+    """(N_BANDS,) the centre frequency of each band of `log_band_energies`."""
+    edges = _band_edges_mel()
+    return 700.0 * (10.0 ** ((edges[:-1] + edges[1:]) / 2 / 2595.0) - 1.0)
+
+
 def _band_matrix() -> np.ndarray:
     """(FFT bins, N_BANDS) 0/1: which mel-spaced band each bin above 0 Hz falls in."""
-    mel = 2595.0 * np.log10(1.0 + np.fft.rfftfreq(_FFT, 1.0 / RATE) / 700.0)
-    edges = np.linspace(mel[1], mel[-1], N_BANDS + 1)
-    band = np.clip(np.searchsorted(edges, mel, side="right") - 1, 0, N_BANDS - 1)
+    mel = _mel(np.fft.rfftfreq(_FFT, 1.0 / RATE))
+    band = np.clip(np.searchsorted(_band_edges_mel(), mel, side="right") - 1, 0, N_BANDS - 1)
     matrix = np.zeros((len(mel), N_BANDS))
     matrix[np.arange(1, len(mel)), band[1:]] = 1.0
     return matrix

@@ -11,8 +11,9 @@ by espeak-ng) and the phones keep their CMU names. A transcript whose alignment 
 within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
 gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript,
 phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
-phones. CMU phones are written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label
-reader knows them).
+phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for the /m/ it is
+(`nasal_murmur.murmurs_as_m`). CMU phones are written in lower case (`data/phones_cmu.json` maps them to
+visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -44,6 +45,7 @@ import numpy as np
 
 from . import SpeechError, espeak
 from .boundaries import refine_boundaries, sound_into_silence
+from .nasal_murmur import murmurs_as_m
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -522,7 +524,7 @@ def recognition_steps(
             done += len(pcm) / 2
             entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
             results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))
-    return _join(results, recording.duration)
+    return murmurs_as_m(_join(results, recording.duration), recording.samples)
 
 
 def run(steps: ProgressSteps, progress: Callable[[float], None] | None = None) -> list[TimedLabel]:
