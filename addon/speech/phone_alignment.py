@@ -11,9 +11,9 @@ by espeak-ng) and the phones keep their CMU names. A transcript whose alignment 
 within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
 gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript,
 phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
-phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for the /m/ it is
-(`nasal_murmur.murmurs_as_m`). CMU phones are written in lower case (`data/phones_cmu.json` maps them to
-visemes, and the timed-label reader knows them).
+phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, and a /k/, /t/ or
+/th/ with a labial burst for a /p/ (`bilabials.bilabials_from_acoustics`). CMU phones are written in lower
+case (`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -44,8 +44,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import SpeechError, espeak
+from .bilabials import bilabials_from_acoustics
 from .boundaries import refine_boundaries, sound_into_silence
-from .nasal_murmur import murmurs_as_m
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -524,7 +524,7 @@ def recognition_steps(
             done += len(pcm) / 2
             entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
             results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))
-    return murmurs_as_m(_join(results, recording.duration), recording.samples)
+    return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
 
 
 def run(steps: ProgressSteps, progress: Callable[[float], None] | None = None) -> list[TimedLabel]:
