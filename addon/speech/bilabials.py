@@ -1,8 +1,9 @@
-"""Recognised phones whose sound shows closed lips: an /m/'s murmur or a /p/'s burst (no bpy).
+"""Recognised phones whose sound shows closed lips: an /m/'s murmur, a /p/'s burst, a closure's silence (no bpy).
 
 Without a transcript the phone recogniser, trained on human speech, hears espeak-ng's /m/ as /w/, /uw/, /uh/
-or /l/ and its /p/ as /k/, /t/ or /th/ (docs/voice.md), and the lips of the face stay open. Two acoustic
-cues of a bilabial, from how the sound is made, correct such phones (`bilabials_from_acoustics`):
+or /l/, its /p/ as /k/, /t/ or /th/ and, in noise, its /p/ and /b/ as /f/ and /v/ (docs/voice.md), and the
+lips of the face stay open. Three acoustic cues of a bilabial, from how the sound is made, correct such
+phones (`bilabials_from_acoustics`):
 
 - **Murmur.** /w/, /uw/, /uh/ and /l/ are sonorants with a low first and second formant, as a nasal murmur
   has. In a murmur the mouth is closed: the sound leaves through the nose, whose long, damped tract passes
@@ -21,13 +22,24 @@ cues of a bilabial, from how the sound is made, correct such phones (`bilabials_
   spectrum (least-squares slope of its band levels from `BURST_HZ`, in dB per octave, below zero) is taken
   for a /p/. Measured on the clean dev takes (10th-90th percentile, espeak-ng's reported burst times):
   /p/ -4.4 to -1.5 dB per octave, /t/ 0.1 to 2.1, /k/ -1.2 to 2.7.
+- **Silence.** In noise the silence of a closure is filled with the noise, which the recogniser hears as
+  frication at the place it hears: at the lips, /f/ or /v/. A real /f/ or /v/ is frication above the
+  noise; a recognised /f/ or /v/ most of whose frames hold no sound (`boundaries.sound_frames`: within 10 dB
+  of the noise floor) is the closure of a /p/ or /b/.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .boundaries import FLOOR_PERCENTILE, HOP_SECONDS, WINDOW_SECONDS, band_centres_hz, log_band_energies
+from .boundaries import (
+    FLOOR_PERCENTILE,
+    HOP_SECONDS,
+    WINDOW_SECONDS,
+    band_centres_hz,
+    log_band_energies,
+    sound_frames,
+)
 from .segments import TimedLabel
 
 MURMUR_HEARD_AS = frozenset({"w", "uw", "uh", "l"})  # CMU phones, as the recogniser writes them
@@ -37,15 +49,18 @@ MAX_HIGH_TO_LOW_DB = -18.0
 BURST_HEARD_AS = frozenset({"k", "t", "th"})
 BURST_HZ = (500.0, 7000.0)
 BURST_SECONDS = 0.010
+SILENT_LABIAL = {"f": "p", "v": "b"}  # a labiodental heard in a closure's silence -> the bilabial stop
 _DB = 10.0 / np.log(10.0)  # log_band_energies' nepers of power -> dB
 
 
 def bilabials_from_acoustics(phones: list[TimedLabel], samples: np.ndarray) -> list[TimedLabel]:
-    """`phones` with each murmur heard as a sonorant renamed "m" and each labial burst heard as another
-    voiceless stop renamed "p" (see the module docstring); times kept."""
-    if not any(p.label in MURMUR_HEARD_AS | BURST_HEARD_AS for p in phones):
+    """`phones` with each murmur heard as a sonorant renamed "m", each labial burst heard as another
+    voiceless stop renamed "p", and each silent /f/ or /v/ renamed "p" or "b" (see the module docstring);
+    times kept."""
+    if not any(p.label in MURMUR_HEARD_AS | BURST_HEARD_AS | SILENT_LABIAL.keys() for p in phones):
         return list(phones)
-    levels = log_band_energies(samples) * _DB  # (frames, bands) dB
+    energies = log_band_energies(samples)
+    levels, sound = energies * _DB, sound_frames(energies)  # (frames, bands) dB; (frames,)
     centres = band_centres_hz()
     frame_centres = np.arange(len(levels)) * HOP_SECONDS + WINDOW_SECONDS / 2
     low, high = (_above_floor(levels, centres, hz) for hz in (LOW_HZ, HIGH_HZ))
@@ -56,6 +71,8 @@ def bilabials_from_acoustics(phones: list[TimedLabel], samples: np.ndarray) -> l
             phone = phone._replace(label="m")
         elif phone.label in BURST_HEARD_AS and _labial_burst(levels, centres, frame_centres, phone):
             phone = phone._replace(label="p")
+        elif phone.label in SILENT_LABIAL and inside.any() and sound[inside].mean() < 0.5:
+            phone = phone._replace(label=SILENT_LABIAL[phone.label])
         out.append(phone)
     return out
 
