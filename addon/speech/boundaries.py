@@ -35,6 +35,7 @@ MIN_PHONE_SECONDS = 0.010
 FLOOR_PERCENTILE = 10.0
 SOUND_MARGIN_DB = 10.0
 SOUND_RANGE_DB = 50.0
+BLOCK_FRAMES = 4096  # spectra computed at a time (about 10 s of sound)
 _FFT = 256
 
 
@@ -63,14 +64,20 @@ def _band_matrix() -> np.ndarray:
 
 def log_band_energies(samples: np.ndarray) -> np.ndarray:
     """(frames, N_BANDS) log energies of Hamming-windowed spectra every HOP_SECONDS; frame k covers samples
-    [hop k, hop k + window)."""
+    [hop k, hop k + window). Computed BLOCK_FRAMES at a time, so that a long take needs little memory beyond
+    the result (N_BANDS floats a frame)."""
     window, hop = int(WINDOW_SECONDS * RATE), int(HOP_SECONDS * RATE)
     frames = 1 + max(0, (len(samples) - window) // hop)
     x = np.zeros(max(len(samples), window), np.float64)
     x[: len(samples)] = samples
-    index = np.arange(window)[None, :] + hop * np.arange(frames)[:, None]
-    power = np.abs(np.fft.rfft(x[index] * np.hamming(window), _FFT)) ** 2
-    return np.log(power @ _band_matrix() + 1e-10)
+    taper, bands = np.hamming(window), _band_matrix()
+    out = np.empty((frames, N_BANDS))
+    for first in range(0, frames, BLOCK_FRAMES):
+        count = min(BLOCK_FRAMES, frames - first)
+        index = np.arange(window)[None, :] + hop * np.arange(first, first + count)[:, None]
+        power = np.abs(np.fft.rfft(x[index] * taper, _FFT)) ** 2
+        out[first : first + count] = np.log(power @ bands + 1e-10)
+    return out
 
 
 def _instants(frames: int) -> np.ndarray:

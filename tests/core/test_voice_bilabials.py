@@ -122,7 +122,8 @@ def test_recognition_closes_the_lips_on_more_bilabials():
             truth_runs, found_runs = truth_runs + len(truth), found_runs + len(found)
             hits += sum(meets(run, found) for run in truth)
             true_found += sum(meets(run, truth) for run in found)
-    # measured: 30 of 36 closures found, 34 of 38 found ones true (without these cues: 23 of 36, 24 of 28)
+    # espeak-ng's noise sources (aspiration, frication) are random, so each synthesis differs a little; in 4
+    # runs: 27-30 of 36 closures found, 83-89 % of the found ones true (without these cues: 23-25 of 36)
     assert truth_runs == 36
-    assert hits >= 28
+    assert hits >= 26
     assert true_found >= 0.8 * found_runs
