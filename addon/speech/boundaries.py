@@ -68,8 +68,7 @@ def log_band_energies(samples: np.ndarray) -> np.ndarray:
     the result (N_BANDS floats a frame)."""
     window, hop = int(WINDOW_SECONDS * RATE), int(HOP_SECONDS * RATE)
     frames = 1 + max(0, (len(samples) - window) // hop)
-    x = np.zeros(max(len(samples), window), np.float64)
-    x[: len(samples)] = samples
+    x = samples if len(samples) >= window else np.pad(samples, (0, window - len(samples)))
     taper, bands = np.hamming(window), _band_matrix()
     out = np.empty((frames, N_BANDS))
     for first in range(0, frames, BLOCK_FRAMES):
@@ -109,14 +108,14 @@ def sound_frames(energies: np.ndarray) -> np.ndarray:
 
 
 def refine_boundaries(
-    phones: list[TimedLabel], samples: np.ndarray, radius: float, abrupt: Callable[[str], bool]
+    phones: list[TimedLabel], energies: np.ndarray, radius: float, abrupt: Callable[[str], bool]
 ) -> list[TimedLabel]:
     """Each boundary between two touching phones, one of them `abrupt` (by label), moved to the strongest
     spectral change within `radius` s of it (one decoder frame), each phone kept at least MIN_PHONE_SECONDS
-    long; times and order otherwise kept."""
+    long; times and order otherwise kept. `energies`: the recording's `log_band_energies`."""
     if len(phones) < 2:
         return list(phones)
-    times, change = spectral_change(log_band_energies(samples))
+    times, change = spectral_change(energies)
     out = list(phones)
     for i in range(1, len(out)):
         boundary = out[i].start
@@ -134,13 +133,13 @@ def refine_boundaries(
 
 
 def sound_into_silence(
-    phones: list[TimedLabel], samples: np.ndarray, silent: Callable[[str], bool]
+    phones: list[TimedLabel], energies: np.ndarray, silent: Callable[[str], bool]
 ) -> list[TimedLabel]:
     """Each run of sound frames at the edge of a `silent` phone (by label) that touches a phone of speech
-    given to that phone, the silence kept at least MIN_PHONE_SECONDS long."""
+    given to that phone, the silence kept at least MIN_PHONE_SECONDS long. `energies`: the recording's
+    `log_band_energies`."""
     if len(phones) < 2:
         return list(phones)
-    energies = log_band_energies(samples)
     sound, times = sound_frames(energies), _instants(len(energies))
     out = list(phones)
     for i in range(1, len(out)):

@@ -46,7 +46,7 @@ import numpy as np
 
 from . import SpeechError, espeak
 from .bilabials import bilabials_from_acoustics
-from .boundaries import refine_boundaries, sound_into_silence
+from .boundaries import log_band_energies, refine_boundaries, sound_into_silence
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -464,9 +464,9 @@ def alignment_steps(
             listed = _dictionary_words(decoder, words)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
     # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound
-    phones = _join(results, recording.duration)
-    phones = refine_boundaries(phones, recording.samples, 1.0 / FRAME_RATES["align"], _abrupt)
-    return sound_into_silence(phones, recording.samples, lambda label: label == "sil")
+    energies = log_band_energies(recording.samples)
+    phones = refine_boundaries(_join(results, recording.duration), energies, 1.0 / FRAME_RATES["align"], _abrupt)
+    return sound_into_silence(phones, energies, lambda label: label == "sil")
 
 
 def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
