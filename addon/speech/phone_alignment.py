@@ -7,9 +7,14 @@ is pronounced as espeak-ng says it in the transcript (`_espeak_words`: its phone
 phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's
 visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
 by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
-(`MIN_SCORE_PER_FRAME`). Without a transcript, phone recognition: the `allphone` search with the phone
-language model that ships with the model, giving CMU phones. CMU phones are written in lower case
-(`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
+(`MIN_SCORE_PER_FRAME`). The aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved,
+within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
+gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript,
+phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
+phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, and a /k/, /t/ or
+/th/ with a labial burst for a /p/, and an /f/ or /v/ that is only noise for a /p/ or /b/ closure
+(`bilabials.bilabials_from_acoustics`). CMU phones are written in lower case (`data/phones_cmu.json` maps them
+to visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -40,6 +45,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import SpeechError, espeak
+from .bilabials import bilabials_from_acoustics
+from .boundaries import log_band_energies, refine_boundaries, sound_into_silence
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -79,6 +86,9 @@ ACCURACY = ("STANDARD", "HIGH")
 # right transcript; the other wrong ones pass.
 MIN_SCORE_PER_FRAME = -50.0
 OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
+# The model's phones whose sound starts or stops abruptly (stops, affricates, fricatives, nasals, silence):
+# their boundaries are acoustic events that `boundaries.refine_boundaries` can place finer than a frame.
+ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
 ProgressSteps = Generator[float, None, list[TimedLabel]]
@@ -124,6 +134,12 @@ def espeak_to_cmu() -> dict[str, tuple[str, ...]]:
                 raise SpeechError(f"{source}: espeak-ng phoneme {name!r} is listed twice")
             table[name] = tuple(group["cmu"])
     return table
+
+
+def _abrupt(label: str) -> bool:
+    """Whether a phone (espeak-ng's name or a CMU phone) starts or stops abruptly: `ABRUPT_PHONES`."""
+    name = label.lstrip("',%=!")
+    return name.startswith("_") or not ABRUPT_PHONES.isdisjoint(espeak_to_cmu().get(name, (name,)))
 
 
 def phone_segments(phones: list[TimedLabel], source: str = "the recording") -> list[Segment]:
@@ -447,7 +463,10 @@ def alignment_steps(
         except (AlignmentError, espeak.EspeakMissingError):
             listed = _dictionary_words(decoder, words)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
-    return _join(results, recording.duration)
+    # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound
+    energies = log_band_energies(recording.samples)
+    phones = refine_boundaries(_join(results, recording.duration), energies, 1.0 / FRAME_RATES["align"], _abrupt)
+    return sound_into_silence(phones, energies, lambda label: label == "sil")
 
 
 def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
@@ -506,7 +525,7 @@ def recognition_steps(
             done += len(pcm) / 2
             entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
             results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))
-    return _join(results, recording.duration)
+    return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
 
 
 def run(steps: ProgressSteps, progress: Callable[[float], None] | None = None) -> list[TimedLabel]:
