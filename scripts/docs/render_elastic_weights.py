@@ -44,11 +44,13 @@ def render_row(face, method, shots, motion: dict, camera, label: str, tmp: Path)
     times the shot's scale, coloured by motion or plain with the faces turned over red (counts and E printed)."""
     scene, head = bpy.context.scene, face.head
     tiles = []
+    convert.render_frame(scene, scene.frame_current, tmp / "tile.png")  # the first render shows the mesh as loaded
     for name, scale, coloured, target, yaw, pitch, ortho in shots:
         offsets, fp_offsets = motion[name]
         sculpted = face.rest + scale * offsets
         shown = sculpted if method is None else method.evaluate(face.control_rest + scale * fp_offsets)
         head.data.attributes["position"].data.foreach_set("vector", shown.astype(np.float32).ravel())
+        head.data.update()
         if coloured:
             largest = np.linalg.norm(sculpted - face.rest, axis=1).max()
             paint(head.data, motion_colours(np.linalg.norm(shown - face.rest, axis=1), largest))
