@@ -135,6 +135,13 @@ def _expand(bones) -> tuple[Bone, ...]:
 
 BONES: tuple[Bone, ...] = _expand(_LEFT_AND_MID)
 EYE_BONES = ("eye_l", "eye_r")  # the head sits at the eyeball centre behind the pupil (head FP)
+# the lip bones along each lip, corner to corner: their heads trace the inner lip contour (FPs 2.x), their
+# tails the outer one (8.x); the mouth's lining behind the lower line follows the jaw (`skinning`)
+LIP_LINES = (
+    ("lip_corner_r", "upper_lip_r", "upper_lip", "upper_lip_l", "lip_corner_l"),
+    ("lip_corner_r", "lower_lip_r", "lower_lip", "lower_lip_l", "lip_corner_l"),
+)
+JAW = "jaw"
 
 
 def check_bone_table(bones: tuple[Bone, ...] = BONES) -> None:

@@ -13,7 +13,8 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    jumps by CUT_JUMP or more, is removed, so distances along the skin go around the lip and eye corners,
    never across a gap. Beyond the corners the masks fade over a few edges; an edge there joins the two
    sides too, but cutting it would extend the gap onto the cheek, where the weights would then drop from
-   1 to 0 along one edge and tear the skin at the mouth corners;
+   1 to 0 along one edge and tear the skin at the mouth corners. The mouth is cut only along the lips'
+   edge (`edge_of_lips`): inside the mouth the masks' boundary wanders over the lining, one piece of skin;
 2. per skinned bone, the geodesic distance g (Dijkstra on the remaining edge graph, edge length =
    Euclidean) from the vertices nearest its segment (head-tail, or its `skin` polyline; within SEED_BAND
    of the nearest, each starting at its own distance to the segment, none that the bone's side mask
@@ -30,7 +31,12 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
 4. the root (head) bone takes what the face bones leave, max(0, 1 − Σ), and every row is divided by its
    sum (eq. 2), so a vertex far from every face bone moves rigidly with the head. (Squaring what is left
    made the head's share rise steeply where the face bones fade, e.g. between the lower lip and the chin,
-   which then stayed behind the jaw in a seam.)
+   which then stayed behind the jaw in a seam.) Except on the mouth's lining (`mouth_lining`: the pocket
+   the lips' edge separates from the outer skin), which the gums hold: behind the lower lip the jaw takes
+   what the lip bones leave, behind the upper lip the head (`lining_jaw_share`, from the geodesic distances
+   to the two inner lip contours); the jaw's own weight from the jaw line does not reach in there. Held by
+   the head, the lining behind the lower lip stayed behind as the lip dropped with the jaw, and an open jaw
+   turned it over (14 faces at 20 mm on the sample head).
 """
 
 from __future__ import annotations
@@ -41,12 +47,13 @@ import numpy as np
 
 from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from .errors import ScipyMissingError, SkinWeightError
-from .skeleton import Skeleton
+from .skeleton import JAW, LIP_LINES, Skeleton
 
 RADIUS_PER_SCALE = 0.25  # falloff radius per skeleton scale (outer eye corner distance), bone reach 1
 SEED_BAND = 0.02  # seeds: vertices within this fraction of the scale of the nearest to the segment
 CUT_JUMP = 0.5  # an edge is cut where a side mask jumps by at least this much along it (a gap, not a gradient)
 WEIGHT_TOLERANCE = 1e-6
+LINING_SHARPNESS = 4  # the lining's jaw share u^p / (u^p + l^p): held by the gums, stretched where the sides meet
 SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
 
 
@@ -61,19 +68,116 @@ def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) 
     return np.linalg.norm(rel - t[..., None] * axis[None], axis=2)
 
 
-def cut_openings(edges: np.ndarray, masks: Mapping[str, np.ndarray]) -> np.ndarray:
-    """The edges that do not join the two sides of an opening (step 1)."""
+def polyline_seeds(
+    vertices: np.ndarray, segments: np.ndarray, band: float, side_mask: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The seed vertices of a geodesic distance from (S, 2, 3) segments and each one's starting cost: the
+    vertices within `band` of the nearest to the segments, at their distance to them, none that the side
+    mask shuts out (< 0.5; a side mask shutting out every vertex leaves no seed)."""
+    d = segment_distances(vertices, segments[:, 0], segments[:, 1]).min(axis=1)
+    if side_mask is not None:
+        d[side_mask < 0.5] = np.inf
+    seed = np.flatnonzero(d <= d.min() + band) if np.isfinite(d.min()) else np.zeros(0, np.intp)
+    return seed, d[seed]
+
+
+def line_seeds(
+    vertices: np.ndarray, segments: np.ndarray, spacing: float, side_mask: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray]:
+    """The seed vertices of a geodesic distance from a line drawn on the skin ((S, 2, 3) segments): the
+    vertex nearest each point along it (every `spacing`), none that the side mask shuts out (< 0.5),
+    each at its distance to the line."""
+    allowed = np.flatnonzero(side_mask >= 0.5) if side_mask is not None else np.arange(len(vertices))
+    if not len(allowed):
+        return np.zeros(0, np.intp), np.zeros(0)
+    length = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+    samples = np.concatenate(
+        [a + np.linspace(0.0, 1.0, max(2, int(np.ceil(n / spacing)) + 1))[:, None] * (b - a)
+         for (a, b), n in zip(segments, length, strict=True)]
+    )  # fmt: skip
+    near = allowed[np.argmin(np.linalg.norm(vertices[allowed][:, None] - samples[None], axis=2), axis=0)]
+    seed = np.unique(near)
+    return seed, segment_distances(vertices[seed], segments[:, 0], segments[:, 1]).min(axis=1)
+
+
+def lip_bones(skeleton: Skeleton) -> list[int]:
+    """Rows of the bones along the lips (`LIP_LINES`), each once."""
+    return [skeleton.index(name) for name in dict.fromkeys(name for line in LIP_LINES for name in line)]
+
+
+def inner_lip_lines(skeleton: Skeleton) -> list[tuple[np.ndarray, str]]:
+    """(segments, side) of the upper and the lower inner lip contour: the lip bones' heads (FPs 2.x), corner
+    to corner (`LIP_LINES`), each line on its side of the mouth."""
+    lines = []
+    for names, side in zip(LIP_LINES, ("upper_lip", "lower_lip"), strict=True):
+        points = skeleton.heads[[skeleton.index(name) for name in names]]
+        lines.append((np.stack([points[:-1], points[1:]], axis=1), side))
+    return lines
+
+
+def edge_of_lips(vertices: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(N,) True within half a lip width (inner to outer contour, the lip bones' mean length) of the inner
+    lip contour: where the lips meet, between the outer skin and the mouth's lining."""
+    rows = lip_bones(skeleton)
+    lip_width = float(np.linalg.norm(skeleton.tails[rows] - skeleton.heads[rows], axis=1).mean())
+    segments = np.concatenate([segments for segments, _side in inner_lip_lines(skeleton)])
+    return segment_distances(vertices, segments[:, 0], segments[:, 1]).min(axis=1) < lip_width / 2
+
+
+def mouth_lining(vertices: np.ndarray, edges: np.ndarray, skeleton: Skeleton) -> np.ndarray:
+    """(N,) 1 on the mouth's lining, 0 on the outer skin, 1/2 where the lips meet (`edge_of_lips`): with those
+    vertices taken out, what the skin's edges no longer join to the outer lip contour (its FPs' nearest
+    vertices, the lip bones' tails) is the lining. A mesh without a mouth pocket has none."""
+    rows = lip_bones(skeleton)
+    meeting = edge_of_lips(vertices, skeleton)
+    joined = edges[~meeting[edges[:, 0]] & ~meeting[edges[:, 1]]]
+    outer = np.argmin(np.linalg.norm(vertices[:, None] - skeleton.tails[rows][None], axis=2), axis=0)
+    component = connected_parts(len(vertices), joined)
+    lining = np.where(np.isin(component, component[outer[~meeting[outer]]]), 0.0, 1.0)
+    lining[meeting] = 0.5
+    return lining
+
+
+def lining_jaw_share(lining: np.ndarray, upper: np.ndarray, lower: np.ndarray, jaw_radius: float) -> np.ndarray:
+    """(N,) the share of a vertex's leftover weight that goes to the jaw rather than the head (step 4), from
+    its geodesic distances to the upper and the lower inner lip contour (around the mouth corners): on the
+    mouth's lining (`mouth_lining`) the part behind the lower lip follows the jaw, the part behind the upper
+    lip the skull, u^p / (u^p + l^p) with p = LINING_SHARPNESS (the gums hold each side; the two meet at
+    the back of the mouth and in its corners), and the jaw's share falls off from the lower lip with the
+    jaw's own radius, as its weight does on the outer skin from the jaw line."""
+    near_lower = falloff(lower, jaw_radius)
+    upper, lower = upper**LINING_SHARPNESS, lower**LINING_SHARPNESS
+    total = upper + lower
+    lower_side = np.divide(upper, total, out=np.full_like(total, 0.5), where=np.isfinite(total) & (total > 0))
+    lower_side = np.where(np.isinf(upper) & np.isfinite(lower), 1.0, np.where(np.isinf(lower), 0.0, lower_side))
+    return lining * lower_side * near_lower
+
+
+def falloff(distance: np.ndarray, radius: np.ndarray | float) -> np.ndarray:
+    """(1 − (g / r)²)² inside the radius, 0 beyond (and where unreachable, g = inf)."""
+    return (1.0 - np.clip(distance / radius, 0.0, 1.0) ** 2) ** 2
+
+
+def cut_openings(
+    edges: np.ndarray, masks: Mapping[str, np.ndarray], near: Mapping[str, np.ndarray] | None = None
+) -> np.ndarray:
+    """The edges that do not join the two sides of an opening (step 1); `near` (opening's upper mask name ->
+    (N,) bool) keeps an opening's cut to the edges touching those vertices (the lips' edge: inside the
+    mouth the masks' boundary wanders over the lining, which is one piece of skin)."""
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     keep = np.ones(len(edges), bool)
+    a, b = edges[:, 0], edges[:, 1]
     for upper, lower in (("upper_lip", "lower_lip"), ("upper_eyelid", "lower_eyelid")):
         if upper not in masks or lower not in masks:
             continue
         # the lower side is what the upper mask shuts out, and conversely
         mask = np.asarray(masks[upper])
         low, up = mask < 0.5, np.asarray(masks[lower]) < 0.5
-        a, b = edges[:, 0], edges[:, 1]
         jump = np.abs(mask[a] - mask[b]) >= CUT_JUMP
-        keep &= ~(((up[a] & low[b]) | (low[a] & up[b])) & jump)
+        cut = ((up[a] & low[b]) | (low[a] & up[b])) & jump
+        if near is not None and upper in near:
+            cut &= near[upper][a] | near[upper][b]
+        keep &= ~cut
     return edges[keep]
 
 
@@ -82,14 +186,21 @@ def _scipy_graph():
     scipy; the extension's scipy wheel may be missing, and the add-on must still load), or ScipyMissingError."""
     try:
         from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import dijkstra
+        from scipy.sparse.csgraph import connected_components, dijkstra
     except ImportError as error:
         raise ScipyMissingError(
             f"Elastic Bones' skin weights need scipy (sparse graphs), which Blender does not ship and which is not "
             f"installed ({error}); install the MPEG-4 Face extension from its zip, which brings scipy's wheel for "
             "Windows x64, macOS and Linux x64, or install scipy into Blender's Python"
         ) from None
-    return coo_matrix, dijkstra
+    return coo_matrix, dijkstra, connected_components
+
+
+def connected_parts(n: int, edges: np.ndarray) -> np.ndarray:
+    """(n,) a label per vertex, equal for vertices joined by a path of `edges`."""
+    coo_matrix, _dijkstra, connected_components = _scipy_graph()
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
 
 
 def geodesic_distances(
@@ -97,7 +208,7 @@ def geodesic_distances(
 ) -> np.ndarray:
     """(N, S) shortest edge-path distance from each seed set (a virtual source joined to its seed
     vertices by edges of the given costs) to every vertex; inf where unreachable."""
-    coo_matrix, dijkstra = _scipy_graph()
+    coo_matrix, dijkstra, _connected_components = _scipy_graph()
     n = len(vertices)
     length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     rows = [edges[:, 0], edges[:, 1]]
@@ -141,33 +252,34 @@ def skin_weights(
     bones = skeleton.bones
     skinned = [b for b, bone in enumerate(bones) if bone.skinned and bone.kind != "root"]
     band = SEED_BAND * skeleton.scale
-    seeds, costs = [], []
-    for b in skinned:
-        segments = skeleton.skin_segments(b)
-        d = segment_distances(vertices, segments[:, 0], segments[:, 1]).min(axis=1)
-        side = bones[b].side
-        if side is not None and side in masks:
-            d[masks[side] < 0.5] = np.inf
-        # a bone whose side mask shuts out every vertex has no seed and no weight
-        seed = np.flatnonzero(d <= d.min() + band) if np.isfinite(d.min()) else np.zeros(0, np.intp)
-        seeds.append(seed)
-        costs.append(d[seed])
-    kept = cut_openings(edges, masks)
-    geodesic = geodesic_distances(vertices, kept, seeds, costs)
+    starts = [polyline_seeds(vertices, skeleton.skin_segments(b), band, masks.get(bones[b].side)) for b in skinned]
+    mouth = "upper_lip" in masks and "lower_lip" in masks and {JAW, *LIP_LINES[0], *LIP_LINES[1]} <= set(skeleton.rows)
+    if mouth:
+        starts += [line_seeds(vertices, segments, band, masks[side]) for segments, side in inner_lip_lines(skeleton)]
+    seeds, costs = zip(*starts, strict=True)
+    kept = cut_openings(edges, masks, {"upper_lip": edge_of_lips(vertices, skeleton)} if mouth else None)
+    distances = geodesic_distances(vertices, kept, list(seeds), list(costs))
+    geodesic = distances[:, : len(skinned)]
     radii = np.array([bones[b].reach * radius_per_scale * skeleton.scale for b in skinned])
     mean_edge = float(np.linalg.norm(vertices[kept[:, 0]] - vertices[kept[:, 1]], axis=1).mean()) if len(kept) else 0.0
     steps = smoothing_steps(SMOOTHING_WIDTH * skeleton.scale, mean_edge)
-    falloffs = smooth_over_edges((1.0 - np.clip(geodesic / radii, 0.0, 1.0) ** 2) ** 2, kept, steps)
+    falloffs = smooth_over_edges(falloff(geodesic, radii), kept, steps)
 
     raw = np.zeros((n, len(bones)))
     for column, b in enumerate(skinned):
-        falloff = falloffs[:, column]
         side = bones[b].side
-        if side is not None and side in masks:
-            falloff = falloff * masks[side]
-        raw[:, b] = falloff
+        raw[:, b] = falloffs[:, column] * (masks[side] if side is not None and side in masks else 1.0)
     roots = [b for b, bone in enumerate(bones) if bone.kind == "root"]
-    raw[:, roots[0]] = np.maximum(0.0, 1.0 - raw.sum(axis=1))
+    left = np.maximum(0.0, 1.0 - raw.sum(axis=1))
+    if mouth:
+        jaw = skeleton.index(JAW)
+        lining = smooth_over_edges(mouth_lining(vertices, kept, skeleton), kept, steps)
+        raw[:, jaw] *= 1.0 - lining  # on the lining the jaw takes only its share of what the lips leave
+        left = np.maximum(0.0, 1.0 - raw.sum(axis=1))
+        share = lining_jaw_share(lining, *distances[:, len(skinned) :].T, radii[skinned.index(jaw)])
+        raw[:, jaw] += share * left
+        left = (1.0 - share) * left
+    raw[:, roots[0]] = left
     weights = raw / raw.sum(axis=1, keepdims=True)
     check_weights(weights, n, len(bones))
     return weights

@@ -39,6 +39,33 @@ SHOTS = (
 )
 
 
+def render_row(face, method, shots, motion: dict, camera, label: str, tmp: Path) -> np.ndarray:
+    """One row of tiles, a tile per shot: the sculpt (`method` None) or `method` driven by the unit's FP motion
+    times the shot's scale, coloured by motion or plain with the faces turned over red (counts and E printed)."""
+    scene, head = bpy.context.scene, face.head
+    tiles = []
+    convert.render_frame(scene, scene.frame_current, tmp / "tile.png")  # the first render shows the mesh as loaded
+    for name, scale, coloured, target, yaw, pitch, ortho in shots:
+        offsets, fp_offsets = motion[name]
+        sculpted = face.rest + scale * offsets
+        shown = sculpted if method is None else method.evaluate(face.control_rest + scale * fp_offsets)
+        head.data.attributes["position"].data.foreach_set("vector", shown.astype(np.float32).ravel())
+        head.data.update()
+        if coloured:
+            largest = np.linalg.norm(sculpted - face.rest, axis=1).max()
+            paint(head.data, motion_colours(np.linalg.norm(shown - face.rest, axis=1), largest))
+        else:
+            count = paint_folds(head, face.rest)
+            print(f"{name} x{scale}, {label}: {count} faces turned over")
+        if method is not None:
+            e = evaluate.score(shown, sculpted, face.rest).e
+            print(f"{name} x{scale}, {label}: E {e:.3f}")
+        camera.data.ortho_scale = ortho
+        aim_camera(camera, bpy.data.objects[f"FP {target}"].matrix_world.translation, 0.4, yaw, pitch)
+        tiles.append(convert.render_frame(scene, scene.frame_current, tmp / "tile.png"))
+    return np.concatenate(tiles, axis=1)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_weights_before_after.png")
@@ -46,35 +73,18 @@ def main(argv=None) -> int:
     face = evaluate.load_face(evaluate.DEFAULT_FACE)
     files = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
     motion = {name: evaluate.target_motion(files[name], face) for name, *_ in SHOTS}
-    scene, head = bpy.context.scene, face.head
-    camera = closeup_camera(scene, head, TILE, SHOTS[0][-1])
+    scene = bpy.context.scene
+    camera = closeup_camera(scene, face.head, TILE, SHOTS[0][-1])
     scene.display.shading.color_type = "VERTEX"
     shipped = skinning.SMOOTHING_WIDTH
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for label, steps in (("the sculpt", None), ("unsmoothed", 0), ("smoothed", shipped)):
+            method = None
             if steps is not None:
                 skinning.SMOOTHING_WIDTH = steps
                 method = ElasticBonesMethod(face)
-            tiles = []
-            for name, scale, coloured, target, yaw, pitch, ortho in SHOTS:
-                offsets, fp_offsets = motion[name]
-                sculpted = face.rest + scale * offsets
-                shown = sculpted if steps is None else method.evaluate(face.control_rest + scale * fp_offsets)
-                head.data.attributes["position"].data.foreach_set("vector", shown.astype(np.float32).ravel())
-                if coloured:
-                    largest = np.linalg.norm(sculpted - face.rest, axis=1).max()
-                    paint(head.data, motion_colours(np.linalg.norm(shown - face.rest, axis=1), largest))
-                else:
-                    count = paint_folds(head, face.rest)
-                    print(f"{name} x{scale}, {label}: {count} faces turned over")
-                if steps is not None:
-                    e = evaluate.score(shown, sculpted, face.rest).e
-                    print(f"{name} x{scale}, {label}: E {e:.3f}")
-                camera.data.ortho_scale = ortho
-                aim_camera(camera, bpy.data.objects[f"FP {target}"].matrix_world.translation, 0.4, yaw, pitch)
-                tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
-            rows.append(np.concatenate(tiles, axis=1))
+            rows.append(render_row(face, method, SHOTS, motion, camera, label, Path(tmp)))
     skinning.SMOOTHING_WIDTH = shipped
     save_rows(rows, args.out)
     return 0
