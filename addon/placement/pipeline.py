@@ -20,11 +20,12 @@ from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .landmarks import refine
-from .nicp import register
+from .nicp import border_vertices, register
 from .openings import boundary_loops, refine_openings
 from .parts import find_eyeballs, pupil_on_eyeball
 from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
+from .shape import fit_shape
 from .surface import Surface, area_samples, loose_parts, triangle_areas
 from .symmetry import MidPlane, surface_mid_plane, symmetrise
 from .template import load_template
@@ -115,8 +116,16 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     features = _features(template, local, kept)
     yield 0.35
 
+    shaped = fit_shape(
+        template.coarse_vertices,
+        template.coarse_triangles,
+        template.shape_basis,
+        surface,
+        border_vertices(template.coarse_triangles, len(template.coarse_vertices)),
+    )
+    yield 0.4
     coarse, _affine = yield from _scaled(
-        register(template.coarse_vertices, template.coarse_triangles, surface, features=features), 0.35, 0.9
+        register(shaped, template.coarse_triangles, surface, features=features), 0.4, 0.9
     )
 
     placed, confidence, estimated = _transfer(template, coarse, surface)
