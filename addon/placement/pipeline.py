@@ -20,11 +20,13 @@ from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .landmarks import refine
-from .nicp import register
+from .mouth_parts import mouth_ends
+from .nicp import border_vertices, register
 from .openings import boundary_loops, refine_openings
 from .parts import find_eyeballs, pupil_on_eyeball
 from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
+from .shape import fit_shape
 from .surface import Surface, area_samples, loose_parts, triangle_areas
 from .symmetry import MidPlane, surface_mid_plane, symmetrise
 from .template import load_template
@@ -115,14 +117,22 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     features = _features(template, local, kept)
     yield 0.35
 
+    shaped = fit_shape(
+        template.coarse_vertices,
+        template.coarse_triangles,
+        template.shape_basis,
+        surface,
+        border_vertices(template.coarse_triangles, len(template.coarse_vertices)),
+    )
+    yield 0.4
     coarse, _affine = yield from _scaled(
-        register(template.coarse_vertices, template.coarse_triangles, surface, features=features), 0.35, 0.9
+        register(shaped, template.coarse_triangles, surface, features=features), 0.4, 0.9
     )
 
     placed, confidence, estimated = _transfer(template, coarse, surface)
-    placed = _symmetric(template, placed, surface)
+    placed, plane = _symmetric(template, placed, surface)
     parts = _parts(local, triangles, labels, skin_labels)
-    placed, confidence, estimated = _on_parts(template, placed, confidence, estimated, parts)
+    placed, confidence, estimated = _on_parts(template, placed, confidence, estimated, parts, plane)
     _check_head(template, placed, score)
     yield 1.0
     return Placement(
@@ -250,7 +260,7 @@ def _transfer(template, coarse, surface):
 
 def _symmetric(template, placed, surface):
     """The carried points made mirror-symmetric across the face's own mid-plane (`symmetry`), the skin
-    points snapped back onto the skin."""
+    points snapped back onto the skin; and that mid-plane."""
     placed, plane = symmetrise(placed, np.arange(len(placed)))
     on_skin = template.fp_vertices >= 0
     placed[on_skin], _normals = surface.closest(placed[on_skin])
@@ -259,7 +269,7 @@ def _symmetric(template, placed, surface):
     if loops:
         skin, _normals = area_samples(surface.vertices, surface.triangles, FEATURE_SAMPLES)
         refine_openings(placed, surface.vertices, loops, TEMPLATE_AXES, skin)
-    return placed
+    return placed, plane
 
 
 def _parts(local, triangles, labels, skin_labels):
@@ -272,9 +282,10 @@ def _parts(local, triangles, labels, skin_labels):
     return parts
 
 
-def _on_parts(template, placed, confidence, estimated, parts):
-    """Pupils onto eyeballs, teeth and tongue points onto the pieces in the mouth; where there is no such
-    piece the carried estimate stays, with a low confidence, and is named in `estimated`."""
+def _on_parts(template, placed, confidence, estimated, parts, plane: MidPlane):
+    """Pupils onto eyeballs, teeth and tongue points onto the pieces in the mouth and their ends
+    (`mouth_parts`); where there is no such piece the carried estimate stays, with a low confidence, and is
+    named in `estimated`."""
     forward = TEMPLATE_AXES[2]
     eyeballs = find_eyeballs(parts, placed[[fp_index("3.5"), fp_index("3.6")]])
     for fp_id, eyeball in zip(("3.5", "3.6"), eyeballs, strict=True):
@@ -286,21 +297,26 @@ def _on_parts(template, placed, confidence, estimated, parts):
             placed[row] = pupil_on_eyeball(eyeball, forward)
     used = {id(e) for e in eyeballs if e is not None}
     mouth_parts = [p for p in parts if id(p) not in used]
+    reached = {}  # FP id -> the mouth part its estimate snapped onto
+    estimates = placed.copy()
     for fp in FEATURE_POINTS:
         if fp.surface not in ("teeth", "tongue"):
             continue
         row = fp_index(fp.id)
         best = None
-        for vertices, triangles in mouth_parts:
+        for index, (vertices, triangles) in enumerate(mouth_parts):
             q, _n = Surface(vertices, triangles).closest(placed[row : row + 1])
             distance = float(np.linalg.norm(q[0] - placed[row]))
             if distance < PART_REACH and (best is None or distance < best[0]):
-                best = (distance, q[0])
-        if best is None:
-            estimated.append(fp.id)
-            confidence[row] = min(confidence[row], ESTIMATE_CONFIDENCE)
-        else:
+                best = (distance, q[0], index)
+        if best is not None:
             placed[row] = best[1]
+            reached[fp.id] = best[2]
+    on_piece = mouth_ends(placed, estimates, reached, [vertices for vertices, _t in mouth_parts], plane, TEMPLATE_AXES)
+    for fp in FEATURE_POINTS:
+        if fp.surface in ("teeth", "tongue") and fp.id not in on_piece:
+            estimated.append(fp.id)
+            confidence[fp_index(fp.id)] = min(confidence[fp_index(fp.id)], ESTIMATE_CONFIDENCE)
     row = fp_index("7.1")
     confidence[row] = min(confidence[row], 0.6)  # inside the neck: no surface says where it is
     return placed, confidence, estimated

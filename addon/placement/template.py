@@ -3,7 +3,8 @@
 `template.npz` is written by `scripts/sample/build_placement_template.py` from the shipped sample head: its
 vertices (metres, the head's own frame: Z up, facing -Y, left on +X, origin at 7.1) and triangles, the 84
 FP positions, for each FP that is a skin vertex that vertex (-1 for the pupils, teeth, tongue and 7.1), and
-the skin decimated to about 1,300 vertices, which the registration solves on (`coarse_*`).
+the skin decimated to about 1,300 vertices, which the registration solves on (`coarse_*`), and the principal
+shapes of MakeHuman's head and face targets on it (`shape_basis`, the prior `shape.fit_shape` fits).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ class Template:
     coarse_vertices: np.ndarray  # (m, 3)
     coarse_triangles: np.ndarray
     coarse_normals: np.ndarray
+    shape_basis: np.ndarray  # (k, m, 3) principal shapes of the decimated skin (`shape`), one deviation each
 
 
 @functools.cache
@@ -47,4 +49,5 @@ def load_template() -> Template:
             coarse_vertices=coarse_vertices,
             coarse_triangles=coarse_triangles,
             coarse_normals=vertex_normals(coarse_vertices, coarse_triangles),
+            shape_basis=data["shape_basis"].astype(np.float64),
         )

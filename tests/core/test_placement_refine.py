@@ -9,6 +9,7 @@ pytest.importorskip("scipy")
 
 from addon.mpeg4.feature_points import FEATURE_POINTS, fp_index
 from addon.placement.body import head_region
+from addon.placement.landmarks import spine_top
 from addon.placement.openings import boundary_loops
 from addon.placement.pipeline import place_feature_points
 from addon.placement.rigid import TEMPLATE_AXES, Similarity
@@ -167,3 +168,15 @@ def test_an_opening_hidden_behind_the_lids_is_not_taken_for_their_edge():
     ring = tucked[rims]
     for fp_id in corners:
         assert np.linalg.norm(ring - placement.positions[fp_index(fp_id)], axis=1).min() > 0.002
+
+
+def test_the_top_of_the_spine_is_placed_between_the_ear_lobes():
+    t = load_template()
+    lobes = t.fp_positions[[fp_index("10.5"), fp_index("10.6")]]
+    assert np.allclose(spine_top(t.fp_positions), [0.0, -0.041835, -0.015205], atol=1e-5)  # 0.5 (10.5 + 10.6)
+    placement = place_feature_points(t.vertices, t.triangles)
+    spine = placement.positions[fp_index("7.1")]
+    assert np.allclose(spine, 0.5 * placement.positions[[fp_index("10.5"), fp_index("10.6")]].sum(axis=0))
+    # the sample's own marker (the template's origin) is 44 mm away; the rule is within 2 mm of the lobes' midpoint
+    assert np.linalg.norm(spine - lobes.mean(axis=0)) < 0.002
+    assert np.linalg.norm(spine - t.fp_positions[fp_index("7.1")]) > 0.04
