@@ -166,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"| {path.stem} | {stream.name} | {len(t)} | {median:.1f} ({moving_median:.1f}) | {t.max():.1f} | "
                 f"{int((t > 3 * median).sum())} ({int((t[moving] > 3 * moving_median).sum())}) | "
-                f"{t.max() / moving_median:.1f} | {max(got['folds'], default=0)} | {max(got['crossed'], default=0)} | "
+                f"{t.max() / moving_median:.1f} | {max(got['folds'], default=0)} | "
+                f"{max(got['crossed'], default=0)} ({got['at_rest']}) | "
                 f"{rest_rough * 1000:.2f} → {max(rough, default=0.0) * 1000:.2f} | "
                 f"{rigid} | {got['status'] or 'no'} |"
             )
