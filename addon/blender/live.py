@@ -415,6 +415,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                 lambda: _keep_lips_apart(state, driving, None),  # the lips kept apart again after the membrane
                 look,
                 max_steps=unfold.frame_steps(skin.n_vertices),
+                guarded=None if state.lip_guard is None else state.lip_guard.skin,
             )
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh

@@ -48,7 +48,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 10  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 11  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -73,8 +73,9 @@ BIND_FRAME = 48  # doubles per triangle in `bind_frames` (BIND_FRAME in native/b
 _LOCATE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 7]
 _COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *[_POINTER] * 6]
 _FOLD_FREE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int32, ctypes.c_double, ctypes.c_double]
-_UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 8, ctypes.c_int32, ctypes.c_double]
-_UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_double, _POINTER, _POINTER, _POINTER]
+_UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 8, ctypes.c_int64, _POINTER, _POINTER]
+_UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_double, ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_double]
+_UNFOLD_ARGUMENTS += [_POINTER, _POINTER, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,8 +171,10 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_fold_free_sweeps.restype = ctypes.c_int32
         library.pbk_unfold.argtypes = _UNFOLD_ARGUMENTS
         library.pbk_unfold.restype = ctypes.c_int
-        library.pbk_any_turned.argtypes = [ctypes.c_int64, *[_POINTER] * 6]
-        library.pbk_any_turned.restype = ctypes.c_int32
+        library.pbk_unfold_work_bytes.argtypes = [ctypes.c_int64, ctypes.c_int64]
+        library.pbk_unfold_work_bytes.restype = ctypes.c_int64
+        library.pbk_turned_at.argtypes = [ctypes.c_int64, *[_POINTER] * 7]
+        library.pbk_turned_at.restype = ctypes.c_int64
     except (OSError, AttributeError):
         return None
     return library
@@ -705,11 +708,12 @@ def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega
     return int(kernel.pbk_fold_free_sweeps(len(classes), *pointers, sweeps, omega, tolerance))
 
 
-def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every: int, stall_checks: int,
-           bisections: int, margin: float):  # fmt: skip
+def unfold(mesh, positions: np.ndarray, start: np.ndarray | None, max_steps: int, step: float, check_every: int,
+           stall_checks: int, bisections: int, margin: float):  # fmt: skip
     """`unfold.unfold` by the kernel, in place on ``positions`` ((N, 3) C-contiguous float32 of the `unfold.SkinMesh`
-    ``mesh``): (moved vertices, steps, triangles left, share kept), or None (``positions`` untouched) where the
-    kernel is unavailable or the positions are not float32."""
+    ``mesh``), first looking at the triangles at the ``start`` vertices (at all where None): (moved vertices, steps,
+    triangles left, share kept), or None (``positions`` untouched) where the kernel is unavailable or the positions
+    are not float32. The kernel's work space is the mesh's (`unfold.SkinMesh.work`), kept between calls."""
     kernel = _kernel() if available() else None
     if (
         kernel is None
@@ -719,26 +723,38 @@ def unfold(mesh, positions: np.ndarray, max_steps: int, step: float, check_every
         or not positions.flags.writeable
     ):
         return None
+    work = mesh.work
+    if len(work) != kernel.pbk_unfold_work_bytes(len(positions), len(mesh.triangles)):
+        return None
+    start = None if start is None else np.ascontiguousarray(start, dtype=np.int32)
     moved = np.empty(len(positions), np.int32)
     result = np.zeros(3, np.int64)
     share = np.ones(1)
     arrays = (mesh.rest, mesh.triangles, mesh.rest_normals, mesh.neighbour_start, mesh.neighbours)
     arrays += (mesh.corner_start, mesh.corner_triangles, positions)
-    status = kernel.pbk_unfold(
+    kernel.pbk_unfold(
         len(positions), len(mesh.triangles), *(a.ctypes.data for a in arrays),
+        -1 if start is None else len(start), None if start is None else start.ctypes.data, work.ctypes.data,
         max_steps, step, check_every, stall_checks, bisections, margin, moved.ctypes.data, result.ctypes.data,
         share.ctypes.data,
     )  # fmt: skip
-    if status != 0:
-        return None
     return moved[: result[0]].copy(), int(result[1]), int(result[2]), float(share[0])
 
 
-def any_turned(look, positions: np.ndarray) -> bool | None:
-    """`unfold.Look.any_turned` by the kernel, or None where it is unavailable or the positions are not float32."""
+def unfold_work_bytes(n_vertices: int, n_triangles: int) -> int:
+    """The size of `unfold`'s work space on a mesh (0 where the kernel is unavailable)."""
+    kernel = _kernel() if available() else None
+    return 0 if kernel is None else int(kernel.pbk_unfold_work_bytes(n_vertices, n_triangles))
+
+
+def turned_at(look, positions: np.ndarray) -> np.ndarray | None:
+    """`unfold.Look.turned_corners` by the kernel, or None where it is unavailable or the positions are not
+    float32."""
     kernel = _kernel() if available() else None
     if kernel is None or positions.dtype != np.float32 or positions.shape != look.mesh.rest.shape:
         return None
     if not positions.flags.c_contiguous:
         return None
-    return bool(kernel.pbk_any_turned(len(look.class_start) - 1, *look.arguments, positions.ctypes.data))
+    found = look.found
+    count = kernel.pbk_turned_at(len(look.class_start) - 1, *look.arguments, positions.ctypes.data, found.ctypes.data)
+    return found[: 3 * count].copy()

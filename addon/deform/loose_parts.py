@@ -2,7 +2,8 @@
 found at set-up and moved rigidly, as the separate part objects are (followers.py), never as skin (no bpy).
 
 Finding them (`find_parts`): the mesh's loose parts (connected by no edge to the rest) other than the largest
-(the skin) are taken for
+(the skin), and other than a part that carries the face's own skin FPs (SKIN_FPS: the chin, brows, cheeks and
+nose tip; the mesh vertex nearest one is on that part), are taken for
 - an eyeball: a part close to a sphere (no vertex farther than SPHERE_TOLERANCE x its radius off the fitted
   sphere) whose centre lies within EYE_REACH radii of a pupil FP (3.5 left, 3.6 right);
 - the tongue: of the parts in the mouth (centre within MOUTH_REACH x the mouth's width of the inner lips'
@@ -11,7 +12,9 @@ Finding them (`find_parts`): the mesh's loose parts (connected by no edge to the
   else the inner lips);
 - lashes or brows: thin parts near the lids (3.1-3.4) or the brows (4.1-4.6), which ride on the skin as the
   deformer moves it (listed, not moved rigidly);
-anything else stays skin.
+anything else stays skin. (A downloaded character's head mesh may hold its face as a loose part of its own, sewn
+to the scalp and neck by coincident vertices: the Rocketbox male's 5,567-vertex face, in front of its mouth, was
+taken for the upper teeth and held rigid, so it never moved.)
 
 Moving them (`move_parts`) as followers.py moves the separate objects: an eyeball turns about its fitted
 centre by the yaw and pitch of its pupil FP seen from there (MPEG-4 yaw + toward the face's left, about its
@@ -36,6 +39,7 @@ EYE_REACH = 1.5
 MOUTH_REACH = 1.5
 NEAR_LIDS = 0.5  # x eye width: a part's centre this near the lid FPs may be lashes
 NEAR_BROWS = 0.5
+SKIN_FPS = ("2.1", "4.1", "4.2", "4.3", "4.4", "4.5", "4.6", "5.1", "5.2", "5.3", "5.4", "9.15")
 
 
 def _rows(neutral: np.ndarray, ids) -> np.ndarray:
@@ -105,7 +109,11 @@ def find_parts(rest: np.ndarray, edges: np.ndarray, neutral: np.ndarray, axes: n
     eye_corners = _rows(neutral, ("3.7", "3.11"))
     eye_width = float(np.linalg.norm(eye_corners[0] - eye_corners[1])) if len(eye_corners) == 2 else 0.0
     in_mouth = []
+    on_skin = _rows(neutral, SKIN_FPS)
+    skin = {int(labels[np.argmin(((rest - fp) ** 2).sum(axis=1))]) for fp in on_skin} if len(rest) else set()
     for part in range(1, labels.max(initial=0) + 1):
+        if part in skin:
+            continue
         members = np.flatnonzero(labels == part)
         points = rest[members]
         centre = points.mean(axis=0)

@@ -5,7 +5,12 @@ own. On a mesh with a body, each vertex is then turned back by the share of the 
 1 - w, where w is its head-turn weight: 1 on the head down to the chin's height, 0 from NECK_LENGTHS chin
 heights below FP 7.1 down, smooth between (an editable vertex group). The turn back is about the same axis and
 pivot by (1 - w) times the angle, so the neck twists smoothly instead of shrinking as a blend of positions
-would. A mesh with no vertex where w is 0 is a head on its own: it gets no weights and turns whole, as before.
+would. The weight also fades with the distance from the vertical line through 7.1, from 1 at SIDE_START to 0 at
+SIDE_END chin heights: a character in a T-pose has its arms at the neck's height, and a share of the head's turn
+swung them (the Rocketbox male's arms, 87 cm out, moved 24 cm and turned 519 faces over in the demo's head turns).
+A head reaches at most 2.1 chin heights from that line (the sample and the Rocketbox head, ears included), so the
+head is not touched. A mesh with no vertex where w is 0 is a head on its own: it gets no weights and turns whole,
+as before.
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 NECK_LENGTHS = 2.5  # x the chin's height below 7.1: where the body starts (weight 0)
+SIDE_START, SIDE_END = 2.5, 4.0  # x the chin's height from the vertical through 7.1: the weight fades between
 
 
 def head_turn_weights(rest: np.ndarray, axes: np.ndarray, spine: np.ndarray, chin: np.ndarray) -> np.ndarray | None:
@@ -23,9 +29,12 @@ def head_turn_weights(rest: np.ndarray, axes: np.ndarray, spine: np.ndarray, chi
     drop = float((spine - chin) @ up)
     if drop <= 0.0:
         return None
-    height = (np.asarray(rest, dtype=np.float64) - spine) @ up  # 0 at 7.1, -drop at the chin
+    offset = np.asarray(rest, dtype=np.float64) - spine
+    height = offset @ up  # 0 at 7.1, -drop at the chin
+    side = np.linalg.norm(offset - np.outer(height, up), axis=1)
     t = np.clip((height + NECK_LENGTHS * drop) / ((NECK_LENGTHS - 1.0) * drop), 0.0, 1.0)
-    weights = t * t * (3.0 - 2.0 * t)
+    u = np.clip((SIDE_END * drop - side) / ((SIDE_END - SIDE_START) * drop), 0.0, 1.0)
+    weights = t * t * (3.0 - 2.0 * t) * (u * u * (3.0 - 2.0 * u))
     return weights if (weights == 0.0).any() else None
 
 

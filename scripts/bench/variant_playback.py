@@ -8,9 +8,13 @@ Each face file (or every .blend in a folder, e.g. what `scripts.bench.variants O
 (the object named Head, else the active mesh) set up with Set Up Face, and each stream imported with the default
 options and played frame by frame through `scene.frame_set`, as a user plays it. Per face and stream it prints:
 the frames; the median and the largest frame time, and how many frames took more than 3x the median (over all
-frames, and over the frames in which the face moved); the most faces turned over in a frame (`folds`); the most
-crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame); and how far the upper lids' edges (the
-vertices along their FPs, `lid_edges`) lie off a smooth curve through their neighbours, at rest and at most.
+frames, and over the frames in which the face moved), and the largest over the moving median; the most faces turned
+over in a frame (`folds`); the most crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame;
+pairs that cross at rest already are not counted, their number in brackets); how
+far the upper lids' edges (the vertices along their FPs, `lid_edges`) lie off a smooth curve through their
+neighbours, at rest and at most; how far the parts inside the face (eyeballs, teeth, tongue) are from rigid (the
+most any distance between a part's vertices and its anchors changed, mm; "-" where the face has none); and the
+status message that turned deformation off, if one did (playback of that stream stops there).
 `--profile N` then plays each of the N slowest frames again (from the frame before it) under cProfile and prints
 its time again and the functions it spent most in: a frame slow in the timed pass but not again was slowed by
 other jobs.
@@ -33,7 +37,7 @@ import numpy as np
 import addon
 from addon.blender import face_data, inner_parts, rest_shape
 from addon.deform.folds import count_inverted
-from addon.deform.overlaps import crossings, edge_chain, edge_roughness
+from addon.deform.overlaps import crossing_pairs, crossings, edge_chain, edge_roughness
 from addon.mpeg4.feature_points import fp_index
 from scripts.bench import evaluate_folds
 
@@ -70,33 +74,62 @@ def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
 def play(face, stream: Path, every: int) -> dict:
     assert bpy.ops.mpeg4.import_fap(filepath=str(stream)) == {"FINISHED"}
     scene, mesh = bpy.context.scene, face.data
-    rest = rest_shape.stored_rest(mesh).astype(np.float64)
+    rest = rest_shape.reference_positions(mesh).astype(np.float64)
+    target = rest_shape.deform_target(mesh)  # a mesh with shape keys is played in the add-on's own key
     fans = face_data.mesh_fans(mesh)
     parts = np.zeros(len(rest), bool)  # the eyeballs, teeth and tongue inside the face: not skin
     for members in inner_parts.group_members(face).values():
         parts[members] = True
     skin = fans[0][~parts[fans[0]].any(axis=1)]
     lids = lid_edges(face, rest, ~parts)
+    at_rest = crossing_pairs(rest, skin)  # the surface's own crossings before anything moves are not counted
+    anchored = [part_anchors(rest, members) for members in inner_parts.group_members(face).values() if len(members)]
     buffer = np.empty(len(mesh.vertices) * 3, np.float32)
-    times, moved, folds, crossed, rough = [], [], [], [], []
+    times, moved, folds, crossed, rough, bent = [], [], [], [], [], [0.0]
     scene.frame_set(scene.frame_start)
     last = rest
     for frame in range(scene.frame_start + 1, int(np.ceil(scene.frame_end)) + 1):
         start = time.perf_counter()
         scene.frame_set(frame)
         times.append(time.perf_counter() - start)
-        mesh.attributes["position"].data.foreach_get("vector", buffer)
+        if target is None:
+            mesh.attributes["position"].data.foreach_get("vector", buffer)
+        else:
+            target.data.foreach_get("co", buffer)
         now = buffer.reshape(-1, 3).astype(np.float64)
         moved.append(not np.array_equal(now, last))
         last = now
         folds.append(count_inverted(rest, now, *fans))
         if frame % every == 0:
-            crossed.append(crossings(now, skin, np.any(now != rest, axis=1)))
+            crossed.append(crossings(now, skin, np.any(now != rest, axis=1), at_rest))
         rough.append(max((edge_roughness(now, loop, closed=False).max() for loop in lids), default=0.0))
+        bent += [distance_change(rest, now, *anchors) for anchors in anchored]
         if face.mpeg4_face.status:
-            raise SystemExit(f"{stream.name} frame {frame}: {face.mpeg4_face.status}")
+            status = f"frame {frame}: {face.mpeg4_face.status}"
+            break
+    else:
+        status = ""
     rest_rough = max((edge_roughness(rest, loop, closed=False).max() for loop in lids), default=0.0)
-    return {"times": np.array(times), "moved": np.array(moved), "folds": folds, "crossed": crossed}, rough, rest_rough
+    got = {"times": np.array(times), "moved": np.array(moved), "folds": folds, "crossed": crossed, "status": status}
+    got["rigid"] = max(bent) if anchored else None
+    got["at_rest"] = len(at_rest)
+    return got, rough, rest_rough
+
+
+def part_anchors(rest: np.ndarray, members: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A part's vertices and 4 anchors among them (its first vertex, then each the farthest from those chosen): a
+    rigid motion keeps every distance between them."""
+    anchors = [int(members[0])]
+    for _ in range(3):
+        gaps = np.min([np.linalg.norm(rest[members] - rest[a], axis=1) for a in anchors], axis=0)
+        anchors.append(int(members[np.argmax(gaps)]))
+    return members, np.array(anchors)
+
+
+def distance_change(rest: np.ndarray, now: np.ndarray, members: np.ndarray, anchors: np.ndarray) -> float:
+    """The most any distance between a part's vertices and its anchors changed from rest."""
+    at_rest = np.linalg.norm(rest[members][:, None] - rest[anchors][None], axis=2)
+    return float(np.abs(np.linalg.norm(now[members][:, None] - now[anchors][None], axis=2) - at_rest).max())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -108,9 +141,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     files = [f for p in args.faces for f in (sorted(p.glob("*.blend")) if p.is_dir() else [p])]
     addon.register()
-    columns = "frames | median ms (moving) | max ms | >3x median (moving) | folds | crossings | lid edge mm"
+    columns = "frames | median ms (moving) | max ms | >3x median (moving) | max / moving median | folds"
+    columns += " | crossings (at rest)"
+    columns += " | lid edge mm | parts rigid mm | deformation turned off"
     print(f"| face | stream | {columns} |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for path in files:
         bpy.ops.wm.open_mainfile(filepath=str(path))
         face = _face()
@@ -127,11 +162,14 @@ def main(argv: list[str] | None = None) -> int:
             got, rough, rest_rough = play(face, stream, args.every)
             t, moving = got["times"] * 1000, got["moved"]
             median, moving_median = np.median(t), np.median(t[moving]) if moving.any() else np.nan
+            rigid = "-" if got["rigid"] is None else f"{got['rigid'] * 1000:.4f}"
             print(
                 f"| {path.stem} | {stream.name} | {len(t)} | {median:.1f} ({moving_median:.1f}) | {t.max():.1f} | "
                 f"{int((t > 3 * median).sum())} ({int((t[moving] > 3 * moving_median).sum())}) | "
-                f"{max(got['folds'])} | {max(got['crossed'], default=0)} | {rest_rough * 1000:.2f} → "
-                f"{max(rough, default=0.0) * 1000:.2f} |"
+                f"{t.max() / moving_median:.1f} | {max(got['folds'], default=0)} | "
+                f"{max(got['crossed'], default=0)} ({got['at_rest']}) | "
+                f"{rest_rough * 1000:.2f} → {max(rough, default=0.0) * 1000:.2f} | "
+                f"{rigid} | {got['status'] or 'no'} |"
             )
             if args.profile:
                 profile_slowest(got["times"], args.profile)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from addon.deform.overlaps import crossings, edge_chain, edge_roughness, lid_gap
+from addon.deform.overlaps import crossing_pairs, crossings, edge_chain, edge_roughness, lid_gap
 
 
 def _sheet(offset: float):
@@ -22,6 +22,25 @@ def test_sheets_apart_do_not_cross_and_a_sheet_pushed_through_does():
     assert crossings(points, tris, moving=np.zeros(8, bool)) == 0  # nothing moved: nothing looked at
     neighbours = np.array([[0, 1, 2], [0, 2, 3]])  # triangles sharing vertices never count
     assert crossings(points[:4], neighbours) == 0
+
+
+def test_pairs_that_cross_at_rest_are_not_charged_to_the_motion():
+    """A surface that crosses itself before anything moves (a scan's closed eyes: 241 pairs on the Lee Perry-Smith
+    head) counts only the pairs the motion makes: here the upper sheet pierces the lower at rest (2 pairs), and a
+    third sheet pushed through the lower one adds its own."""
+    points, tris = _sheet(0.1)
+    points[6, 2] = -0.5
+    rest_pairs = crossing_pairs(points, tris)
+    assert len(rest_pairs) >= 1 and crossings(points, tris, at_rest=rest_pairs) == 0
+    third = np.array([[0.2, 0.6, 0.3], [0.4, 0.6, 0.3], [0.3, 0.8, 0.3]])
+    rest = np.concatenate([points, third])
+    tris = np.concatenate([tris, [[8, 9, 10]]])
+    at_rest = crossing_pairs(rest, tris)
+    assert np.array_equal(at_rest, rest_pairs)  # the third triangle is clear of both sheets at rest
+    moved = rest.copy()
+    moved[10, 2] = -0.3  # its apex pushed through the lower sheet
+    assert crossings(moved, tris) > len(rest_pairs)
+    assert crossings(moved, tris, at_rest=at_rest) == crossings(moved, tris) - len(rest_pairs) >= 1
 
 
 def test_a_smooth_lid_edge_is_on_its_curve_and_a_zig_zag_is_not():

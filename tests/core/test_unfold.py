@@ -113,21 +113,75 @@ def test_max_steps_bounds_the_work_and_reports_what_is_left():
     assert done.left == inverted_faces(rest, positions, triangles).sum()
 
 
+def _kernel_unfold(mesh, positions, start=None, max_steps=unfold.MAX_STEPS):
+    return fused.unfold(
+        mesh, positions, start, max_steps, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, unfold.BISECTIONS,
+        unfold.MARGIN,
+    )  # fmt: skip
+
+
 @pytest.mark.skipif(not fused.available(), reason="compiled kernel not installed")
 @pytest.mark.parametrize("shift", [(2.5e-3, 0.4e-3, 0.0), (6e-3, -1e-3, 1e-3), (-3e-3, 3e-3, 0.0)])
-def test_the_kernel_gives_the_numpy_result_bit_for_bit(shift):
+@pytest.mark.parametrize("from_fold", [False, True])
+def test_the_kernel_gives_the_numpy_result_bit_for_bit(shift, from_fold):
+    """Looking at every triangle first, or starting from the pushed vertex (all its folds are at it)."""
     rest, triangles = grid()
     mesh = unfold.prepare(rest, triangles)
     folded = pushed(rest, shift).astype(np.float32)
+    start = np.array([centre()]) if from_fold else None
     reference, compiled = folded.copy(), folded.copy()
-    expected = unfold.unfold(mesh, reference)
-    got = fused.unfold(
-        mesh, compiled, unfold.MAX_STEPS, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, unfold.BISECTIONS,
-        unfold.MARGIN,
-    )  # fmt: skip
+    expected = unfold.unfold(mesh, reference, start=start)
+    got = _kernel_unfold(mesh, compiled, start)
     assert got is not None
     assert np.array_equal(got[0], expected.moved) and got[1:] == (expected.steps, expected.left, expected.share)
     assert np.array_equal(compiled, reference)
+    whole = folded.copy()
+    assert unfold.unfold(mesh, whole).steps == expected.steps and np.array_equal(whole, reference)
+
+
+@pytest.mark.parametrize("kernel", [False, True])
+def test_an_unfold_looks_only_where_it_starts_and_where_it_moved(kernel, monkeypatch):
+    """With `start`, a fold with no corner among the start vertices is not looked at (the caller vouched there is
+    none): a crease across the grid opened from one of its vertices is opened as from a look at every triangle
+    (the region grows from the folds it finds to the rest of the crease), and a fold far from the start stays."""
+    if kernel and not fused.available():
+        pytest.skip("compiled kernel not installed")
+    if not kernel:
+        monkeypatch.setattr(fused, "unfold", lambda *arguments: None)
+    rest, triangles = grid(31)
+    mesh = unfold.prepare(rest, triangles)
+    folded = rest.copy()
+    column = 15 * 31 + np.arange(31)
+    folded[column, 0] += 3.5e-3
+    folded = folded.astype(np.float32)
+    whole, started = folded.copy(), folded.copy()
+    expected = unfold.open_folds(mesh, whole)
+    done = unfold.open_folds(mesh, started, start=column)
+    assert done.left == expected.left == 0 and done.steps == expected.steps
+    assert np.array_equal(done.moved, expected.moved) and np.array_equal(started, whole)
+    far = folded.copy()
+    done = unfold.open_folds(mesh, far, start=np.array([0, 1, 31]))  # a corner of the grid, 15 mm from the crease
+    assert done.steps == 0 and len(done.moved) == 0 and np.array_equal(far, folded)
+
+
+@pytest.mark.skipif(not fused.available(), reason="compiled kernel not installed")
+def test_the_kernels_work_space_serves_call_after_call():
+    """The work space the kernel keeps on a mesh (stamps, not cleared between calls) gives each of 40 calls, on
+    folds at random places with and without start vertices, the numpy's result bit for bit."""
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    rng = np.random.default_rng(25)
+    for _ in range(40):
+        where = int(rng.integers(SIZE + 1, SIZE * (SIZE - 1) - 1))
+        shift = (*rng.uniform(-4e-3, 4e-3, 2), 0.0)
+        folded = pushed(rest, shift, where).astype(np.float32)
+        start = np.array([where]) if rng.integers(2) else None
+        budget = int(rng.integers(1, 300))
+        reference, compiled = folded.copy(), folded.copy()
+        expected = unfold.unfold(mesh, reference, max_steps=budget, start=start)
+        got = _kernel_unfold(mesh, compiled, start, max_steps=budget)
+        assert np.array_equal(got[0], expected.moved) and got[1:] == (expected.steps, expected.left, expected.share)
+        assert np.array_equal(compiled, reference)
 
 
 def test_bad_input_is_a_deform_error():
@@ -144,16 +198,19 @@ def test_a_look_at_the_flagged_groups_finds_what_a_whole_look_finds(kernel, monk
     if kernel and not fused.available():
         pytest.skip("compiled kernel not installed")
     if not kernel:
-        monkeypatch.setattr(fused, "any_turned", lambda look, positions: None)
+        monkeypatch.setattr(fused, "turned_at", lambda look, positions: None)
     rest, triangles = grid()
     mesh = unfold.prepare(rest, triangles)
     column = np.arange(len(rest)) // SIZE
     look = unfold.group_look(mesh, column, SIZE)  # a group per column of the grid
     folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0)).astype(np.float32)  # folds faces at the centre's column and the next
     look.off_rest[:] = 0
-    assert not look.any_turned(folded)  # the folds are where nothing was written
+    assert len(look.turned_corners(folded)) == 0  # the folds are where nothing was written
     look.off_rest[SIZE // 2 + 1] = 1
-    assert look.any_turned(folded)
+    corners = look.turned_corners(folded)
+    expected = np.sort(triangles[unfold.turned_over(mesh, folded.astype(np.float64))], axis=1)
+    expected = expected[np.isin(expected // SIZE, [SIZE // 2 + 1]).any(axis=1)]  # at the flagged column
+    assert len(expected) and sorted(map(tuple, np.sort(corners.reshape(-1, 3), axis=1))) == sorted(map(tuple, expected))
     positions = folded.copy()
     done = unfold.open_folds(mesh, positions, look)
     reference = folded.copy()
@@ -265,3 +322,33 @@ def test_the_guards_rounds_share_the_frames_budget():
 
         unfold.open_folds_guarded(mesh, positions, guard, max_steps=budget)
         assert len(calls) == rounds
+
+
+def test_the_guards_rounds_start_from_the_vertices_it_can_move():
+    """With `guarded`, a round after the guard looks only at the triangles at those vertices: named right (the
+    centre the guard folds back), the rounds end as a look at every triangle ends, bit for bit; named wrong (a
+    corner of the grid), the guard's fold is not looked at and stays (so the rounds do start there)."""
+    rest, triangles = grid()
+    mesh = unfold.prepare(rest, triangles)
+    folded = pushed(rest, (2.5e-3, 0.4e-3, 0.0)).astype(np.float32)
+
+    def run(guarded):
+        positions, calls = folded.copy(), []
+
+        def guard() -> bool:
+            calls.append(1)
+            if len(calls) > 2:
+                return False
+            positions[centre()] = folded[centre()]
+            return True
+
+        moved = unfold.open_folds_guarded(mesh, positions, guard, guarded=guarded)
+        return positions, moved, len(calls)
+
+    whole, moved, calls = run(None)
+    named, named_moved, named_calls = run(np.array([centre()]))
+    assert calls == named_calls == 3 and np.array_equal(moved, named_moved) and np.array_equal(named, whole)
+    assert not unfold.turned_over(mesh, named.astype(np.float64)).any()
+    wrong, _moved, wrong_calls = run(np.array([0]))
+    assert wrong_calls == 1 and np.array_equal(wrong[centre()], folded[centre()])
+    assert unfold.turned_over(mesh, wrong.astype(np.float64)).any()
