@@ -65,6 +65,10 @@ MEMBER = 0.99  # a vertex at least this much of a lid (its group weight) is the 
 # Over-relaxing (OMEGA 1.9) converged faster at 4k but, stopped short at 68k, left rougher weights and more folds
 # (the demo 15 faces in a frame against 1).
 SWEEPS, NUMPY_SWEEPS, OMEGA, TOLERANCE = 1000, 200, 1.0, 1e-3
+# `meet_lids`: each lid stops this angle (rad) short of where the other lid's margin is, about 0.1 mm at a lid's 16 mm
+# from the eye's axis: margins that meet exactly cross where one's rows lie a hair beyond the traced margin, and
+# the lids may stay 0.5 mm apart
+MEET_CLEARANCE = 0.006
 
 
 def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.ndarray:
@@ -277,16 +281,17 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
     `meet_at_closure` stops the lids under the mid-lid FPs; the shares `s` of the eye's opening there (c) the lids
     have closed (`turns` (2, 2) over it) say where the other lid's margin is elsewhere: at a place whose traced
     opening is o c (`EyelidRig.meeting`: o its share of the mid one) it has come s_other o c toward this one, so
-    no vertex of this lid turns toward closure by more than (1 - s_other) o c, whatever its weight (the margin's
-    weight is o: it stops on the other margin; rows behind it near the inner corner had more, and went through
-    the lower lid at a full blink).
+    no vertex of this lid turns toward closure by more than (1 - s_other) o c less `MEET_CLEARANCE`, whatever its
+    weight (the margin's weight is o: it stops at the other margin; rows behind it near the inner corner had more,
+    and went through the lower lid at a full blink).
     """
     closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
     shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
     opening = rig.meeting * closure[rig.eye]
     inside = opening > 0.0
-    up = np.where(inside & (up < 0.0), np.maximum(up, -opening * (1.0 - shares[:, 1]).clip(0.0)), up)
-    low = np.where(inside & (low > 0.0), np.minimum(low, opening * (1.0 - shares[:, 0]).clip(0.0)), low)
+    stop = (opening[:, None] * (1.0 - shares[:, ::-1]).clip(0.0) - MEET_CLEARANCE).clip(0.0)  # (K, 2) upper, lower
+    up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
+    low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
     return up, low
 
 
