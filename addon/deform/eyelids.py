@@ -208,7 +208,7 @@ def bind_eyelids(
     eye, fade, up, low = eye[keep], fade[keep], up[keep], low[keep]
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
     rest_angles = np.full((2, 3), np.nan)
-    meets = [None, None]
+    meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
@@ -218,14 +218,15 @@ def bind_eyelids(
         elev = elevation(face[keep[on]], centres[e])
         margins = trace_margins(t, elev, up[on], low[on])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
-        if margins is not None:
-            meets[e] = (margins, inner_x, outer_x, mid)
         profile = opening_profile(margins, t, mid) if margins is not None and trace_opening else None
         if profile is not None:
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
+            meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid), inner_x, outer_x)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
+            mids = (mid, (fps[lower, 0] - inner_x) / (outer_x - inner_x))
+            meets[e] = (functools.partial(arch_meeting, t_mids=mids), inner_x, outer_x)
     weights = np.stack([up_weight * fade, low_weight * fade], axis=1)
     turn_range = opening = None
     if triangles is not None:
@@ -244,12 +245,10 @@ def bind_eyelids(
         moved |= (opening > 0.0).any(axis=1)
         opening = opening[moved]
     keep, eye, weights = keep[moved], eye[moved], weights[moved]
-    meeting = None
-    if all(m is not None for m in meets):
-        meeting = np.zeros(len(keep))
-        for e, (margins, inner_x, outer_x, mid) in enumerate(meets):
-            on = eye == e
-            meeting[on] = meeting_curve(margins, (face[keep[on], 0] - inner_x) / (outer_x - inner_x), mid)
+    meeting = np.zeros(len(keep))
+    for e, (opening_at, inner_x, outer_x) in enumerate(meets):
+        on = eye == e
+        meeting[on] = opening_at((face[keep[on], 0] - inner_x) / (outer_x - inner_x))
     return EyelidRig(
         vertices=keep,
         eye=eye,
@@ -273,6 +272,12 @@ def meeting_curve(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray:
     if not mid > 0.0:
         return np.zeros_like(opening)
     return np.where((t > 0.0) & (t < 1.0), opening.clip(0.0) / mid, 0.0)
+
+
+def arch_meeting(t: np.ndarray, t_mids: tuple[float, float]) -> np.ndarray:
+    """`meeting_curve` for lids turned by sine arches (`lid_profile`, the upper's and the lower's mid at `t_mids`):
+    the mean of the two arches at positions `t` along the eye."""
+    return 0.5 * sum(lid_profile(t, 0.0, t_mid, 1.0) for t_mid in t_mids)
 
 
 def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
