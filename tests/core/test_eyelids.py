@@ -6,6 +6,7 @@ import pytest
 from addon.deform.eyelids import (
     EYE_FPS,
     LOWER_FOLLOWS_PITCH,
+    MEET_CLEARANCE,
     UPPER_FOLLOWS_PITCH,
     apply_eyelids,
     bind_eyelids,
@@ -102,7 +103,8 @@ def test_rest_stays_rest():
 def test_full_blink_closes_along_the_whole_lid(eye):
     out = _pose(upper_turn=LOW0 - UP0)  # the upper mid-lid FP turned down onto the lower one
     up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
-    np.testing.assert_allclose(up[INSIDE], low[INSIDE], atol=TRACE)
+    # the upper lid stops MEET_CLEARANCE short of the lower one (`meet_lids`), all along the eye
+    np.testing.assert_allclose(up[INSIDE], low[INSIDE] + MEET_CLEARANCE, atol=TRACE)
     assert np.all(low[INSIDE] < 0.0)  # closed where the lower lid is, not half-way
 
 
@@ -112,7 +114,9 @@ def test_overlapping_values_meet_and_never_cross(upper_turn, lower_turn):
     for eye in (0, 1):
         up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
         assert np.all(up >= low - TRACE)
-        np.testing.assert_allclose(up[INSIDE], low[INSIDE], atol=TRACE)
+        # each closing lid stops MEET_CLEARANCE short of the other (`meet_lids`)
+        closing = (upper_turn < 0.0) + (lower_turn > 0.0)
+        np.testing.assert_allclose(up[INSIDE], low[INSIDE] + closing * MEET_CLEARANCE, atol=TRACE)
 
 
 def test_half_blink_has_no_v():
