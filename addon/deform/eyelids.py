@@ -12,7 +12,8 @@ curve; and by the lid's membership weight (how much of the lid a vertex is), so 
 follows smoothly. Turning keeps each vertex's distance to the centre: the lid stays on the eye.
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
-real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle).
+real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle, under the
+mid-lid FPs), and all along the eye: no vertex turns past the other lid's margin at its place (`meet_lids`).
 
 No face turns over (not in the paper, which has no lids' turn): given the mesh's faces, `bind_eyelids` makes the
 weights such that each lid alone, turning anywhere within its range (`_turn_range`), keeps every face's normal
