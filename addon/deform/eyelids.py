@@ -12,7 +12,8 @@ curve; and by the lid's membership weight (how much of the lid a vertex is), so 
 follows smoothly. Turning keeps each vertex's distance to the centre: the lid stays on the eye.
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
-real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle).
+real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle, under the
+mid-lid FPs), and all along the eye: no vertex turns past the other lid's margin at its place (`meet_lids`).
 
 No face turns over (not in the paper, which has no lids' turn): given the mesh's faces, `bind_eyelids` makes the
 weights such that each lid alone, turning anywhere within its range (`_turn_range`), keeps every face's normal
@@ -65,6 +66,10 @@ MEMBER = 0.99  # a vertex at least this much of a lid (its group weight) is the 
 # Over-relaxing (OMEGA 1.9) converged faster at 4k but, stopped short at 68k, left rougher weights and more folds
 # (the demo 15 faces in a frame against 1).
 SWEEPS, NUMPY_SWEEPS, OMEGA, TOLERANCE = 1000, 200, 1.0, 1e-3
+# `meet_lids`: each lid stops this angle (rad) short of where the other lid's margin is, about 0.1 mm at a lid's 16 mm
+# from the eye's axis: margins that meet exactly cross where one's rows lie a hair beyond the traced margin, and
+# the lids may stay 0.5 mm apart
+MEET_CLEARANCE = 0.006
 
 
 def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.ndarray:
@@ -82,32 +87,34 @@ def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.nda
 
 
 def trace_margins(t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> list | None:
-    """The lid margins along the eye, traced on the mesh: [(t, elevation) of the upper margin, of the lower].
+    """The lid margins along the eye, traced on the mesh: [(t, elevation, vertex) of the upper margin, of the lower].
 
     `t` (K,) position of the vertices from the inner (0) to the outer (1) corner, `elev` their elevation,
     `upper`/`lower` their lid membership. Each margin is traced by its lid's lowest (upper lid) or highest
     (lower lid) vertex in each bin of `t` (members at least half; up to `PROFILE_BINS` bins, about one per
-    three members on a coarse mesh), and the margins meet at the corners; None when a margin has fewer
-    than 3 points.
+    three members on a coarse mesh; `vertex` its index into `t`, -1 at the corners), and the margins meet at the
+    corners; None when a margin has fewer than 3 points.
     """
     members = min(int(np.sum(upper >= 0.5)), int(np.sum(lower >= 0.5)))
     edges = np.linspace(0.0, 1.0, max(4, min(PROFILE_BINS, members // 3)) + 1)
     margins = []
     for member, pick in ((upper, np.argmin), (lower, np.argmax)):
-        ts, angles = [0.0], [np.nan]
+        ts, angles, picked = [0.0], [np.nan], [-1]
         for b in range(len(edges) - 1):
             inside = np.flatnonzero((t >= edges[b]) & (t < edges[b + 1]) & (member >= 0.5))
             if len(inside):
                 k = inside[pick(elev[inside])]
                 ts.append(float(t[k]))
                 angles.append(float(elev[k]))
+                picked.append(int(k))
         ts.append(1.0)
         angles.append(np.nan)
-        margins.append((np.array(ts), np.array(angles)))
+        picked.append(-1)
+        margins.append((np.array(ts), np.array(angles), np.array(picked)))
     if min(len(m[0]) for m in margins) < 5:
         return None
     corner = [np.nanmean([m[1][1] for m in margins]), np.nanmean([m[1][-2] for m in margins])]
-    for _ts, angles in margins:
+    for _ts, angles, _picked in margins:
         angles[0], angles[-1] = corner
     return margins
 
@@ -117,7 +124,7 @@ def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | 
     opening under the mid-lid FPs (`t_mid`), so that lids that meet under the FPs meet along the whole eye."""
 
     def opening(x):
-        return np.interp(x, *margins[0]) - np.interp(x, *margins[1])
+        return np.interp(x, *margins[0][:2]) - np.interp(x, *margins[1][:2])
 
     mid = opening(t_mid)
     if not mid > 0.0:
@@ -153,6 +160,9 @@ class EyelidRig:
     # (K, 2) the upper and lower lid's weights for turns away from closure (the upper lid up, the lower down), where
     # `upper` and `lower` are for turns toward it; None: `upper` and `lower` for both
     opening: np.ndarray | None = None
+    # (K,) the lids' traced opening at each vertex's place along the eye over the mid one (`meeting_curve`), where
+    # `meet_lids` stops the lids; None: stopped under the mid-lid FPs only
+    meeting: np.ndarray | None = None
 
 
 def bind_eyelids(
@@ -199,6 +209,7 @@ def bind_eyelids(
     eye, fade, up, low = eye[keep], fade[keep], up[keep], low[keep]
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
     rest_angles = np.full((2, 3), np.nan)
+    meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
@@ -206,14 +217,17 @@ def bind_eyelids(
         rest_angles[e] = elevation(fps[[upper, lower, pupil]], centres[e])
         t = (x - inner_x) / (outer_x - inner_x)
         elev = elevation(face[keep[on]], centres[e])
-        margins = trace_margins(t, elev, up[on], low[on]) if trace_opening else None
+        margins = trace_margins(t, elev, up[on], low[on])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
-        profile = None if margins is None else opening_profile(margins, t, mid)
+        profile = opening_profile(margins, t, mid) if margins is not None and trace_opening else None
         if profile is not None:
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
+            meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid), inner_x, outer_x)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
+            mids = (mid, (fps[lower, 0] - inner_x) / (outer_x - inner_x))
+            meets[e] = (functools.partial(arch_meeting, t_mids=mids), inner_x, outer_x)
     weights = np.stack([up_weight * fade, low_weight * fade], axis=1)
     turn_range = opening = None
     if triangles is not None:
@@ -232,6 +246,10 @@ def bind_eyelids(
         moved |= (opening > 0.0).any(axis=1)
         opening = opening[moved]
     keep, eye, weights = keep[moved], eye[moved], weights[moved]
+    meeting = np.zeros(len(keep))
+    for e, (opening_at, inner_x, outer_x) in enumerate(meets):
+        on = eye == e
+        meeting[on] = opening_at((face[keep[on], 0] - inner_x) / (outer_x - inner_x))
     return EyelidRig(
         vertices=keep,
         eye=eye,
@@ -243,7 +261,44 @@ def bind_eyelids(
         axes=axes,
         turn_range=turn_range,
         opening=opening,
+        meeting=meeting,
     )
+
+
+def meeting_curve(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray:
+    """(P,) at positions `t` along the eye: the opening between the traced `margins` over that under the mid-lid
+    FPs (`t_mid`; `opening_profile` unclipped above), 0 at and beyond the corners and where the traced mid is shut."""
+    opening = np.interp(t, *margins[0][:2]) - np.interp(t, *margins[1][:2])
+    mid = np.interp(t_mid, *margins[0][:2]) - np.interp(t_mid, *margins[1][:2])
+    if not mid > 0.0:
+        return np.zeros_like(opening)
+    return np.where((t > 0.0) & (t < 1.0), opening.clip(0.0) / mid, 0.0)
+
+
+def arch_meeting(t: np.ndarray, t_mids: tuple[float, float]) -> np.ndarray:
+    """`meeting_curve` for lids turned by sine arches (`lid_profile`, the upper's and the lower's mid at `t_mids`):
+    the mean of the two arches at positions `t` along the eye."""
+    return 0.5 * sum(lid_profile(t, 0.0, t_mid, 1.0) for t_mid in t_mids)
+
+
+def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lids' turns (K,) toward closure stopped where the lids meet at each vertex's place along the eye.
+
+    `meet_at_closure` stops the lids under the mid-lid FPs; the shares `s` of the eye's opening there (c) the lids
+    have closed (`turns` (2, 2) over it) say where the other lid's margin is elsewhere: at a place whose traced
+    opening is o c (`EyelidRig.meeting`: o its share of the mid one) it has come s_other o c toward this one, so
+    no vertex of this lid turns toward closure by more than (1 - s_other) o c less `MEET_CLEARANCE`, whatever its
+    weight (the margin's weight is o: it stops at the other margin; rows behind it near the inner corner had more,
+    and went through the lower lid at a full blink).
+    """
+    closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
+    shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
+    opening = rig.meeting * closure[rig.eye]
+    inside = opening > 0.0
+    stop = (opening[:, None] * (1.0 - shares[:, ::-1]).clip(0.0) - MEET_CLEARANCE).clip(0.0)  # (K, 2) upper, lower
+    up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
+    low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
+    return up, low
 
 
 def _turn_range(rest_angles: np.ndarray) -> np.ndarray:
@@ -417,12 +472,14 @@ def apply_eyelids(rig: EyelidRig, out: np.ndarray, fp_positions: np.ndarray) -> 
     if not turns.any():  # lids at rest and the gaze level: every vertex would turn by exactly 0
         return
     turn = turns[rig.eye]  # (K, 2) each vertex's eye's upper and lower lid turn
-    if rig.opening is None:
-        angle = rig.upper * turn[:, 0] + rig.lower * turn[:, 1]
-    else:  # the weights for a turn toward closure or away from it (the same at 0: the turn is continuous)
-        upper = np.where(turn[:, 0] > 0.0, rig.opening[:, 0], rig.upper)
-        lower = np.where(turn[:, 1] < 0.0, rig.opening[:, 1], rig.lower)
-        angle = upper * turn[:, 0] + lower * turn[:, 1]
+    upper, lower = rig.upper, rig.lower
+    if rig.opening is not None:  # the weights for a turn toward closure or away from it (the same at 0)
+        upper = np.where(turn[:, 0] > 0.0, rig.opening[:, 0], upper)
+        lower = np.where(turn[:, 1] < 0.0, rig.opening[:, 1], lower)
+    up, low = upper * turn[:, 0], lower * turn[:, 1]
+    if rig.meeting is not None:
+        up, low = meet_lids(rig, turns, up, low)
+    angle = up + low
     # the turn about the face x axis moves only y and z: add (turned - local) straight along the y and z axes,
     # without building the turned copy; c - 1 as -2 sin^2(angle / 2) keeps small turns exact
     c1, s = -2.0 * np.sin(0.5 * angle) ** 2, np.sin(angle)

@@ -6,6 +6,7 @@ import pytest
 from addon.deform.eyelids import (
     EYE_FPS,
     LOWER_FOLLOWS_PITCH,
+    MEET_CLEARANCE,
     UPPER_FOLLOWS_PITCH,
     apply_eyelids,
     bind_eyelids,
@@ -102,7 +103,8 @@ def test_rest_stays_rest():
 def test_full_blink_closes_along_the_whole_lid(eye):
     out = _pose(upper_turn=LOW0 - UP0)  # the upper mid-lid FP turned down onto the lower one
     up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
-    np.testing.assert_allclose(up[INSIDE], low[INSIDE], atol=TRACE)
+    # the upper lid stops MEET_CLEARANCE short of the lower one (`meet_lids`), all along the eye
+    np.testing.assert_allclose(up[INSIDE], low[INSIDE] + MEET_CLEARANCE, atol=TRACE)
     assert np.all(low[INSIDE] < 0.0)  # closed where the lower lid is, not half-way
 
 
@@ -112,7 +114,9 @@ def test_overlapping_values_meet_and_never_cross(upper_turn, lower_turn):
     for eye in (0, 1):
         up, low = _margin_angles(out, eye, 0), _margin_angles(out, eye, 1)
         assert np.all(up >= low - TRACE)
-        np.testing.assert_allclose(up[INSIDE], low[INSIDE], atol=TRACE)
+        # each closing lid stops MEET_CLEARANCE short of the other (`meet_lids`)
+        closing = (upper_turn < 0.0) + (lower_turn > 0.0)
+        np.testing.assert_allclose(up[INSIDE], low[INSIDE] + closing * MEET_CLEARANCE, atol=TRACE)
 
 
 def test_half_blink_has_no_v():
@@ -247,3 +251,32 @@ def test_opening_from_the_fps_closes_smoothly_without_crossing():
         np.testing.assert_allclose(up[middle], low[middle], atol=3 * TRACE)
         bend = np.abs(np.diff(up[INSIDE], 2))  # a smooth curve: no kink between neighbours (0.5 mm apart)
         assert bend.max() < 0.01
+
+
+def test_meet_lids_stops_every_row_where_the_other_lid_is_by_hand():
+    """Opening c = 0.5 rad under the mid-lid FPs; three upper-lid vertices at places whose opening is o = 1, 0.5, 0.5
+    of it, with weights 1, 0.5 and 0.8 (a row behind the margin weighted above the margin's 0.5)."""
+    from addon.deform import eyelids as lids
+
+    rig = lids.EyelidRig(
+        vertices=np.arange(3),
+        eye=np.zeros(3, np.intp),
+        upper=np.array([1.0, 0.5, 0.8]),
+        lower=np.zeros(3),
+        local=np.zeros((3, 3)),
+        centres=np.zeros((2, 3)),
+        rest_angles=np.array([[0.25, -0.25, 0.0], [0.25, -0.25, 0.0]]),
+        axes=np.eye(3),
+        meeting=np.array([1.0, 0.5, 0.5]),
+    )
+    d = MEET_CLEARANCE
+    full = np.array([[-0.5, 0.0], [-0.5, 0.0]])  # the upper lid all the way down, the lower lid still
+    up, low = lids.meet_lids(rig, full, rig.upper * -0.5, np.zeros(3))
+    np.testing.assert_allclose(up, [-(0.5 - d), -(0.25 - d), -(0.25 - d)], atol=1e-15)  # the third: 0.4 before
+    np.testing.assert_array_equal(low, 0.0)
+    half = np.array([[-0.25, 0.25], [-0.25, 0.25]])  # both lids half way: each may come 0.5 o c toward the other
+    up, _low = lids.meet_lids(rig, half, rig.upper * -0.25, np.zeros(3))
+    np.testing.assert_allclose(up, [-(0.25 - d), -(0.125 - d), -(0.125 - d)], atol=1e-15)
+    rising = np.array([[0.1, 0.0], [0.1, 0.0]])  # away from closure: nothing is stopped
+    up, _low = lids.meet_lids(rig, rising, rig.upper * 0.1, np.zeros(3))
+    np.testing.assert_allclose(up, rig.upper * 0.1, atol=0)
