@@ -319,6 +319,7 @@ def gather(
     edges = None
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
+        params["mouth_rows"] = tuple(i for i, fp_id in enumerate(fp_ids) if fp_id.split(".")[0] in ("2", "8"))
         edges = face_data.mesh_edges(face.data) if mesh_edges is None else mesh_edges
     members = made_parts or inner_parts.group_members(face)
     rigid = np.unique(np.concatenate([*members.values(), np.zeros(0, np.intp)])).astype(np.intp)
