@@ -29,6 +29,10 @@ an FP the user drags still follows it, and the share is flat at the FP, so the s
 falling linearly, 1-3 % less of a 10 mm motion on the lips' corners' 0.5 mm triangles passed them through each
 other at the demo's widest mouth); it is smoothed among the skin within SMOOTHED_REACH widths of a control FP, so
 that a body joined under the head leaves the face as it is on the head alone.
+
+The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
+triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
+away from the lips, so their pairs' weights fall with the distance from the nearest lip or jaw FP.
 """
 
 from __future__ import annotations
@@ -80,7 +84,9 @@ def bind_face(
 ) -> Binding:
     """`bind` as the add-on binds a face; ``triangle_parts`` (T,) `control_mesh.triangle_parts`: the upper face's
     triangles reach only locally (None: the paper's cover everywhere), and with the mesh's (E, 2) ``edges`` each
-    vertex's share of the motion is smoothed over the skin (`smooth_follow`)."""
+    vertex's share of the motion is smoothed over the skin (`smooth_follow`); with ``mouth_rows`` (the control rows
+    of groups 2 and 8, `control_mesh.mouth_rows`) the mouth and jaw's triangles move the cheek less away from them
+    (`fall_from_mouth`)."""
     cover = face_cover(rest, control_rest, triangles, es0)
     fraction, raisable = radius_fraction, None
     if triangle_parts is not None:
