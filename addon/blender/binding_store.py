@@ -26,7 +26,7 @@ from ..deform.face_binding import FADE_BELOW, FOLLOW_SMOOTHING_PER_ES0, bind_fac
 from ..deform.masks import image_masks, vertex_uvs
 from ..deform.planar_bones import LOCAL_FIELDS, Binding
 from ..errors import Mpeg4Error
-from ..mpeg4.control_mesh import MASK_NAMES, triangle_parts
+from ..mpeg4.control_mesh import MASK_NAMES, mouth_rows, triangle_parts
 from . import face_data, inner_parts, rest_shape
 from .face_data import CREATED_PROP
 from .reporting import report_outside_operator
@@ -319,6 +319,7 @@ def gather(
     edges = None
     if settings.still_upper_face:
         params["triangle_parts"] = tuple(triangle_parts(fp_ids, triangles).tolist())
+        params["mouth_rows"] = mouth_rows(fp_ids)
         edges = face_data.mesh_edges(face.data) if mesh_edges is None else mesh_edges
     members = made_parts or inner_parts.group_members(face)
     rigid = np.unique(np.concatenate([*members.values(), np.zeros(0, np.intp)])).astype(np.intp)

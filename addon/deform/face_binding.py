@@ -29,6 +29,10 @@ an FP the user drags still follows it, and the share is flat at the FP, so the s
 falling linearly, 1-3 % less of a 10 mm motion on the lips' corners' 0.5 mm triangles passed them through each
 other at the demo's widest mouth); it is smoothed among the skin within SMOOTHED_REACH widths of a control FP, so
 that a body joined under the head leaves the face as it is on the head alone.
+
+The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
+triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
+away from the lips, so their pairs' weights fall with the distance from the nearest lip or jaw FP.
 """
 
 from __future__ import annotations
@@ -49,6 +53,7 @@ FACE_DEPTH_PER_ES0 = 0.25
 # (`scripts.bench.still_skin_fractions`, docs/eyes_brows.md)
 LOCAL_RADIUS_FRACTIONS = {EYES: 0.05, BROWS: 0.3, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
 FOLLOW_SMOOTHING_PER_ES0 = 0.4  # the width of skin `smooth_follow` spreads a vertex's share of the motion over
+MOUTH_REACH_PER_ES0 = 0.8  # the mouth and jaw's triangles move skin fully at their lips' and jaw's FPs, less away
 SMOOTHED_REACH = 3.0  # widths from the nearest control FP: the skin `smooth_follow` smooths among
 
 
@@ -75,10 +80,13 @@ def bind_face(
     triangle_parts: Sequence[int] | None = None,
     edges: np.ndarray | None = None,
     local_float32: bool = False,
+    mouth_rows: Sequence[int] | None = None,
 ) -> Binding:
     """`bind` as the add-on binds a face; ``triangle_parts`` (T,) `control_mesh.triangle_parts`: the upper face's
     triangles reach only locally (None: the paper's cover everywhere), and with the mesh's (E, 2) ``edges`` each
-    vertex's share of the motion is smoothed over the skin (`smooth_follow`)."""
+    vertex's share of the motion is smoothed over the skin (`smooth_follow`); with ``mouth_rows`` (the control rows
+    of groups 2 and 8, `control_mesh.mouth_rows`) the mouth and jaw's triangles move the cheek less away from them
+    (`fall_from_mouth`)."""
     cover = face_cover(rest, control_rest, triangles, es0)
     fraction, raisable = radius_fraction, None
     if triangle_parts is not None:
@@ -103,6 +111,8 @@ def bind_face(
         raisable=raisable,
         local_float32=local_float32,
     )
+    if triangle_parts is not None and mouth_rows is not None and len(mouth_rows) and es0 > 0:
+        binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0)
     if triangle_parts is None or edges is None:
         return binding
     width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
@@ -136,3 +146,18 @@ def smooth_follow(
     lowered = np.minimum(share, np.maximum(smoothed, pinned))
     scale = np.divide(lowered, share, out=np.zeros_like(share), where=share > 0.0)
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale[binding.pair_vertex])
+
+
+def fall_from_mouth(binding: Binding, mouth_triangles: np.ndarray, mouth_rows: Sequence[int], es0: float) -> Binding:
+    """`binding` with the weights of its pairs on the (T,) bool `mouth_triangles` scaled by 1 - (d / R)² (at least
+    0), d a vertex's distance from the nearest of the control rows `mouth_rows` (the lips' and jaw's FPs, groups 2
+    and 8) and R = MOUTH_REACH_PER_ES0 x `es0`: the mouth and jaw's triangles span the cheek to the cheekbone, and
+    interpolating their FPs' motion linearly over it moves the cheek's skin more than sculpted expressions do
+    (their motion falls off away from the lips)."""
+    rest = binding.rest_vertices
+    near = np.full(len(rest), np.inf)
+    for point in np.asarray(binding.control_rest)[np.asarray(mouth_rows, dtype=np.intp)]:
+        near = np.minimum(near, np.linalg.norm(rest - point, axis=1))
+    cap = np.clip(1.0 - (near / (MOUTH_REACH_PER_ES0 * es0)) ** 2, 0.0, 1.0)
+    scale = np.where(np.asarray(mouth_triangles)[binding.pair_triangle], cap[binding.pair_vertex], 1.0)
+    return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale)

@@ -204,6 +204,12 @@ def triangle_parts(fp_ids, triangles: np.ndarray) -> np.ndarray:
     return parts
 
 
+def mouth_rows(fp_ids) -> tuple[int, ...]:
+    """The control rows on the lips, the jaw or the chin (FP groups 2 and 8), from which the mouth and jaw's
+    triangles' share of the motion falls (`face_binding.fall_from_mouth`)."""
+    return tuple(i for i, fp_id in enumerate(fp_ids) if fp_id.split(".")[0] in ("2", "8"))
+
+
 def check_control_mesh(points: np.ndarray, triangles: np.ndarray) -> list[str]:
     """Problems that stop (points (M, 3), triangles (T, 3)) from being a control mesh; [] if none.
 

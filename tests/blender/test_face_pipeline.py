@@ -10,7 +10,7 @@ from addon.deform.face_binding import bind_face
 from addon.deform.lips import bind_lip_guard, guard_lips, mouth_sides
 from addon.deform.planar_bones import evaluate
 from addon.deform.unfold import open_folds_guarded, prepare
-from addon.mpeg4.control_mesh import triangle_parts
+from addon.mpeg4.control_mesh import mouth_rows, triangle_parts
 from addon.mpeg4.decode import fap_to_fp, hold_missing
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
@@ -43,7 +43,8 @@ def core_result(head, stream_path, frame_index):
     # Eyes, on by default)
     parts = triangle_parts(ids, tris)
     binding = bind_face(rest, rest_control, tris, es0=fapu.ES0, vertex_masks=masks, triangle_masks=tri_masks,
-                        triangle_parts=parts, edges=face_data.mesh_edges(head.data))  # fmt: skip
+                        triangle_parts=parts, edges=face_data.mesh_edges(head.data),
+                        mouth_rows=mouth_rows(ids))  # fmt: skip
     driving = hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control)
     out = evaluate(binding, driving)
     triangles = face_data.mesh_fans(head.data)[0]

@@ -1,0 +1,36 @@
+"""The mouth and jaw's triangles move the cheek less away from the lips and jaw (`face_binding.fall_from_mouth`)."""
+
+import numpy as np
+
+from addon.deform.face_binding import MOUTH_REACH_PER_ES0, fall_from_mouth
+from addon.deform.planar_bones import bind, evaluate
+
+
+def test_a_lip_corner_moves_fully_and_the_cheek_toward_the_cheekbone_less():
+    n, step, es0 = 41, 0.001, 0.06
+    x, y = np.meshgrid(np.arange(n) * step, np.arange(n) * step, indexing="ij")
+    rest = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    # two mouth-and-jaw triangles: a lip corner (row 0, a mouth FP) and three cheek FPs 40-57 mm away
+    control = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.04, 0.04, 0.0], [0.0, 0.04, 0.0]])
+    triangles = np.array([[0, 1, 2], [0, 2, 3]])
+    binding = bind(rest, control, triangles, cover=np.zeros(len(rest), bool), fade_below=0.2)
+    fallen = fall_from_mouth(binding, np.array([True, True]), [0], es0)
+    moved = control.copy()
+    moved[0, 0] -= 0.01  # the lip corner pulled 10 mm out
+    before = np.linalg.norm(evaluate(binding, moved) - rest, axis=1)
+    after = np.linalg.norm(evaluate(fallen, moved) - rest, axis=1)
+    corner = int(np.argmin(np.linalg.norm(rest - [0.0, 0.0, 0.0], axis=1)))  # at it
+    cheek = int(np.argmin(np.linalg.norm(rest - [0.015, 0.015, 0.0], axis=1)))  # 21 mm from the corner
+    np.testing.assert_allclose(after[corner], before[corner], rtol=1e-9)  # at the lip: as the paper moves it
+    assert before[corner] > 0.0099
+    d = np.linalg.norm(rest[cheek] - control[0])
+    expected = 1.0 - (d / (MOUTH_REACH_PER_ES0 * es0)) ** 2
+    assert after[cheek] < 0.9 * before[cheek]  # the old linear interpolation moved it fully
+    np.testing.assert_allclose(after[cheek], expected * before[cheek], rtol=1e-6)
+    assert np.all(after <= before + 1e-12)  # never more than the paper's weights
+    np.testing.assert_allclose(evaluate(fallen, control), rest, atol=1e-12)  # at rest, the skin stays
+    # pairs on other triangles are untouched
+    assert (
+        fall_from_mouth(binding, np.array([False, False]), [0], es0).pair_weight.tolist()
+        == binding.pair_weight.tolist()
+    )
