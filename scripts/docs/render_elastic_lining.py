@@ -17,12 +17,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-import bpy
-
-from scripts.bench import evaluate
 from scripts.bench.elastic_bones import ElasticBonesMethod
-from scripts.docs.closeups import UNITS, closeup_camera, save_rows
-from scripts.docs.render_elastic_weights import TILE, render_row
+from scripts.docs.closeups import save_rows
+from scripts.docs.render_elastic_weights import prepare_shots, render_row
 
 ROOT = Path(__file__).resolve().parents[2]
 # (unit, FP motion times, coloured by motion, FP the camera looks at, yaw, pitch, ortho scale)
@@ -39,12 +36,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_lining.png")
     args = parser.parse_args(argv)
-    face = evaluate.load_face(evaluate.DEFAULT_FACE)
-    files = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
-    motion = {name: evaluate.target_motion(files[name], face) for name, *_ in SHOTS}
-    scene = bpy.context.scene
-    camera = closeup_camera(scene, face.head, TILE, SHOTS[0][-1])
-    scene.display.shading.color_type = "VERTEX"
+    face, motion, camera = prepare_shots(SHOTS)
     with tempfile.TemporaryDirectory() as tmp:
         rows = [render_row(face, method, SHOTS, motion, camera, label, Path(tmp))
                 for label, method in (("the sculpt", None), ("Elastic Bones", ElasticBonesMethod(face)))]  # fmt: skip

@@ -66,16 +66,22 @@ def render_row(face, method, shots, motion: dict, camera, label: str, tmp: Path)
     return np.concatenate(tiles, axis=1)
 
 
+def prepare_shots(shots):
+    """The sample face, each shot's unit motion by name, and the close-up camera, the scene shaded by vertex colour."""
+    face = evaluate.load_face(evaluate.DEFAULT_FACE)
+    files = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
+    motion = {name: evaluate.target_motion(files[name], face) for name, *_ in shots}
+    scene = bpy.context.scene
+    camera = closeup_camera(scene, face.head, TILE, shots[0][-1])
+    scene.display.shading.color_type = "VERTEX"
+    return face, motion, camera
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_weights_before_after.png")
     args = parser.parse_args(argv)
-    face = evaluate.load_face(evaluate.DEFAULT_FACE)
-    files = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
-    motion = {name: evaluate.target_motion(files[name], face) for name, *_ in SHOTS}
-    scene = bpy.context.scene
-    camera = closeup_camera(scene, face.head, TILE, SHOTS[0][-1])
-    scene.display.shading.color_type = "VERTEX"
+    face, motion, camera = prepare_shots(SHOTS)
     shipped = skinning.SMOOTHING_WIDTH
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
