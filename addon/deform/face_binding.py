@@ -119,9 +119,7 @@ def bind_face(
         return binding
     width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
     # the skin at a control FP follows it fully, and less so up to half the width away (flat at the FP)
-    near = np.full(len(rest), np.inf)
-    for point in np.asarray(control_rest)[np.unique(triangles)]:
-        near = np.minimum(near, np.linalg.norm(rest - point, axis=1))
+    near = _nearest(rest, np.asarray(control_rest)[np.unique(triangles)])
     pinned = np.clip(1.0 - (near / (0.5 * width)) ** 2, 0.0, 1.0)
     return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width)
 
@@ -156,10 +154,22 @@ def fall_from_mouth(binding: Binding, mouth_triangles: np.ndarray, mouth_rows: S
     and 8) and R = MOUTH_REACH_PER_ES0 x `es0`: the mouth and jaw's triangles span the cheek to the cheekbone, and
     interpolating their FPs' motion linearly over it moves the cheek's skin more than sculpted expressions do
     (their motion falls off away from the lips)."""
-    rest = binding.rest_vertices
-    near = np.full(len(rest), np.inf)
-    for point in np.asarray(binding.control_rest)[np.asarray(mouth_rows, dtype=np.intp)]:
-        near = np.minimum(near, np.linalg.norm(rest - point, axis=1))
-    cap = np.clip(1.0 - (near / (MOUTH_REACH_PER_ES0 * es0)) ** 2, 0.0, 1.0)
+    rest, control = binding.rest_vertices, np.asarray(binding.control_rest)
+    mouth_rows = np.asarray(mouth_rows, dtype=np.intp)
+    cap = np.clip(1.0 - (_nearest(rest, control[mouth_rows]) / (MOUTH_REACH_PER_ES0 * es0)) ** 2, 0.0, 1.0)
+    # the triangles' other FPs (the cheeks', 5.x, which FAPs 39-42 move): skin at them still follows them fully, as
+    # at every control FP (`bind_face`'s pin, same width); only the lips' motion carried across the cheek falls
+    others = np.setdiff1d(np.unique(np.asarray(binding.triangles)[np.asarray(mouth_triangles)]), mouth_rows)
+    if len(others):
+        pin_reach = 0.5 * FOLLOW_SMOOTHING_PER_ES0 * es0
+        cap = np.maximum(cap, np.clip(1.0 - (_nearest(rest, control[others]) / pin_reach) ** 2, 0.0, 1.0))
     scale = np.where(np.asarray(mouth_triangles)[binding.pair_triangle], cap[binding.pair_vertex], 1.0)
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale)
+
+
+def _nearest(points: np.ndarray, sources: np.ndarray) -> np.ndarray:
+    """(N,) each point's distance from the nearest of the (K, 3) sources (inf with none)."""
+    near = np.full(len(points), np.inf)
+    for source in sources:
+        near = np.minimum(near, np.linalg.norm(points - source, axis=1))
+    return near

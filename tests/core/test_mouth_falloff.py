@@ -34,3 +34,20 @@ def test_a_lip_corner_moves_fully_and_the_cheek_toward_the_cheekbone_less():
         fall_from_mouth(binding, np.array([False, False]), [0], es0).pair_weight.tolist()
         == binding.pair_weight.tolist()
     )
+
+
+def test_skin_at_a_cheek_fp_of_a_mouth_triangle_still_follows_it_fully():
+    # FAPs 39-42 (puff and lift the cheeks) move the cheek FPs that corner the mouth and jaw's triangles: the skin at
+    # them follows as at every control FP; the falloff from the lips alone had moved it 1.1 of 10 mm
+    n, step, es0 = 41, 0.001, 0.06
+    x, y = np.meshgrid(np.arange(n) * step, np.arange(n) * step, indexing="ij")
+    rest = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
+    control = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.04, 0.04, 0.0], [0.0, 0.04, 0.0]])
+    triangles = np.array([[0, 1, 2], [0, 2, 3]])
+    binding = bind(rest, control, triangles, cover=np.zeros(len(rest), bool), fade_below=0.2)
+    fallen = fall_from_mouth(binding, np.array([True, True]), [0], es0)
+    moved = control.copy()
+    moved[2, 2] += 0.01  # the cheek FP puffed 10 mm out
+    at_fp = int(np.argmin(np.linalg.norm(rest - control[2], axis=1)))
+    np.testing.assert_allclose(evaluate(fallen, moved)[at_fp], evaluate(binding, moved)[at_fp], atol=1e-12)
+    assert np.linalg.norm(evaluate(fallen, moved)[at_fp] - rest[at_fp]) > 0.0099
