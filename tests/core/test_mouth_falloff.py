@@ -6,15 +6,20 @@ from addon.deform.face_binding import MOUTH_REACH_PER_ES0, fall_from_mouth
 from addon.deform.planar_bones import bind, evaluate
 
 
-def test_a_lip_corner_moves_fully_and_the_cheek_toward_the_cheekbone_less():
+def _two_mouth_triangles():
+    """A 40 mm square of skin (1 mm grid) under two mouth-and-jaw triangles: a lip corner (row 0, the one mouth FP)
+    and three cheek FPs 40-57 mm away; its binding, the binding with the mouth's falloff, and ES0 (60 mm)."""
     n, step, es0 = 41, 0.001, 0.06
     x, y = np.meshgrid(np.arange(n) * step, np.arange(n) * step, indexing="ij")
     rest = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
-    # two mouth-and-jaw triangles: a lip corner (row 0, a mouth FP) and three cheek FPs 40-57 mm away
     control = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.04, 0.04, 0.0], [0.0, 0.04, 0.0]])
     triangles = np.array([[0, 1, 2], [0, 2, 3]])
     binding = bind(rest, control, triangles, cover=np.zeros(len(rest), bool), fade_below=0.2)
-    fallen = fall_from_mouth(binding, np.array([True, True]), [0], es0)
+    return rest, control, binding, fall_from_mouth(binding, np.array([True, True]), [0], es0), es0
+
+
+def test_a_lip_corner_moves_fully_and_the_cheek_toward_the_cheekbone_less():
+    rest, control, binding, fallen, es0 = _two_mouth_triangles()
     moved = control.copy()
     moved[0, 0] -= 0.01  # the lip corner pulled 10 mm out
     before = np.linalg.norm(evaluate(binding, moved) - rest, axis=1)
@@ -39,13 +44,7 @@ def test_a_lip_corner_moves_fully_and_the_cheek_toward_the_cheekbone_less():
 def test_skin_at_a_cheek_fp_of_a_mouth_triangle_still_follows_it_fully():
     # FAPs 39-42 (puff and lift the cheeks) move the cheek FPs that corner the mouth and jaw's triangles: the skin at
     # them follows as at every control FP; the falloff from the lips alone had moved it 1.1 of 10 mm
-    n, step, es0 = 41, 0.001, 0.06
-    x, y = np.meshgrid(np.arange(n) * step, np.arange(n) * step, indexing="ij")
-    rest = np.column_stack([x.ravel(), y.ravel(), np.zeros(n * n)])
-    control = np.array([[0.0, 0.0, 0.0], [0.04, 0.0, 0.0], [0.04, 0.04, 0.0], [0.0, 0.04, 0.0]])
-    triangles = np.array([[0, 1, 2], [0, 2, 3]])
-    binding = bind(rest, control, triangles, cover=np.zeros(len(rest), bool), fade_below=0.2)
-    fallen = fall_from_mouth(binding, np.array([True, True]), [0], es0)
+    rest, control, binding, fallen, es0 = _two_mouth_triangles()
     moved = control.copy()
     moved[2, 2] += 0.01  # the cheek FP puffed 10 mm out
     at_fp = int(np.argmin(np.linalg.norm(rest - control[2], axis=1)))
