@@ -2,7 +2,14 @@
 
 import numpy as np
 
-from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, nostril_lift, whole_lip_push
+from addon.arkit.deformations import (
+    deform_points,
+    hinge_angle,
+    hinge_axis,
+    jaw_hinge,
+    nostril_lift,
+    whole_lip_push,
+)
 from addon.mpeg4.decode import JAW_RIDERS
 from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
 
@@ -10,11 +17,17 @@ FACE_FRAME = np.eye(3)  # x left, y up, z forward: mesh coordinates are the face
 
 
 def _face() -> np.ndarray:
-    """84 points spread over a box, the ears' lower contacts 10.3/10.4 at (+-0.05, 0, 0), the chin 2.1 at
-    0.1 below and 0.1 in front of them."""
+    """84 points spread over a box with an adult's ES0 (63 mm), the ears' lower contacts 10.3/10.4 at
+    (+-0.05, 0.0324, -0.013) and the outer eye corners straight in front of them, so that the jaw turns about the
+    x axis (`hinge_axis`: 13 mm in front of the tragus and 32.4 mm below); the chin 2.1 at 0.1 below and 0.1 in
+    front of that axis."""
     points = np.random.default_rng(7).uniform(-0.1, 0.1, (N_FEATURE_POINTS, 3))
-    points[fp_index("10.3")] = (0.05, 0.0, 0.0)
-    points[fp_index("10.4")] = (-0.05, 0.0, 0.0)
+    points[fp_index("10.3")] = (0.05, 0.0324, -0.013)
+    points[fp_index("10.4")] = (-0.05, 0.0324, -0.013)
+    points[fp_index("3.7")] = (0.045, 0.0324, 0.08)
+    points[fp_index("3.12")] = (-0.045, 0.0324, 0.08)
+    points[fp_index("3.5")] = (0.0315, 0.04, 0.07)
+    points[fp_index("3.6")] = (-0.0315, 0.04, 0.07)
     points[fp_index("2.1")] = (0.0, -0.1, 0.1)
     return points
 
@@ -75,6 +88,27 @@ def test_the_skin_between_the_hinge_and_the_chin_turns_about_the_hinge():
     np.testing.assert_array_equal(moved[3], rest[3])  # off the jaw: stays
     straight_down = (engine - rest)[0] @ radius[0] / (drop * np.linalg.norm(radius[0]))
     assert abs(straight_down) > 0.7  # what the engine alone gives: along the radius by cos 45 degrees
+
+
+def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():
+    # Beyron's condyle 13 mm in front of the tragus 10.3/10.4 toward the outer eye corners, and the turn's centre
+    # 32.4 mm below it (Mehl et al. 2025); the ears themselves were the axis before
+    neutral = _face()
+    origin, axis = hinge_axis(neutral)
+    np.testing.assert_allclose(origin, [0.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(axis, [1.0, 0.0, 0.0], atol=1e-12)
+    # a face modelled in centimetres, twice an adult's size (ES0 12.6), its canthi higher than the tragus: the
+    # sizes scale with ES0, and the condyle lies along Beyron's line, the centre straight down from it
+    big = 200.0 * neutral
+    big[[fp_index("3.7"), fp_index("3.12")], 1] += 10.0
+    origin, axis = hinge_axis(big)
+    line = np.array([0.0, 10.0, 200.0 * 0.093])
+    condyle = 200.0 * np.array([0.0, 0.0324, -0.013]) + 200.0 * 0.013 * line / np.linalg.norm(line)
+    np.testing.assert_allclose(origin, condyle - [0.0, 200.0 * 0.0324, 0.0], atol=1e-9)
+    np.testing.assert_allclose(axis, [1.0, 0.0, 0.0], atol=1e-12)
+    missing = neutral.copy()
+    missing[fp_index("3.12")] = np.nan
+    assert hinge_axis(missing) is None
 
 
 def test_the_jaw_turn_is_the_same_in_any_mesh_frame():
