@@ -20,6 +20,15 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   orbicularis oris purses and everts the lips all round; ARKit's rolls move a lip "toward the inside of the
   mouth"). The shrugs keep the push at the mid-point: mentalis lifts the lower lip from below its middle, and
   the corners stay.
+- `mid_lip_push` (mouthShrugLower / Upper: mentalis, AU 17, and the upper lip's shrug push a lip out at its
+  middle): the lip's outer edge 8.2 / 8.1 comes out as far as push_b_lip / push_t_lip moved its inner mid-point
+  2.3 / 2.2 (ARKit: "outward movement of the lower lip", the lip, not its inner edge); its sides and the corners
+  stay, as mentalis lifts the lip from below its middle.
+- `corner_back` (mouthDimple*: buccinator, AU 14, pulls the corner back into the cheek; ARKit: "backward
+  movement of the left corner of the mouth"): no FAP moves a corner back (stretch_cornerlip is sideways), so
+  the corner the FAPs pulled out slides on the cheek instead: it stays on the line from its rest position to the
+  cheek's centre beside it (5.1 / 5.2, "at the height of 8.3 / 8.4"), seen from above, going back as far as
+  that line falls back over the sideways distance the FAPs gave it; its lift stays. No size of its own.
 - `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
   lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
@@ -53,10 +62,14 @@ LIP_FOLLOWERS = {
     "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
 }
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
+# each lip's outer mid-point, with the inner one whose push it follows in a shrug
+LIP_MIDLINE = {"2.2": ("8.1",), "2.3": ("8.2",)}
+# each cheek's centre, with the corner points (inner, outer) that slide toward it on the cheek
+CORNER_CHEEKS = {"5.1": ("2.4", "8.3"), "5.2": ("2.5", "8.4")}
 # each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
 # outer point beside them that the same muscle lifts
 NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
-FP_DEFORMATIONS = ("whole_lip_push", "nostril_lift")
+FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_back", "nostril_lift")
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
@@ -171,18 +184,52 @@ def jaw_hinge(
     return moved
 
 
-def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
-    """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
-    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
+def _follow_push(
+    neutral: np.ndarray, points: np.ndarray, followers: dict, corners: bool, axes: np.ndarray
+) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's `followers` pushed forward as far as its mid-point
+    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip), and with `corners` the corners by the mean of both."""
     axes = np.asarray(axes, dtype=np.float64)
     face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
     moved = np.asarray(points, dtype=np.float64) @ axes.T
-    push = {mid: moved[fp_index(mid), 2] - face_neutral[fp_index(mid), 2] for mid in LIP_FOLLOWERS}
+    push = {mid: moved[fp_index(mid), 2] - face_neutral[fp_index(mid), 2] for mid in followers}
     if not all(np.isfinite(p) for p in push.values()):
         return np.array(points, dtype=np.float64)
-    for mid, followers in LIP_FOLLOWERS.items():
-        moved[[fp_index(fp) for fp in followers], 2] += push[mid]
-    moved[[fp_index(fp) for fp in LIP_CORNERS], 2] += 0.5 * sum(push.values())
+    for mid, follow in followers.items():
+        moved[[fp_index(fp) for fp in follow], 2] += push[mid]
+    if corners:
+        moved[[fp_index(fp) for fp in LIP_CORNERS], 2] += 0.5 * sum(push.values())
+    return moved @ axes
+
+
+def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
+    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
+    return _follow_push(neutral, points, LIP_FOLLOWERS, True, axes)
+
+
+def mid_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's outer mid-point (8.1, 8.2) pushed forward as far as
+    its inner one (2.2, 2.3)."""
+    return _follow_push(neutral, points, LIP_MIDLINE, False, axes)
+
+
+def corner_back(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each corner's sideways motion turned onto the cheek's surface
+    toward the cheek point beside it (2.4, 8.3 toward 5.1 on the left; 2.5, 8.4 toward 5.2): as far along that
+    line as the FAPs moved it out, its lift kept."""
+    axes = np.asarray(axes, dtype=np.float64)
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    moved = np.asarray(points, dtype=np.float64) @ axes.T
+    for cheek, corners in CORNER_CHEEKS.items():
+        for fp in corners:
+            k = fp_index(fp)
+            line = face_neutral[fp_index(cheek)] - face_neutral[k]
+            line[1] = 0.0
+            out = moved[k, 0] - face_neutral[k, 0]
+            if not (np.isfinite(out) and np.all(np.isfinite(line)) and line[0] != 0.0):
+                continue
+            moved[k, [0, 2]] = face_neutral[k, [0, 2]] + out / line[0] * line[[0, 2]]
     return moved @ axes
 
 
@@ -205,4 +252,8 @@ def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axe
         return whole_lip_push(neutral, points, axes)
     if name == "nostril_lift":
         return nostril_lift(neutral, points, axes)
+    if name == "mid_lip_push":
+        return mid_lip_push(neutral, points, axes)
+    if name == "corner_back":
+        return corner_back(neutral, points, axes)
     return np.array(points, dtype=np.float64)

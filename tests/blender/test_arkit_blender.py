@@ -80,6 +80,11 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):
         assert pucker[near[fp_id], 1] < -0.003, fp_id
+    # the dimple's corner goes back (+Y) as it goes out, sliding on the cheek (ARKit: "backward movement of the
+    # left corner"; the FAPs move it sideways only); the lower lip's shrug pushes its outer edge 8.2 out (-Y)
+    dimple = offsets["mouthDimpleLeft"]
+    assert dimple[near["2.4"], 1] > 0.002 and dimple[near["2.4"], 0] > 0.002, dimple[near["2.4"]]
+    assert offsets["mouthShrugLower"][near["8.2"], 1] < -0.001
     assert offsets["browInnerUp"][moved["browInnerUp"].argmax(), 2] > 0.004
     # eyeLook* turn the eyeballs, jawOpen moves the lower teeth and the tongue
     eye_l, eye_r = bpy.data.objects["Eye L"], bpy.data.objects["Eye R"]

@@ -33,6 +33,10 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "noseSneerLeft": "nostril_lift",
         "noseSneerRight": "nostril_lift",
         "tongueOut": "tongue_forward",
+        "mouthDimpleLeft": "corner_back",
+        "mouthDimpleRight": "corner_back",
+        "mouthShrugLower": "mid_lip_push",
+        "mouthShrugUpper": "mid_lip_push",
     }
 
 

@@ -148,6 +148,29 @@ def test_the_whole_lip_moves_with_its_mid_points_push():
     np.testing.assert_array_equal(moved[others], pushed[others])
 
 
+def test_a_shrug_pushes_the_lips_midline_out_inner_and_outer_and_leaves_the_rest():
+    neutral = _face()
+    pushed = neutral.copy()
+    pushed[fp_index("2.3"), 2] += 0.002  # push_b_lip
+    pushed[fp_index("2.3"), 1] += 0.003  # the lip's rise stays
+    moved = deform_points("mid_lip_push", neutral, pushed, FACE_FRAME)
+    np.testing.assert_allclose(moved[fp_index("8.2")], neutral[fp_index("8.2")] + [0.0, 0.0, 0.002], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k != fp_index("8.2")]
+    np.testing.assert_array_equal(moved[others], pushed[others])  # corners, sides and the upper lip stay
+
+
+def test_a_corner_pulled_out_slides_back_along_the_cheek():
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    neutral[fp_index("2.4")] = (0.025, -0.037, 0.125)
+    neutral[fp_index("5.1")] = (0.045, -0.040, 0.110)  # 20 mm out, 15 back (and 3 lower: the lift is kept)
+    dimple = neutral.copy()
+    dimple[fp_index("2.4")] += (0.004, 0.001, 0.0)  # stretch_l_cornerlip out 4 mm, raise_l_cornerlip 1 mm
+    moved = deform_points("corner_back", neutral @ axes, dimple @ axes, axes) @ axes.T
+    np.testing.assert_allclose(moved[fp_index("2.4")], neutral[fp_index("2.4")] + [0.004, 0.001, -0.003], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k != fp_index("2.4")]
+    np.testing.assert_allclose(moved[others], dimple[others], atol=1e-12)  # the other corners did not go out
+
+
 def test_the_nostril_rises_with_the_upper_lip_beside_it():
     neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
     sneer = neutral.copy()
