@@ -16,19 +16,21 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
 - `whole_lip_push` (mouthPucker, mouthFunnel, mouthRoll*, cheekPuff: the lips pursed, everted or rolled in by
   orbicularis oris, or pushed by air): a lip pushed forward (or back) moves as a whole. push_b_lip / push_t_lip
   (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move the inner mid-points
-  2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' (AU 18/22:
-  orbicularis oris purses and everts the lips all round; ARKit's rolls move a lip "toward the inside of the
-  mouth"). The shrugs keep the push at the mid-point: mentalis lifts the lower lip from below its middle, and
-  the corners stay.
+  2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' on top
+  of their `corner_slide` (AU 18/22: orbicularis oris purses and everts the lips all round; ARKit's rolls move
+  a lip "toward the inside of the mouth").
 - `mid_lip_push` (mouthShrugLower / Upper: mentalis, AU 17, and the upper lip's shrug push a lip out at its
   middle): the lip's outer edge 8.2 / 8.1 comes out as far as push_b_lip / push_t_lip moved its inner mid-point
   2.3 / 2.2 (ARKit: "outward movement of the lower lip", the lip, not its inner edge); its sides and the corners
   stay, as mentalis lifts the lip from below its middle.
-- `corner_back` (mouthDimple*: buccinator, AU 14, pulls the corner back into the cheek; ARKit: "backward
-  movement of the left corner of the mouth"): no FAP moves a corner back (stretch_cornerlip is sideways), so
-  the corner the FAPs pulled out slides on the cheek instead: it stays on the line from its rest position to the
-  cheek's centre beside it (5.1 / 5.2, "at the height of 8.3 / 8.4"), seen from above, going back as far as
-  that line falls back over the sideways distance the FAPs gave it; its lift stays. No size of its own.
+- `corner_slide` (every recipe that moves a lip corner sideways: the smiles, dimples, stretches, presses,
+  mouthLeft / Right, and within `whole_lip_push`): stretch_cornerlip moves a corner straight sideways (the
+  standard's horizontal displacement), but the corner lies on the curved front of the teeth, between the lip
+  and the cheek, and slides on it: out and back (buccinator's dimple, AU 14; ARKit: "backward movement of the
+  left corner of the mouth"), in and forward (the pursed lips' corners, AU 18). Seen from above, the corner
+  stays on the line of the face's surface at the corner, from its lip beside it (the mean of 2.6 and 2.8 for
+  2.4) to the cheek's centre (5.1, "at the height of 8.3"), as far sideways as the FAPs moved it. No size of
+  its own: the sideways distance is the recipe's, the slope the face's.
 - `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
   lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
@@ -64,12 +66,18 @@ LIP_FOLLOWERS = {
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
 # each lip's outer mid-point, with the inner one whose push it follows in a shrug
 LIP_MIDLINE = {"2.2": ("8.1",), "2.3": ("8.2",)}
-# each cheek's centre, with the corner points (inner, outer) that slide toward it on the cheek
-CORNER_CHEEKS = {"5.1": ("2.4", "8.3"), "5.2": ("2.5", "8.4")}
+# each lip corner, with the points whose line gives the face's surface there: its lip's points beside it (upper,
+# lower) and the cheek's centre
+CORNER_SLIDES = {
+    "2.4": ("2.6", "2.8", "5.1"),
+    "8.3": ("8.5", "8.7", "5.1"),
+    "2.5": ("2.7", "2.9", "5.2"),
+    "8.4": ("8.6", "8.8", "5.2"),
+}
 # each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
 # outer point beside them that the same muscle lifts
 NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
-FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_back", "nostril_lift")
+FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "nostril_lift")
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
@@ -205,7 +213,7 @@ def _follow_push(
 def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
     (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
-    return _follow_push(neutral, points, LIP_FOLLOWERS, True, axes)
+    return _follow_push(neutral, corner_slide(neutral, points, axes), LIP_FOLLOWERS, True, axes)
 
 
 def mid_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
@@ -214,22 +222,21 @@ def mid_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLE
     return _follow_push(neutral, points, LIP_MIDLINE, False, axes)
 
 
-def corner_back(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
-    """(84, 3) FP positions (mesh coordinates) with each corner's sideways motion turned onto the cheek's surface
-    toward the cheek point beside it (2.4, 8.3 toward 5.1 on the left; 2.5, 8.4 toward 5.2): as far along that
-    line as the FAPs moved it out, its lift kept."""
+def corner_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip corner the FAPs moved sideways kept on the face's
+    surface: seen from above, it slides along the line from the lip beside it (the mean of its lip's points
+    there, 2.6 and 2.8 for 2.4) to the cheek's centre (5.1), the surface's direction at the corner, as far
+    sideways as the FAPs moved it: back as it goes out, forward as it comes in. Its lift and any depth the
+    FAPs gave it stay."""
     axes = np.asarray(axes, dtype=np.float64)
     face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
     moved = np.asarray(points, dtype=np.float64) @ axes.T
-    for cheek, corners in CORNER_CHEEKS.items():
-        for fp in corners:
-            k = fp_index(fp)
-            line = face_neutral[fp_index(cheek)] - face_neutral[k]
-            line[1] = 0.0
-            out = moved[k, 0] - face_neutral[k, 0]
-            if not (np.isfinite(out) and np.all(np.isfinite(line)) and line[0] != 0.0):
-                continue
-            moved[k, [0, 2]] = face_neutral[k, [0, 2]] + out / line[0] * line[[0, 2]]
+    for corner, (upper, lower, cheek) in CORNER_SLIDES.items():
+        k = fp_index(corner)
+        line = face_neutral[fp_index(cheek)] - 0.5 * (face_neutral[fp_index(upper)] + face_neutral[fp_index(lower)])
+        out = moved[k, 0] - face_neutral[k, 0]
+        if np.isfinite(out) and np.all(np.isfinite(line)) and line[0] != 0.0:
+            moved[k, 2] += out * line[2] / line[0]
     return moved @ axes
 
 
@@ -254,6 +261,6 @@ def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axe
         return nostril_lift(neutral, points, axes)
     if name == "mid_lip_push":
         return mid_lip_push(neutral, points, axes)
-    if name == "corner_back":
-        return corner_back(neutral, points, axes)
+    if name == "corner_slide":
+        return corner_slide(neutral, points, axes)
     return np.array(points, dtype=np.float64)

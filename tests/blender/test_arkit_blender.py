@@ -80,6 +80,9 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):
         assert pucker[near[fp_id], 1] < -0.003, fp_id
+    # ... their corners, coming in, come forward along the face's surface more than the lips' push (5 mm): 8 mm
+    for fp_id in ("2.4", "2.5"):
+        assert pucker[near[fp_id], 1] < -0.008, fp_id
     # the dimple's corner goes back (+Y) as it goes out, sliding on the cheek (ARKit: "backward movement of the
     # left corner"; the FAPs move it sideways only); the lower lip's shrug pushes its outer edge 8.2 out (-Y)
     dimple = offsets["mouthDimpleLeft"]

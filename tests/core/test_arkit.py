@@ -33,8 +33,11 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "noseSneerLeft": "nostril_lift",
         "noseSneerRight": "nostril_lift",
         "tongueOut": "tongue_forward",
-        "mouthDimpleLeft": "corner_back",
-        "mouthDimpleRight": "corner_back",
+        **{
+            f"mouth{shape}{side}": "corner_slide"
+            for shape in ("Smile", "Dimple", "Stretch", "Press", "")
+            for side in "Left Right".split()
+        },
         "mouthShrugLower": "mid_lip_push",
         "mouthShrugUpper": "mid_lip_push",
     }

@@ -159,16 +159,31 @@ def test_a_shrug_pushes_the_lips_midline_out_inner_and_outer_and_leaves_the_rest
     np.testing.assert_array_equal(moved[others], pushed[others])  # corners, sides and the upper lip stay
 
 
-def test_a_corner_pulled_out_slides_back_along_the_cheek():
+def test_a_corner_moved_sideways_slides_on_the_face_back_going_out_and_forward_coming_in():
     neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
-    neutral[fp_index("2.4")] = (0.025, -0.037, 0.125)
-    neutral[fp_index("5.1")] = (0.045, -0.040, 0.110)  # 20 mm out, 15 back (and 3 lower: the lift is kept)
-    dimple = neutral.copy()
-    dimple[fp_index("2.4")] += (0.004, 0.001, 0.0)  # stretch_l_cornerlip out 4 mm, raise_l_cornerlip 1 mm
-    moved = deform_points("corner_back", neutral @ axes, dimple @ axes, axes) @ axes.T
-    np.testing.assert_allclose(moved[fp_index("2.4")], neutral[fp_index("2.4")] + [0.004, 0.001, -0.003], atol=1e-12)
-    others = [k for k in range(N_FEATURE_POINTS) if k != fp_index("2.4")]
-    np.testing.assert_allclose(moved[others], dimple[others], atol=1e-12)  # the other corners did not go out
+    # the left inner corner between its lip (2.6, 2.8: mean x 12 mm, z 136) and its cheek (5.1: 30 mm further
+    # out, 24 back): the surface falls back 0.8 mm per mm out
+    neutral[fp_index("2.6")] = (0.013, -0.036, 0.137)
+    neutral[fp_index("2.8")] = (0.011, -0.038, 0.135)
+    neutral[fp_index("5.1")] = (0.042, -0.040, 0.112)
+    # the right outer corner between 8.6, 8.8 (x -13 mm, z 138) and 5.2 (30 mm out, 30 back): 1 mm per mm
+    neutral[fp_index("8.6")] = (-0.014, -0.030, 0.139)
+    neutral[fp_index("8.8")] = (-0.012, -0.041, 0.137)
+    neutral[fp_index("5.2")] = (-0.043, -0.040, 0.108)
+    moved_by_faps = neutral.copy()
+    moved_by_faps[fp_index("2.4")] += (0.004, 0.001, 0.0)  # out 4 mm (stretch_l_cornerlip) and up 1 mm
+    moved_by_faps[fp_index("8.4")] += (0.005, 0.0, 0.002)  # in 5 mm, and 2 mm forward another way
+    moved = deform_points("corner_slide", neutral @ axes, moved_by_faps @ axes, axes) @ axes.T
+    expected = moved_by_faps.copy()
+    expected[fp_index("2.4"), 2] -= 0.8 * 0.004
+    expected[fp_index("8.4"), 2] += 0.005
+    np.testing.assert_allclose(moved, expected, atol=1e-12)  # the corners that did not move sideways stay
+    # the pursed lips' corners come in and so forward, on top of the lips' push
+    pucker = moved_by_faps.copy()
+    pucker[fp_index("2.2"), 2] += 0.006
+    pucker[fp_index("2.3"), 2] += 0.006
+    pushed = whole_lip_push(neutral, pucker, FACE_FRAME)
+    assert np.isclose(pushed[fp_index("8.4"), 2] - neutral[fp_index("8.4"), 2], 0.002 + 0.005 + 0.006)
 
 
 def test_the_nostril_rises_with_the_upper_lip_beside_it():
