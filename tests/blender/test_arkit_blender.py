@@ -76,6 +76,7 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     # the sneer lifts its own side's nostril with the upper lip beside it (no FAP raises 9.1 / 9.2)
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
+    assert abs(sneer[near["9.1"], 0]) < 0.001  # raised, not widened (4.8 mm out with stretch_l_nose, AU 38's)
     # the pursed lips come forward (-Y) all round, not only at their mid-points 2.2 / 2.3
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):
