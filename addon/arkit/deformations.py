@@ -6,19 +6,31 @@ deforms the skin from these points as it plays FAPs; the jaw's turn moves the sk
 shape Make ARKit Shape Keys only: a capture turned into a FAP stream, and the round trip FAP -> ARKit -> FAP,
 stay with the recipes' FAP values (a stream carries FAPs, and a face plays a stream as the standard says).
 
-- `jaw_hinge` (jawOpen) moves the skin: the mandible turns about the jaw joints instead of sliding straight
-  down. open_jaw (FAP 3) is the vertical displacement of the chin 2.1, and the chin drops exactly that far;
-  the turn also draws it back, as the mouth opens on a real jaw (ARKit: "opening of the lower jaw"). The
-  engine deforms the face from the straight drop, and each vertex then turns by its own share of the jaw
-  (what the engine's weights gave it of the chin's drop), so the skin between the chin and the hinge swings
-  with the jaw instead of being interpolated straight down between the points.
+- `jaw_hinge` (jawOpen) moves the skin: the mandible turns (its condyles turning and gliding forward
+  together, a turn about a centre below them) instead of sliding straight down. open_jaw (FAP 3) is the
+  vertical displacement of the chin 2.1, and the chin drops exactly that far; the turn also draws it back,
+  as the mouth opens on a real jaw (ARKit: "opening of the lower jaw"). The engine deforms the face from the
+  straight drop, and each vertex then turns by its own share of the jaw (what the engine's weights gave it of
+  the chin's drop), so the skin between the chin and the turn's centre swings with the jaw instead of being
+  interpolated straight down between the points.
 - `whole_lip_push` (mouthPucker, mouthFunnel, mouthRoll*, cheekPuff: the lips pursed, everted or rolled in by
   orbicularis oris, or pushed by air): a lip pushed forward (or back) moves as a whole. push_b_lip / push_t_lip
   (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move the inner mid-points
-  2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' (AU 18/22:
-  orbicularis oris purses and everts the lips all round; ARKit's rolls move a lip "toward the inside of the
-  mouth"). The shrugs keep the push at the mid-point: mentalis lifts the lower lip from below its middle, and
-  the corners stay.
+  2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' on top
+  of their `corner_slide` (AU 18/22: orbicularis oris purses and everts the lips all round; ARKit's rolls move
+  a lip "toward the inside of the mouth").
+- `mid_lip_push` (mouthShrugLower / Upper: mentalis, AU 17, and the upper lip's shrug push a lip out at its
+  middle): the lip's outer edge 8.2 / 8.1 comes out as far as push_b_lip / push_t_lip moved its inner mid-point
+  2.3 / 2.2 (ARKit: "outward movement of the lower lip", the lip, not its inner edge); its sides and the corners
+  stay, as mentalis lifts the lip from below its middle.
+- `corner_slide` (every recipe that moves a lip corner sideways: the smiles, dimples, stretches, presses,
+  mouthLeft / Right, and within `whole_lip_push`): stretch_cornerlip moves a corner straight sideways (the
+  standard's horizontal displacement), but the corner lies on the curved front of the teeth, between the lip
+  and the cheek, and slides on it: out and back (buccinator's dimple, AU 14; ARKit: "backward movement of the
+  left corner of the mouth"), in and forward (the pursed lips' corners, AU 18). Seen from above, the corner
+  stays on the line of the face's surface at the corner, from its lip beside it (the mean of 2.6 and 2.8 for
+  2.4) to the cheek's centre (5.1, "at the height of 8.3"), as far sideways as the FAPs moved it. No size of
+  its own: the sideways distance is the recipe's, the slope the face's.
 - `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
   lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
@@ -35,37 +47,72 @@ import numpy as np
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.feature_points import fp_index
 
-# the ear's lower contact points with the face (left, right): the jaw joints' axis (see `hinge_axis`)
+# The jaw's turn (`hinge_axis`): the ear's lower contact points with the face (left, right), at the tragus, and the
+# outer eye corners that Beyron's line from the tragus runs to; the pupils give the face's size (ES0).
 HINGE_FPS = ("10.3", "10.4")
+OUTER_EYE_CORNERS = ("3.7", "3.12")
+PUPILS = ("3.5", "3.6")
+# Adult sizes in metres, scaled to a face by its ES0 over an adult's:
+ADULT_ES0 = 0.063  # the mean adult interpupillary distance (Dodgson 2004, 63 mm)
+CONDYLE_BEFORE_TRAGUS = 0.013  # the condyle's centre, Beyron's point: 13 mm in front of the tragus, toward the
+# outer eye corner (the arbitrary hinge axis of dentistry; 97-98 % of kinematic axes within 5 mm, Schallhorn)
+TURN_BELOW_CONDYLE = 0.0324  # the centre of the mandible's turn over a full opening: 32.4 mm (+-7.4) below the
+# condyle's centre and 0.2 mm behind it (Mehl et al. 2025, in vivo, tracked on CT-segmented bone)
 # each lip's points that no FAP pushes forward, with the point whose push they follow; the corners follow both lips
 LIP_FOLLOWERS = {
     "2.2": ("8.1", "2.6", "2.7", "8.5", "8.6"),
     "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
 }
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")
+# each lip's outer mid-point, with the inner one whose push it follows in a shrug
+LIP_MIDLINE = {"2.2": ("8.1",), "2.3": ("8.2",)}
+# each lip corner, with the points whose line gives the face's surface there: its lip's points beside it (upper,
+# lower) and the cheek's centre
+CORNER_SLIDES = {
+    "2.4": ("2.6", "2.8", "5.1"),
+    "8.3": ("8.5", "8.7", "5.1"),
+    "2.5": ("2.7", "2.9", "5.2"),
+    "8.4": ("8.6", "8.8", "5.2"),
+}
 # each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
 # outer point beside them that the same muscle lifts
 NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
-FP_DEFORMATIONS = ("whole_lip_push", "nostril_lift")
+FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "nostril_lift")
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
 
 def hinge_axis(face_neutral: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """A point on the jaw joints' axis and its unit direction (face frame), or None without both ear points.
+    """A point on the axis the mandible turns about as the jaw opens, and its unit direction (face frame), or None
+    without the ear points, the outer eye corners or the pupils.
 
-    Our reading: the mandible's condyles sit in front of the ear where it joins the face low, at the tragus;
-    MPEG-4 has no FP on the joint, and the ear's lower contact points 10.3 / 10.4 are the nearest (on the
-    sample head the axis they give passes within 4 mm of the line perpendicular to the motions of 2.1 and 2.10 in
-    the sculpted mouth-open unit; a rigid fit of its whole chin turns about a line 28 mm lower, as the condyles
-    glide forward when the jaw opens wide: docs/arkit.md says why that is not adopted).
+    The mouth does not open about the jaw joints alone: the condyles turn and glide forward down the articular
+    eminence together, and the turn and the glide add up to a turn about a centre below them. Measured over a
+    full opening, that centre lies 32.4 mm below the condyle's centre and 0.2 mm behind it (Mehl et al. 2025;
+    the 18-20 mm glide and 36-39 deg turn Muto and Kanazawa 1996 measured at full opening put it 28-31 mm
+    below). The condyle's centre is Beyron's point, 13 mm in front of the tragus on the line to the outer eye
+    corner; MPEG-4 has no FP on it, and the ear's lower contact points 10.3 / 10.4 sit at the tragus (on the
+    sample head at its upper end, in front of the ear canal). The axis runs through both sides, along
+    10.4 -> 10.3. Sizes are an adult's, scaled by the face's ES0.
     """
     left, right = face_neutral[[fp_index(fp) for fp in HINGE_FPS]]
+    corners = face_neutral[[fp_index(fp) for fp in OUTER_EYE_CORNERS]]
+    es0 = face_neutral[fp_index(PUPILS[0]), 0] - face_neutral[fp_index(PUPILS[1]), 0]
     direction = left - right
     length = np.linalg.norm(direction)
-    if not (np.all(np.isfinite(direction)) and length > 0.0):
+    if not (np.all(np.isfinite(corners)) and np.isfinite(length) and length > 0.0 and np.isfinite(es0) and es0 > 0):
         return None
-    return 0.5 * (left + right), direction / length
+    axis = direction / length
+    tragus = 0.5 * (left + right)
+    forward = corners.mean(axis=0) - tragus
+    forward -= (forward @ axis) * axis
+    if np.linalg.norm(forward) == 0.0:
+        return None
+    forward /= np.linalg.norm(forward)
+    down = np.array([0.0, -1.0, 0.0]) + axis[1] * axis  # the face's down, square to the axis
+    down /= np.linalg.norm(down)
+    scale = es0 / ADULT_ES0
+    return tragus + scale * (CONDYLE_BEFORE_TRAGUS * forward + TURN_BELOW_CONDYLE * down), axis
 
 
 def rotate_about(points: np.ndarray, origin: np.ndarray, axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
@@ -115,7 +162,8 @@ def jaw_hinge(
     straight: np.ndarray,
     axes: np.ndarray = BLENDER_FACE_AXES,
 ) -> np.ndarray:
-    """(N, 3) points (mesh coordinates) of a face whose jaw open_jaw dropped straight, turned about the jaw joints.
+    """(N, 3) points (mesh coordinates) of a face whose jaw open_jaw dropped straight, turned as the jaw turns
+    (`hinge_axis`).
 
     `neutral` / `points`: the 84 FPs at rest and where the recipe's FAPs put them (the chin 2.1 dropped);
     `rest` / `straight`: any points of the face (its skin's vertices, or the FPs themselves) at rest and as the
@@ -144,18 +192,51 @@ def jaw_hinge(
     return moved
 
 
-def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
-    """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
-    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
+def _follow_push(
+    neutral: np.ndarray, points: np.ndarray, followers: dict, corners: bool, axes: np.ndarray
+) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's `followers` pushed forward as far as its mid-point
+    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip), and with `corners` the corners by the mean of both."""
     axes = np.asarray(axes, dtype=np.float64)
     face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
     moved = np.asarray(points, dtype=np.float64) @ axes.T
-    push = {mid: moved[fp_index(mid), 2] - face_neutral[fp_index(mid), 2] for mid in LIP_FOLLOWERS}
+    push = {mid: moved[fp_index(mid), 2] - face_neutral[fp_index(mid), 2] for mid in followers}
     if not all(np.isfinite(p) for p in push.values()):
         return np.array(points, dtype=np.float64)
-    for mid, followers in LIP_FOLLOWERS.items():
-        moved[[fp_index(fp) for fp in followers], 2] += push[mid]
-    moved[[fp_index(fp) for fp in LIP_CORNERS], 2] += 0.5 * sum(push.values())
+    for mid, follow in followers.items():
+        moved[[fp_index(fp) for fp in follow], 2] += push[mid]
+    if corners:
+        moved[[fp_index(fp) for fp in LIP_CORNERS], 2] += 0.5 * sum(push.values())
+    return moved @ axes
+
+
+def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
+    (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
+    return _follow_push(neutral, corner_slide(neutral, points, axes), LIP_FOLLOWERS, True, axes)
+
+
+def mid_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip's outer mid-point (8.1, 8.2) pushed forward as far as
+    its inner one (2.2, 2.3)."""
+    return _follow_push(neutral, points, LIP_MIDLINE, False, axes)
+
+
+def corner_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each lip corner the FAPs moved sideways kept on the face's
+    surface: seen from above, it slides along the line from the lip beside it (the mean of its lip's points
+    there, 2.6 and 2.8 for 2.4) to the cheek's centre (5.1), the surface's direction at the corner, as far
+    sideways as the FAPs moved it: back as it goes out, forward as it comes in. Its lift and any depth the
+    FAPs gave it stay."""
+    axes = np.asarray(axes, dtype=np.float64)
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    moved = np.asarray(points, dtype=np.float64) @ axes.T
+    for corner, (upper, lower, cheek) in CORNER_SLIDES.items():
+        k = fp_index(corner)
+        line = face_neutral[fp_index(cheek)] - 0.5 * (face_neutral[fp_index(upper)] + face_neutral[fp_index(lower)])
+        out = moved[k, 0] - face_neutral[k, 0]
+        if np.isfinite(out) and np.all(np.isfinite(line)) and line[0] != 0.0:
+            moved[k, 2] += out * line[2] / line[0]
     return moved @ axes
 
 
@@ -178,4 +259,8 @@ def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axe
         return whole_lip_push(neutral, points, axes)
     if name == "nostril_lift":
         return nostril_lift(neutral, points, axes)
+    if name == "mid_lip_push":
+        return mid_lip_push(neutral, points, axes)
+    if name == "corner_slide":
+        return corner_slide(neutral, points, axes)
     return np.array(points, dtype=np.float64)

@@ -9,10 +9,10 @@ follow feature points (eyeballs, lower teeth, tongue) are read as their drivers 
 each part a recipe moves gets the same-named key of its own: eyeLook* turn the eyeballs, jawOpen moves the
 lower teeth and the tongue. Where a recipe names a dedicated deformation (arkit.deformations), the points are
 moved by it before the engine deforms the face ('whole_lip_push'); jawOpen's 'jaw_hinge' turns the skin the
-engine deformed about the jaw joints, each vertex by its share of the jaw's drop, and the lower teeth and the
-tongue with it; tongueOut's 'tongue_forward' moves the tongue part forward by the tip's thrust, which no FAP
-carries to the tongue body. Afterwards the empties are put back and the
-face shown as before.
+engine deformed as the jaw turns (about a centre below its joints), each vertex by its share of the jaw's drop,
+and the lower teeth and the tongue with it; tongueOut's 'tongue_forward' moves the tongue part forward by the
+tip's thrust, which no FAP carries to the tongue body. Afterwards the empties are put back and the face shown as
+before.
 
 Every key made is listed on its mesh (`KEYS_PROP`), so running again replaces exactly them and Remove
 Set-Up takes them (and a Basis key made for them) away; a key of the user's with an ARKit name is never
@@ -195,8 +195,8 @@ def _tongue_thrust(face, points: np.ndarray, neutral: np.ndarray) -> Vector:
 
 
 def _jaw_turn(face, points: np.ndarray, neutral: np.ndarray) -> Matrix | None:
-    """'jaw_hinge': the mandible's turn about the jaw joints (world), which the lower teeth and the tongue make
-    with it (their drivers follow FPs by translation alone)."""
+    """'jaw_hinge': the mandible's turn (world, `deformations.hinge_axis`), which the lower teeth and the tongue
+    make with it (their drivers follow FPs by translation alone)."""
     turn = jaw_turn(neutral, points, face_data.face_axes(face))
     if turn is None:
         return None

@@ -7,12 +7,14 @@ import numpy as np
 import pytest
 
 from addon.arkit.captures import live_link_header
+from addon.arkit.deformations import hinge_axis
 from addon.arkit.mapping import weights_to_faps
 from addon.arkit.recipes import ARKIT_NAMES
 from addon.blender import arkit_keys, elastic_rig, face_data, fap_io, rest_shape
 from addon.errors import Mpeg4Error
 from addon.mpeg4.fap_file import read_fap
 from addon.mpeg4.fap_groups import shape_faps
+from addon.mpeg4.feature_points import FP_IDS
 from tests.blender.helpers import ROOT, evaluated_positions, open_sample, select, set_up_sample
 
 
@@ -56,10 +58,16 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     fps = {fp_id: np.array(ob.location) for fp_id, ob in face_data.fp_empties(head).items()}
     near = {fp_id: np.linalg.norm(rest - point, axis=1).argmin() for fp_id, point in fps.items()}
     assert jaw[near["2.1"], 1] > 0.015 and jaw[near["2.1"], 2] < -0.012
-    # ... and so does the skin between the chin and the jaw joints, not only the FPs: every vertex the jaw
-    # carries keeps its distance from the hinge axis through 10.3/10.4 (it swings about it, not straight down)
-    hinge = 0.5 * (fps["10.3"] + fps["10.4"])
-    axis = (fps["10.3"] - fps["10.4"]) / np.linalg.norm(fps["10.3"] - fps["10.4"])
+    # ... and so does the skin between the chin and the jaw's turning centre, not only the FPs: every vertex the
+    # jaw carries keeps its distance from the axis it turns about (it swings about it, not straight down), and
+    # that axis lies below the condyles: 13 mm in front of the ear points 10.3/10.4 and 32.4 mm below
+    # (hinge_axis, scaled by ES0 61.5 mm against an adult's 63), no longer through them
+    axes = face_data.face_axes(head)
+    neutral = np.array([fps[fp_id] for fp_id in FP_IDS])
+    hinge, axis = (vector @ axes for vector in hinge_axis(neutral @ axes.T))
+    ears = 0.5 * (fps["10.3"] + fps["10.4"])
+    np.testing.assert_allclose((ears - hinge) @ axes[1], 0.0324 * 61.5 / 63.0, atol=0.002)  # face up: Blender +Z
+    np.testing.assert_allclose((hinge - ears) @ axes[2], 0.013 * 61.5 / 63.0, atol=0.002)  # forward: -Y
     carried = np.linalg.norm(jaw, axis=1) > 0.01
     before, after = rest[carried] - hinge, rest[carried] + jaw[carried] - hinge
     change = np.abs(np.linalg.norm(np.cross(after, axis), axis=1) - np.linalg.norm(np.cross(before, axis), axis=1))
@@ -68,10 +76,19 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     # the sneer lifts its own side's nostril with the upper lip beside it (no FAP raises 9.1 / 9.2)
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
+    assert abs(sneer[near["9.1"], 0]) < 0.001  # raised, not widened (4.8 mm out with stretch_l_nose, AU 38's)
     # the pursed lips come forward (-Y) all round, not only at their mid-points 2.2 / 2.3
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):
         assert pucker[near[fp_id], 1] < -0.003, fp_id
+    # ... their corners, coming in, come forward along the face's surface more than the lips' push (5 mm): 8 mm
+    for fp_id in ("2.4", "2.5"):
+        assert pucker[near[fp_id], 1] < -0.008, fp_id
+    # the dimple's corner goes back (+Y) as it goes out, sliding on the cheek (ARKit: "backward movement of the
+    # left corner"; the FAPs move it sideways only); the lower lip's shrug pushes its outer edge 8.2 out (-Y)
+    dimple = offsets["mouthDimpleLeft"]
+    assert dimple[near["2.4"], 1] > 0.002 and dimple[near["2.4"], 0] > 0.002, dimple[near["2.4"]]
+    assert offsets["mouthShrugLower"][near["8.2"], 1] < -0.001
     assert offsets["browInnerUp"][moved["browInnerUp"].argmax(), 2] > 0.004
     # eyeLook* turn the eyeballs, jawOpen moves the lower teeth and the tongue
     eye_l, eye_r = bpy.data.objects["Eye L"], bpy.data.objects["Eye R"]

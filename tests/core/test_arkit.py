@@ -33,7 +33,24 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "noseSneerLeft": "nostril_lift",
         "noseSneerRight": "nostril_lift",
         "tongueOut": "tongue_forward",
+        **{
+            f"mouth{shape}{side}": "corner_slide"
+            for shape in ("Smile", "Dimple", "Stretch", "Press", "")
+            for side in "Left Right".split()
+        },
+        "mouthShrugLower": "mid_lip_push",
+        "mouthShrugUpper": "mid_lip_push",
     }
+
+
+def test_the_sneer_raises_the_nostril_without_widening_it():
+    # AU 9 raises the ala; widening the nostril is AU 38's: noseSneer* has no stretch_l/r_nose (100 ENS before)
+    table = load_recipes()
+    for name, side in (("noseSneerLeft", "l"), ("noseSneerRight", "r")):
+        recipe = table.recipe(name)
+        assert recipe[fap(f"stretch_{side}_nose").number - 1] == 0.0, name
+        assert recipe[fap(f"lower_t_lip_{side}m_o").number - 1] == -120.0, name  # the lip beside it rises
+        assert table.deformations[name] == "nostril_lift"
 
 
 def test_left_and_right_recipes_mirror_each_other():

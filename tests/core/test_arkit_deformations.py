@@ -2,7 +2,14 @@
 
 import numpy as np
 
-from addon.arkit.deformations import deform_points, hinge_angle, jaw_hinge, nostril_lift, whole_lip_push
+from addon.arkit.deformations import (
+    deform_points,
+    hinge_angle,
+    hinge_axis,
+    jaw_hinge,
+    nostril_lift,
+    whole_lip_push,
+)
 from addon.mpeg4.decode import JAW_RIDERS
 from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
 
@@ -10,11 +17,17 @@ FACE_FRAME = np.eye(3)  # x left, y up, z forward: mesh coordinates are the face
 
 
 def _face() -> np.ndarray:
-    """84 points spread over a box, the ears' lower contacts 10.3/10.4 at (+-0.05, 0, 0), the chin 2.1 at
-    0.1 below and 0.1 in front of them."""
+    """84 points spread over a box with an adult's ES0 (63 mm), the ears' lower contacts 10.3/10.4 at
+    (+-0.05, 0.0324, -0.013) and the outer eye corners straight in front of them, so that the jaw turns about the
+    x axis (`hinge_axis`: 13 mm in front of the tragus and 32.4 mm below); the chin 2.1 at 0.1 below and 0.1 in
+    front of that axis."""
     points = np.random.default_rng(7).uniform(-0.1, 0.1, (N_FEATURE_POINTS, 3))
-    points[fp_index("10.3")] = (0.05, 0.0, 0.0)
-    points[fp_index("10.4")] = (-0.05, 0.0, 0.0)
+    points[fp_index("10.3")] = (0.05, 0.0324, -0.013)
+    points[fp_index("10.4")] = (-0.05, 0.0324, -0.013)
+    points[fp_index("3.7")] = (0.045, 0.0324, 0.08)
+    points[fp_index("3.12")] = (-0.045, 0.0324, 0.08)
+    points[fp_index("3.5")] = (0.0315, 0.04, 0.07)
+    points[fp_index("3.6")] = (-0.0315, 0.04, 0.07)
     points[fp_index("2.1")] = (0.0, -0.1, 0.1)
     return points
 
@@ -77,6 +90,27 @@ def test_the_skin_between_the_hinge_and_the_chin_turns_about_the_hinge():
     assert abs(straight_down) > 0.7  # what the engine alone gives: along the radius by cos 45 degrees
 
 
+def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():
+    # Beyron's condyle 13 mm in front of the tragus 10.3/10.4 toward the outer eye corners, and the turn's centre
+    # 32.4 mm below it (Mehl et al. 2025); the ears themselves were the axis before
+    neutral = _face()
+    origin, axis = hinge_axis(neutral)
+    np.testing.assert_allclose(origin, [0.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(axis, [1.0, 0.0, 0.0], atol=1e-12)
+    # a face modelled in centimetres, twice an adult's size (ES0 12.6), its canthi higher than the tragus: the
+    # sizes scale with ES0, and the condyle lies along Beyron's line, the centre straight down from it
+    big = 200.0 * neutral
+    big[[fp_index("3.7"), fp_index("3.12")], 1] += 10.0
+    origin, axis = hinge_axis(big)
+    line = np.array([0.0, 10.0, 200.0 * 0.093])
+    condyle = 200.0 * np.array([0.0, 0.0324, -0.013]) + 200.0 * 0.013 * line / np.linalg.norm(line)
+    np.testing.assert_allclose(origin, condyle - [0.0, 200.0 * 0.0324, 0.0], atol=1e-9)
+    np.testing.assert_allclose(axis, [1.0, 0.0, 0.0], atol=1e-12)
+    missing = neutral.copy()
+    missing[fp_index("3.12")] = np.nan
+    assert hinge_axis(missing) is None
+
+
 def test_the_jaw_turn_is_the_same_in_any_mesh_frame():
     neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up, -Y
     straight = neutral.copy()
@@ -112,6 +146,44 @@ def test_the_whole_lip_moves_with_its_mid_points_push():
     lips = {fp_index(fp) for fp in "2.2 2.3 2.4 2.5 2.6 2.7 2.8 2.9 8.1 8.2 8.3 8.4 8.5 8.6 8.7 8.8".split()}
     others = [k for k in range(N_FEATURE_POINTS) if k not in lips]
     np.testing.assert_array_equal(moved[others], pushed[others])
+
+
+def test_a_shrug_pushes_the_lips_midline_out_inner_and_outer_and_leaves_the_rest():
+    neutral = _face()
+    pushed = neutral.copy()
+    pushed[fp_index("2.3"), 2] += 0.002  # push_b_lip
+    pushed[fp_index("2.3"), 1] += 0.003  # the lip's rise stays
+    moved = deform_points("mid_lip_push", neutral, pushed, FACE_FRAME)
+    np.testing.assert_allclose(moved[fp_index("8.2")], neutral[fp_index("8.2")] + [0.0, 0.0, 0.002], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k != fp_index("8.2")]
+    np.testing.assert_array_equal(moved[others], pushed[others])  # corners, sides and the upper lip stay
+
+
+def test_a_corner_moved_sideways_slides_on_the_face_back_going_out_and_forward_coming_in():
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    # the left inner corner between its lip (2.6, 2.8: mean x 12 mm, z 136) and its cheek (5.1: 30 mm further
+    # out, 24 back): the surface falls back 0.8 mm per mm out
+    neutral[fp_index("2.6")] = (0.013, -0.036, 0.137)
+    neutral[fp_index("2.8")] = (0.011, -0.038, 0.135)
+    neutral[fp_index("5.1")] = (0.042, -0.040, 0.112)
+    # the right outer corner between 8.6, 8.8 (x -13 mm, z 138) and 5.2 (30 mm out, 30 back): 1 mm per mm
+    neutral[fp_index("8.6")] = (-0.014, -0.030, 0.139)
+    neutral[fp_index("8.8")] = (-0.012, -0.041, 0.137)
+    neutral[fp_index("5.2")] = (-0.043, -0.040, 0.108)
+    moved_by_faps = neutral.copy()
+    moved_by_faps[fp_index("2.4")] += (0.004, 0.001, 0.0)  # out 4 mm (stretch_l_cornerlip) and up 1 mm
+    moved_by_faps[fp_index("8.4")] += (0.005, 0.0, 0.002)  # in 5 mm, and 2 mm forward another way
+    moved = deform_points("corner_slide", neutral @ axes, moved_by_faps @ axes, axes) @ axes.T
+    expected = moved_by_faps.copy()
+    expected[fp_index("2.4"), 2] -= 0.8 * 0.004
+    expected[fp_index("8.4"), 2] += 0.005
+    np.testing.assert_allclose(moved, expected, atol=1e-12)  # the corners that did not move sideways stay
+    # the pursed lips' corners come in and so forward, on top of the lips' push
+    pucker = moved_by_faps.copy()
+    pucker[fp_index("2.2"), 2] += 0.006
+    pucker[fp_index("2.3"), 2] += 0.006
+    pushed = whole_lip_push(neutral, pucker, FACE_FRAME)
+    assert np.isclose(pushed[fp_index("8.4"), 2] - neutral[fp_index("8.4"), 2], 0.002 + 0.005 + 0.006)
 
 
 def test_the_nostril_rises_with_the_upper_lip_beside_it():
