@@ -9,9 +9,12 @@ from another head does not know. So the pieces are told apart by their places (o
 estimates reached, the highest is the upper teeth, the lowest the lower; a single piece belongs to the pair
 whose estimates are nearer its ends) and the ends are read off each piece: its front (within FRONT of its
 most forward point) on the mid-plane (within MID of it), highest and lowest. The sample's FP table puts
-them the same way (`scripts/sample/makehuman/fp_rules.py`). The tongue's points stay snapped where their
-estimates reached (its borders read off the piece the same way put them 5-24 mm off on the development
-heads: the tongue piece was not told apart reliably).
+them the same way (`scripts/sample/makehuman/fp_rules.py`).
+
+The tongue's points are read off the tongue piece by the sample's rules (`tongue_points`): 6.1 the most
+forward point of its mid-line, 6.2 the highest mid-line point at the middle of its length, 6.3 / 6.4 its
+leftmost / rightmost points at 6.2's depth. The tongue piece is the one the estimate of 6.2 (the
+middle of the mouth's floor, far from every tooth) reached, unless the teeth points took it.
 """
 
 from __future__ import annotations
@@ -19,11 +22,40 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
+from .surface import area_samples
 from .symmetry import MidPlane
 
 FRONT = 0.005  # template metres
 MID = 0.002  # template metres
 TEETH = ("9.8", "9.9", "9.10", "9.11")
+TONGUE = ("6.1", "6.2", "6.3", "6.4")
+TONGUE_SAMPLES = 8000  # area samples of the tongue piece (about 1 mm apart), so its rules do not depend on
+# where a remeshed or decimated tongue happens to have vertices
+SLICE = 0.001  # template metres: half the thickness of the slice across the tongue at its middle
+
+
+def tongue_points(vertices: np.ndarray, triangles: np.ndarray, plane: MidPlane, axes):
+    """6.1, 6.2, 6.3, 6.4 (4, 3) on a tongue piece (see the module's doc), or None when no part of it lies on
+    the mid-plane. The sample's rules pick among its vertices; here the top of the mid-line and the
+    sides are flat along the tongue, so "highest near the middle" and "leftmost near 6.2" are taken in a
+    thin slice at the middle of its length, and the mid-line points are put on the mid-plane."""
+    left, up, forward = axes
+    samples, _normals = area_samples(vertices, triangles, TONGUE_SAMPLES)
+    points = np.vstack([vertices, samples])
+    depth = points @ forward
+    on_mid = np.abs(points @ plane.normal - plane.offset) <= MID
+    if not on_mid.any():
+        return None
+    tip = points[on_mid][np.argmax(depth[on_mid])]
+    middle = 0.5 * (tip @ forward + depth.min())
+    across = np.abs(depth - middle) <= SLICE
+    body = points[across & on_mid]
+    if not len(body):
+        return None
+    centre = body[np.argmax(body @ up)]
+    side = points[across] @ left
+    border = points[across][[np.argmax(side), np.argmin(side)]]
+    return np.vstack([plane.project(np.array([tip, centre])), border])
 
 
 def teeth_ends(vertices: np.ndarray, plane: MidPlane, up: np.ndarray, forward: np.ndarray):
@@ -38,13 +70,13 @@ def teeth_ends(vertices: np.ndarray, plane: MidPlane, up: np.ndarray, forward: n
 
 
 def mouth_ends(placed: np.ndarray, estimates: np.ndarray, reached: dict, pieces: list, plane: MidPlane, axes) -> set:
-    """Teeth points of `placed` (84, 3) moved onto the ends of their pieces; `reached` maps an FP id to the
-    index in `pieces` (vertex arrays) its estimate snapped onto, `estimates` are the points before they
-    snapped. Returns the ids placed on a piece."""
+    """Teeth and tongue points of `placed` (84, 3) moved onto their places on their pieces; `reached` maps an
+    FP id to the index in `pieces` ((vertices, triangles) each) its estimate snapped onto, `estimates` are
+    the points before they snapped. Returns the ids placed on a piece."""
     _left, up, forward = axes
     on_piece = set(reached)
-    teeth = sorted({reached[f] for f in TEETH if f in reached}, key=lambda i: pieces[i].mean(axis=0) @ up)
-    ends = {i: teeth_ends(pieces[i], plane, up, forward) for i in teeth}
+    teeth = sorted({reached[f] for f in TEETH if f in reached}, key=lambda i: pieces[i][0].mean(axis=0) @ up)
+    ends = {i: teeth_ends(pieces[i][0], plane, up, forward) for i in teeth}
     if len(teeth) >= 2:
         pairs = ((teeth[-1], "9.8", "9.10"), (teeth[0], "9.11", "9.9"))
     elif teeth and ends[teeth[0]] is not None:  # one piece (the teeth closed, or one row): the nearer pair's
@@ -62,4 +94,10 @@ def mouth_ends(placed: np.ndarray, estimates: np.ndarray, reached: dict, pieces:
         if ends[piece] is not None:
             placed[fp_index(top)], placed[fp_index(bottom)] = ends[piece]
             on_piece |= {top, bottom}
+    tongue = reached.get("6.2")
+    if tongue is not None and tongue not in teeth:
+        found = tongue_points(*pieces[tongue], plane, axes)
+        if found is not None:
+            placed[[fp_index(f) for f in TONGUE]] = found
+            on_piece |= set(TONGUE)
     return on_piece
