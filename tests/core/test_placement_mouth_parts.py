@@ -84,10 +84,26 @@ def test_the_tongue_points_go_on_the_piece_the_estimate_of_its_centre_reached():
     assert np.abs(placed[[fp_index(f) for f in TONGUE]] - TONGUE_TRUTH).max() < 0.0006
 
 
-def test_a_piece_taken_for_teeth_is_not_read_as_the_tongue():
+def test_a_teeth_piece_no_estimate_reached_is_found_by_its_ends():
     estimates = np.zeros((84, 3))
+    estimates[fp_index("9.8")] = [0.0, -0.05, 0.018]  # 7.5 mm above the upper teeth's top: out of snapping reach
+    estimates[fp_index("9.10")], estimates[fp_index("9.11")] = [0, -0.05, -0.001], [0, -0.05, -0.001]
+    estimates[fp_index("9.9")] = [0.0, -0.05, -0.011]
     placed = estimates.copy()
-    reached = {"6.2": 0, "9.11": 0, "9.9": 0}
-    on_piece = mouth_ends(placed, estimates, reached, [(LOWER, NO_TRIANGLES)], PLANE, TEMPLATE_AXES)
-    assert not {"6.1", "6.3", "6.4"} & on_piece
-    assert np.allclose(placed[[fp_index(f) for f in ("6.1", "6.3", "6.4")]], 0.0)
+    reached = {"9.10": 1, "9.11": 1, "9.9": 1}  # a closed bite: every estimate that snapped took the lower teeth
+    pieces = [(UPPER, NO_TRIANGLES), (LOWER, NO_TRIANGLES)]
+    on_piece = mouth_ends(placed, estimates, reached, pieces, PLANE, TEMPLATE_AXES)
+    assert on_piece == {"9.8", "9.9", "9.10", "9.11"}
+    assert np.allclose(placed[fp_index("9.8")], [0.0, -0.05, 0.0105])
+    assert np.allclose(placed[fp_index("9.10")], [0.0, -0.05, 0.0005])
+
+
+def test_the_piece_the_estimate_of_6_2_reached_is_the_tongue_not_teeth():
+    estimates = np.zeros((84, 3))
+    estimates[fp_index("9.11")] = TONGUE_TRUTH[0] + [0.0, -0.004, 0.0]  # a lower tooth's estimate near the tip
+    placed = estimates.copy()
+    reached = {"6.2": 0, "9.11": 0}
+    on_piece = mouth_ends(placed, estimates, reached, [_tongue()], PLANE, TEMPLATE_AXES)
+    assert set(TONGUE) <= on_piece
+    assert np.abs(placed[[fp_index(f) for f in TONGUE]] - TONGUE_TRUTH).max() < 0.0006
+    assert np.allclose(placed[fp_index("9.11")], estimates[fp_index("9.11")])
