@@ -6,16 +6,17 @@ its left / right border. The registration's estimates find the pieces (each poin
 within reach, `pipeline.PART_REACH`), but with the teeth closed an upper tooth's estimate may reach the lower
 teeth first, and an end of a piece lies wherever that piece ends, which an estimate carried from another head
 does not know; and with the bite closed the estimates may reach only one piece. So the teeth pieces are those
-the teeth estimates reached and those whose ends come within TEETH_REACH of the estimates, all but the tongue,
-told apart by their places (the highest is the upper teeth, the lowest the lower; a single piece belongs to
-the pair whose estimates are nearer its ends), and the ends are read off each piece: its front (within FRONT
-of its most forward point) on the mid-plane (within MID of it), highest and lowest. The sample's FP table puts
-them the same way (`scripts/sample/makehuman/fp_rules.py`).
+the teeth estimates reached, but the tongue's, and when that is one piece, the other piece whose ends come
+nearest the estimates, within TEETH_REACH; they are told apart by their places (the highest is the upper
+teeth, the lowest the lower; a single piece belongs to the pair whose estimates are nearer its ends), and the
+ends are read off each piece: its front (within FRONT of its most forward point) on the mid-plane (within MID
+of it), highest and lowest. The sample's FP table puts them the same way
+(`scripts/sample/makehuman/fp_rules.py`).
 
 The tongue's points are read off the tongue piece by the sample's rules (`tongue_points`): 6.1 the most
 forward point of its mid-line, 6.2 the highest mid-line point at the middle of its length, 6.3 / 6.4 its
-leftmost / rightmost points at 6.2's depth. The tongue piece is the one the estimate of 6.2 (the
-middle of the mouth's floor, far from every tooth) reached.
+leftmost / rightmost points at 6.2's depth. The tongue piece is the one the estimate of 6.2 (the middle of the
+mouth's floor, far from every tooth) reached.
 """
 
 from __future__ import annotations
@@ -32,8 +33,8 @@ TEETH = ("9.8", "9.9", "9.10", "9.11")
 TONGUE = ("6.1", "6.2", "6.3", "6.4")
 TONGUE_SAMPLES = 8000  # area samples of the tongue piece (about 1 mm apart), so its rules do not depend on
 # where a remeshed or decimated tongue happens to have vertices
-TEETH_REACH = 0.01  # template metres (a front tooth's height): a piece whose ends come this near the teeth
-# points' estimates is a teeth piece, whichever piece the estimates snapped onto
+TEETH_REACH = 0.01  # template metres (a front tooth's height): the other teeth row's ends come this near the
+# teeth points' estimates when these snapped onto one row
 SLICE = 0.001  # template metres: half the thickness of the slice across the tongue at its middle
 
 
@@ -86,10 +87,13 @@ def mouth_ends(placed: np.ndarray, estimates: np.ndarray, reached: dict, pieces:
     on_piece = set(reached)
     tongue = reached.get("6.2")
     ends = {i: teeth_ends(vertices, plane, up, forward) for i, (vertices, _t) in enumerate(pieces) if i != tongue}
-    near = {i for i, end in ends.items() if end is not None and _reach(end, estimates) <= TEETH_REACH}
-    teeth = sorted(
-        (near | {reached[f] for f in TEETH if f in reached}) - {tongue}, key=lambda i: pieces[i][0].mean(axis=0) @ up
-    )
+    teeth = {reached[f] for f in TEETH if f in reached} - {tongue}
+    if len(teeth) == 1:  # the other row, if a piece's ends come near the estimates
+        reach = {i: _reach(end, estimates) for i, end in ends.items() if end is not None and i not in teeth}
+        other = min(reach, key=reach.get, default=None)
+        if other is not None and reach[other] <= TEETH_REACH:
+            teeth.add(other)
+    teeth = sorted(teeth, key=lambda i: pieces[i][0].mean(axis=0) @ up)
     if len(teeth) >= 2:
         pairs = ((teeth[-1], "9.8", "9.10"), (teeth[0], "9.11", "9.9"))
     elif teeth and ends[teeth[0]] is not None:  # one piece (the teeth closed, or one row): the nearer pair's

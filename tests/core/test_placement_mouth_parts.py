@@ -107,3 +107,16 @@ def test_the_piece_the_estimate_of_6_2_reached_is_the_tongue_not_teeth():
     assert set(TONGUE) <= on_piece
     assert np.abs(placed[[fp_index(f) for f in TONGUE]] - TONGUE_TRUTH).max() < 0.0006
     assert np.allclose(placed[fp_index("9.11")], estimates[fp_index("9.11")])
+
+
+def test_with_both_rows_reached_no_other_piece_near_the_estimates_is_taken_for_teeth():
+    estimates = np.zeros((84, 3))
+    for fp_id, height in (("9.8", 0.0105), ("9.10", 0.0005), ("9.11", -0.0005), ("9.9", -0.0105)):
+        estimates[fp_index(fp_id)] = [0.0, -0.05, height]
+    placed = estimates.copy()
+    floor = LOWER - [0.0, 0.0, 0.004]  # a piece under the lower teeth (the mouth's floor), as near the estimates
+    reached = {"9.8": 0, "9.9": 1}
+    pieces = [(UPPER, NO_TRIANGLES), (LOWER, NO_TRIANGLES), (floor, NO_TRIANGLES)]
+    mouth_ends(placed, estimates, reached, pieces, PLANE, TEMPLATE_AXES)
+    assert np.allclose(placed[fp_index("9.11")], [0.0, -0.05, -0.0005])
+    assert np.allclose(placed[fp_index("9.9")], [0.0, -0.05, -0.0105])
