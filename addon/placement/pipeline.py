@@ -312,7 +312,7 @@ def _on_parts(template, placed, confidence, estimated, parts, plane: MidPlane):
         if best is not None:
             placed[row] = best[1]
             reached[fp.id] = best[2]
-    on_piece = mouth_ends(placed, estimates, reached, [vertices for vertices, _t in mouth_parts], plane, TEMPLATE_AXES)
+    on_piece = mouth_ends(placed, estimates, reached, mouth_parts, plane, TEMPLATE_AXES)
     for fp in FEATURE_POINTS:
         if fp.surface in ("teeth", "tongue") and fp.id not in on_piece:
             estimated.append(fp.id)
