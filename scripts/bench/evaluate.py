@@ -31,7 +31,7 @@ blink (`BLINK`: each upper mid-lid FP moved onto the lower one, 3.1 onto 3.3 and
 widest distance from the middle half of an upper lid's edge to the lower lid's edge (`overlaps.lid_gap`, the edges
 the vertices along the lids' FPs, `overlaps.edge_chain`), at rest and at the blink, and the crossing pairs then;
 and the seen gap, the widest opening between the lids a viewer sees over the middle half of the eye, looking
-straight at the face and from `VIEW_TILTS` above and below (`overlaps.seen_lid_gap`, the eyeball an
+straight at the face and from 30 degrees off it (`VIEWS`) (`overlaps.seen_lid_gap`, the eyeball an
 `EYEBALL_RADIUS_PER_ES0` sphere behind each pupil, as the add-on places it by default): the lid gap measures
 between the vertices nearest the FPs' straight lines, which lie on the margins' back edges between the FPs, and
 reads 2.2 mm on the sculptor's own closed eye (docs/eyes_brows.md).
@@ -116,9 +116,10 @@ LID_LINES = (  # per eye, the FPs along the upper and the lower lid's edge (inne
     (("3.8", "3.2", "3.12"), ("3.8", "3.4", "3.12")),
 )
 LID_SAMPLES = 24  # points along a lid's FP line whose nearest vertices make its edge
-# the blink's seen gap is the widest over views straight at the face and tilted this far (degrees) up and down: a
-# slit between lids that close one in front of the other shows from below before it shows from the front
-VIEW_TILTS = (-30.0, 0.0, 30.0)
+# the blink's seen gap is the widest over views (yaw, pitch in degrees) straight at the face and 30 degrees off it
+# below, above and to either side: a slit between lids that close one in front of the other shows from below
+# before it shows from the front
+VIEWS = ((0.0, 0.0), (0.0, -30.0), (0.0, 30.0), (-30.0, 0.0), (30.0, 0.0))
 
 
 @dataclass(frozen=True)
@@ -354,17 +355,25 @@ def lid_chains(face: SampleFace) -> list[tuple[np.ndarray, np.ndarray]]:
     ]
 
 
-def seen_gap(face: SampleFace, points: np.ndarray) -> float:
-    """The widest opening (m) a viewer sees between either eye's lids at `points`, over `VIEW_TILTS`."""
+def view_axes(yaw: float, pitch: float) -> np.ndarray:
+    """(3, 3) the face frame of a viewer `yaw` degrees to the face's left and `pitch` degrees above it, in mesh axes."""
+    a, b = np.radians(pitch), np.radians(yaw)
+    tilt = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    turn = np.array([[np.cos(b), 0.0, -np.sin(b)], [0.0, 1.0, 0.0], [np.sin(b), 0.0, np.cos(b)]])
+    return tilt @ turn @ BLENDER_FACE_AXES
+
+
+def seen_gap(face: SampleFace, points: np.ndarray, eyes=(0, 1), views=VIEWS) -> float:
+    """The widest opening (m) a viewer sees between the lids of `eyes` at `points`, over `views` (`VIEWS`)."""
     row = {fp_id: i for i, fp_id in enumerate(face.fp_ids)}
     radius = EYEBALL_RADIUS_PER_ES0 * face.es0
     widest = 0.0
-    for centre, lids in zip(face.eyes, LID_LINES, strict=True):
-        corners = (face.control_rest[[row[lids[0][0]], row[lids[0][2]]]] - centre) @ BLENDER_FACE_AXES[0]
-        for tilt in np.radians(VIEW_TILTS):
-            c, s = np.cos(tilt), np.sin(tilt)
-            view = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]) @ BLENDER_FACE_AXES
-            widest = max(widest, seen_lid_gap(points, face.fans[0], centre, radius, view, tuple(corners)))
+    for eye in eyes:
+        centre, corner_fps = face.eyes[eye], [row[LID_LINES[eye][0][0]], row[LID_LINES[eye][0][2]]]
+        for yaw, pitch in views:
+            axes = view_axes(yaw, pitch)
+            corners = tuple((face.control_rest[corner_fps] - centre) @ axes[0])
+            widest = max(widest, seen_lid_gap(points, face.fans[0], centre, radius, axes, corners))
     return widest
 
 
@@ -532,7 +541,7 @@ def markdown(run_result: dict, command: str) -> str:
     lines.append("")
     lines.append(
         "A full blink (3.1 onto 3.3, 3.2 onto 3.4), at rest -> closed (mm): the widest gap a viewer sees"
-        f" (straight and {max(VIEW_TILTS):g} degrees above and below), the lid gap between the edge chains; the"
+        " (straight and 30 degrees off: below, above, to either side), the lid gap between the edge chains; the"
         " crossing pairs closed: "
         + ", ".join(
             f"{m} seen {results[m]['blink']['rest_seen_gap_mm']:.2f} -> {results[m]['blink']['seen_gap_mm']:.2f},"
