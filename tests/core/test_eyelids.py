@@ -280,3 +280,100 @@ def test_meet_lids_stops_every_row_where_the_other_lid_is_by_hand():
     rising = np.array([[0.1, 0.0], [0.1, 0.0]])  # away from closure: nothing is stopped
     up, _low = lids.meet_lids(rig, rising, rig.upper * 0.1, np.zeros(3))
     np.testing.assert_allclose(up, rig.upper * 0.1, atol=0)
+
+
+SLANT = np.radians(1.5)  # a thick upper margin: its back edge this much higher than its front edge, 0.4 mm deeper
+
+
+def _thick_margin_eye():
+    """`_eye`'s lids as a mesh, each upper margin with a back edge behind it (the sample's margins are such strips):
+    rows from the back edge through the front edge outward (upper lid), from the margin outward (lower lid); the
+    triangles, the upper lids' back edges and the lower lids' margins."""
+    verts, upper, lower, triangles, backs, margins = [], [], [], [], [], []
+    neutral = np.full((84, 3), np.nan)
+    columns = len(XS)
+    for e, centre in enumerate(CENTRES):
+        s = lid_profile(XS, -CORNER, 0.0, CORNER)
+        for lid, (start, end) in enumerate(((s * UP0, np.radians(70)), (s * LOW0, -np.radians(70)))):
+            rows = [_on_shell(centre, XS, start + f * (end - start)) for f in np.linspace(0, 1, 8)]
+            if lid == 0:
+                rows.insert(0, _on_shell(centre, XS, start + s * SLANT, R_LID - 0.0004))
+            first = sum(len(v) for v in verts)
+            (backs if lid == 0 else margins).append(np.arange(first, first + columns))
+            for r in range(len(rows) - 1):
+                for c in range(columns - 1):
+                    a, b = first + r * columns + c, first + (r + 1) * columns + c
+                    triangles += [(a, a + 1, b + 1), (a, b + 1, b)]
+            for row in rows:
+                verts.append(row)
+                upper.append(np.full(columns, float(lid == 0)))
+                lower.append(np.full(columns, float(lid == 1)))
+        ids = (("3.1", "3.3", "3.11", "3.7", "3.5"), ("3.2", "3.4", "3.8", "3.12", "3.6"))[e]
+        sign = 1.0 if e == 0 else -1.0
+        places = zip(
+            ids,
+            (0.0, 0.0, -sign * CORNER, sign * CORNER, 0.0),
+            (UP0, LOW0, 0.0, 0.0, 0.0),
+            (R_LID,) * 4 + (R_EYE,),
+            strict=True,
+        )
+        for fp_id, x, angle, radius in places:
+            neutral[fp_index(fp_id)] = _on_shell(centre, x, angle, radius)
+    rest = np.concatenate(verts)
+    return rest, np.concatenate(upper), np.concatenate(lower), neutral, np.array(triangles), backs, margins
+
+
+def test_a_thick_margin_closes_flat_onto_the_other_lid():
+    """At a full blink the upper margin's back edge comes down onto the lower margin as its front edge does (the
+    strip turns flat, `margin_backs`), instead of staying SLANT higher (a slit seen from below)."""
+    rest, upper, lower, neutral, triangles, backs, margins = _thick_margin_eye()
+    rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, np.array([R_EYE, R_EYE]), AXES, triangles=triangles)
+    fps = neutral.copy()
+    for e, up in enumerate(("3.1", "3.2")):
+        _turned_fp(fps, up, e, LOW0 - UP0)
+    out = rest.copy()
+    apply_eyelids(rig, out, fps)
+    middle = np.abs(XS) < 0.5 * CORNER
+    for e in (0, 1):
+        back, margin = elevation(out[backs[e]], CENTRES[e]), elevation(out[margins[e]], CENTRES[e])
+        assert np.all(back[INSIDE] >= margin[INSIDE])  # never past the lower lid
+        np.testing.assert_allclose(back[middle], margin[middle] + MEET_CLEARANCE, atol=TRACE)  # 0.026 rad before
+    # half way the strip has turned half flat: the back edge still above the front edge, which it never passes
+    half = neutral.copy()
+    for e, up in enumerate(("3.1", "3.2")):
+        _turned_fp(half, up, e, 0.5 * (LOW0 - UP0))
+    out = rest.copy()
+    apply_eyelids(rig, out, half)
+    front = elevation(out[backs[0] + len(XS)], CENTRES[0])  # the row after the back edge: the front edge
+    slant = elevation(out[backs[0]], CENTRES[0]) - front
+    np.testing.assert_allclose(slant[middle], 0.5 * SLANT * lid_profile(XS, -CORNER, 0.0, CORNER)[middle], atol=TRACE)
+
+
+def test_meet_lids_stops_a_row_behind_the_margin_at_its_own_opening_and_from_where_the_deformer_left_it():
+    """`test_meet_lids_stops_every_row_where_the_other_lid_is_by_hand`'s rig, the third vertex a row behind the margin
+    whose own opening is 0.6 of the mid one (`EyelidRig.reach`): it stops at 0.6 c less the lower lid's share of its
+    margin's way, and a vertex the deformer moved 0.1 rad toward the lower lid (`drift`) stops 0.1 rad sooner."""
+    from addon.deform import eyelids as lids
+
+    meeting = np.array([1.0, 0.5, 0.5])
+    rig = lids.EyelidRig(
+        vertices=np.arange(3),
+        eye=np.zeros(3, np.intp),
+        upper=np.array([1.0, 0.5, 0.8]),
+        lower=np.zeros(3),
+        local=np.zeros((3, 3)),
+        centres=np.zeros((2, 3)),
+        rest_angles=np.array([[0.25, -0.25, 0.0], [0.25, -0.25, 0.0]]),
+        axes=np.eye(3),
+        meeting=meeting,
+        reach=np.stack([np.array([1.0, 0.5, 0.6]), meeting], axis=1),
+    )
+    d = MEET_CLEARANCE
+    full = np.array([[-0.5, 0.0], [-0.5, 0.0]])
+    up, _low = lids.meet_lids(rig, full, rig.upper * -0.5, np.zeros(3))
+    np.testing.assert_allclose(up, [-(0.5 - d), -(0.25 - d), -(0.3 - d)], atol=1e-15)
+    half = np.array([[-0.25, 0.25], [-0.25, 0.25]])  # the lower margin has come 0.5 o c = 0.125 rad up at o = 0.5
+    up, _low = lids.meet_lids(rig, half, rig.upper * -0.5, np.zeros(3))
+    np.testing.assert_allclose(up, [-(0.25 - d), -(0.125 - d), -(0.3 - 0.125 - d)], atol=1e-15)
+    up, _low = lids.meet_lids(rig, full, rig.upper * -0.5, np.zeros(3), np.array([-0.1, 0.05, 0.0]))
+    np.testing.assert_allclose(up, [-(0.4 - d), -(0.25 - d), -(0.3 - d)], atol=1e-15)  # moved up: no more way
