@@ -163,9 +163,6 @@ class EyelidRig:
     # (K,) the lids' traced opening at each vertex's place along the eye over the mid one (`meeting_curve`), where
     # `meet_lids` stops the lids; None: stopped under the mid-lid FPs only
     meeting: np.ndarray | None = None
-    # (K, 2) each vertex's own opening to the other lid's margin over the mid one, for the upper and the lower lid's
-    # turn (`margin_backs`: the rows behind a margin reach further than the margin); None: `meeting`
-    reach: np.ndarray | None = None
 
 
 def bind_eyelids(
@@ -213,7 +210,6 @@ def bind_eyelids(
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
     rest_angles = np.full((2, 3), np.nan)
     meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
-    backs = np.full((len(keep), 2), np.nan)  # (K, 2) the rows behind the margins' own openings (`margin_backs`)
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
@@ -227,10 +223,6 @@ def bind_eyelids(
         if profile is not None:
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
             meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid), inner_x, outer_x)
-            if triangles is not None:  # the rows behind each margin turn on until they too meet the other lid
-                depth = np.hypot(face[keep[on], 1] - centres[e, 1], face[keep[on], 2] - centres[e, 2])
-                pairs = _local_pairs(np.asarray(triangles), keep[on], len(face))
-                backs[on] = margin_backs(margins, t, elev, depth, up[on], low[on], pairs, mid)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
@@ -246,25 +238,18 @@ def bind_eyelids(
         extra = np.setdiff1d(within, keep)
         member = np.concatenate([np.stack([up, low], axis=1) >= MEMBER, np.zeros((len(extra), 2), bool)])
         keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
-        backs = np.concatenate([backs, np.full((len(extra), 2), np.nan)])
         weights = np.concatenate([weights, np.zeros((len(extra), 2))])
         arguments = (face, keep, eye, weights, member, centres, np.asarray(triangles), turn_range)
         weights, opening = fold_free_weights(*arguments)
-        # toward closure the rows behind a margin turn by their own opening, which may pass the mid's (weights are
-        # kept within [0, 1] while made fold-free): their strip turns flat onto the other lid, its faces still facing
-        # it; away from closure they follow the margin
-        lids = np.concatenate([np.stack([up, low], axis=1) * fade[:, None], np.zeros((len(extra), 2))])
-        weights = np.where(np.isnan(backs), weights, lids * backs)
     moved = (weights > 0.0).any(axis=1)
     if opening is not None:
         moved |= (opening > 0.0).any(axis=1)
         opening = opening[moved]
-    keep, eye, weights, backs = keep[moved], eye[moved], weights[moved], backs[moved]
+    keep, eye, weights = keep[moved], eye[moved], weights[moved]
     meeting = np.zeros(len(keep))
     for e, (opening_at, inner_x, outer_x) in enumerate(meets):
         on = eye == e
         meeting[on] = opening_at((face[keep[on], 0] - inner_x) / (outer_x - inner_x))
-    reach = np.where(np.isnan(backs), meeting[:, None], backs)
     return EyelidRig(
         vertices=keep,
         eye=eye,
@@ -277,7 +262,6 @@ def bind_eyelids(
         turn_range=turn_range,
         opening=opening,
         meeting=meeting,
-        reach=reach,
     )
 
 
@@ -297,53 +281,7 @@ def arch_meeting(t: np.ndarray, t_mids: tuple[float, float]) -> np.ndarray:
     return 0.5 * sum(lid_profile(t, 0.0, t_mid, 1.0) for t_mid in t_mids)
 
 
-def _local_pairs(triangles: np.ndarray, vertices: np.ndarray, n: int) -> np.ndarray:
-    """(E, 2) the mesh's edges between `vertices` (K,), as indices into them."""
-    local = np.full(n, -1)
-    local[vertices] = np.arange(len(vertices))
-    edges = local[triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)]
-    return edges[(edges >= 0).all(axis=1)]
-
-
-def margin_backs(
-    margins: list, t: np.ndarray, elev: np.ndarray, depth: np.ndarray, upper, lower, pairs: np.ndarray, t_mid: float
-) -> np.ndarray:
-    """(P, 2) for the upper and the lower lid: each of one eye's P vertices behind its lid's margin, its own opening
-    to the other lid's traced margin over the opening under the mid-lid FPs; NaN elsewhere.
-
-    A margin is a strip (front edge, back edge), and a turn about the eye's centre keeps its slant: the traced margin
-    (the lid's extreme vertex in each bin, `trace_margins`) is the front edge where the strip slants back away from
-    the other lid, and closed, the back edge stays that slant short of the other lid. The rows behind the margin are
-    the lid's members (weight at least half) nearer the eye's axis than the traced margin at their place (`depth`,
-    that distance) reached from a traced margin vertex over the mesh's `pairs` (E, 2) of such vertices: the skin above
-    the margin bulges out between it and a crease, which is not reached.
-    """
-    out = np.full((len(t), 2), np.nan)
-    mid = np.interp(t_mid, *margins[0][:2]) - np.interp(t_mid, *margins[1][:2])
-    if not mid > 0.0:
-        return out
-    for lid, member in enumerate((np.asarray(upper) >= 0.5, np.asarray(lower) >= 0.5)):
-        ts, _angles, picked = margins[lid]
-        traced = picked >= 0
-        seeds = picked[traced]
-        deeper = member & (depth < np.interp(t, ts[traced], depth[seeds]))
-        reached = np.zeros(len(t), bool)
-        reached[seeds] = True
-        while True:
-            a, b = reached[pairs[:, 0]], reached[pairs[:, 1]]
-            grow = np.concatenate([pairs[a & ~b & deeper[pairs[:, 1]], 1], pairs[b & ~a & deeper[pairs[:, 0]], 0]])
-            if not len(grow):
-                break
-            reached[grow] = True
-        behind = reached & deeper
-        other = np.interp(t[behind], *margins[1 - lid][:2])
-        out[behind, lid] = (elev[behind] - other if lid == 0 else other - elev[behind]) / mid
-    return out
-
-
-def meet_lids(
-    rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray, drift: np.ndarray | None = None
-) -> tuple[np.ndarray, np.ndarray]:
+def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The lids' turns (K,) toward closure stopped where the lids meet at each vertex's place along the eye.
 
     `meet_at_closure` stops the lids under the mid-lid FPs; the shares `s` of the eye's opening there (c) the lids
@@ -355,14 +293,9 @@ def meet_lids(
     """
     closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
     shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
-    inside = rig.meeting > 0.0
-    reach = rig.meeting[:, None] if rig.reach is None else rig.reach
-    # the other lid's margin has come s_other o c toward this one: what is left of this vertex's own way to it
-    ahead = (reach - shares[:, ::-1] * rig.meeting[:, None]).clip(0.0)
-    stop = ahead * closure[rig.eye, None] - MEET_CLEARANCE  # (K, 2) upper, lower
-    if drift is not None:  # a vertex the deformer has already moved toward the other lid has that much less to go
-        stop -= np.stack([-np.minimum(drift, 0.0), np.maximum(drift, 0.0)], axis=1)
-    stop = stop.clip(0.0)
+    opening = rig.meeting * closure[rig.eye]
+    inside = opening > 0.0
+    stop = (opening[:, None] * (1.0 - shares[:, ::-1]).clip(0.0) - MEET_CLEARANCE).clip(0.0)  # (K, 2) upper, lower
     up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
     low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
     return up, low
@@ -544,10 +477,8 @@ def apply_eyelids(rig: EyelidRig, out: np.ndarray, fp_positions: np.ndarray) -> 
         upper = np.where(turn[:, 0] > 0.0, rig.opening[:, 0], upper)
         lower = np.where(turn[:, 1] < 0.0, rig.opening[:, 1], lower)
     up, low = upper * turn[:, 0], lower * turn[:, 1]
-    if rig.meeting is not None:  # stopped where the other lid is, from where the deformer has left each vertex
-        now = out[rig.vertices] @ rig.axes.T - rig.centres[rig.eye]
-        drift = np.arctan2(now[:, 1], now[:, 2]) - np.arctan2(rig.local[:, 1], rig.local[:, 2])
-        up, low = meet_lids(rig, turns, up, low, drift)
+    if rig.meeting is not None:
+        up, low = meet_lids(rig, turns, up, low)
     angle = up + low
     # the turn about the face x axis moves only y and z: add (turned - local) straight along the y and z axes,
     # without building the turned copy; c - 1 as -2 sin^2(angle / 2) keeps small turns exact
