@@ -140,3 +140,55 @@ def lid_gap(points: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> float:
     if len(middle) == 0 or len(lower) < 2:
         return float("nan")
     return float(_polyline_distances(points[middle], points[np.asarray(lower, dtype=np.int64)]).max())
+
+
+def _column_spans(corners: np.ndarray, x: float) -> np.ndarray:
+    """(S, 2) the intervals of y over which the projected triangles `corners` (T, 3, 2) cross the line at `x`."""
+    lows, highs = np.full(len(corners), np.inf), np.full(len(corners), -np.inf)
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        xa, xb = corners[:, a, 0], corners[:, b, 0]
+        cut = (np.minimum(xa, xb) <= x) & (np.maximum(xa, xb) >= x) & (xa != xb)
+        t = np.divide(x - xa, xb - xa, out=np.zeros_like(xa), where=cut)
+        y = corners[:, a, 1] + t * (corners[:, b, 1] - corners[:, a, 1])
+        lows, highs = np.where(cut, np.minimum(lows, y), lows), np.where(cut, np.maximum(highs, y), highs)
+    hit = np.isfinite(lows)
+    return np.stack([lows[hit], highs[hit]], axis=1)
+
+
+def _uncovered(spans: np.ndarray, low: float, high: float) -> float:
+    """The length of [low, high] that the intervals `spans` (S, 2) leave uncovered."""
+    spans = spans[(spans[:, 1] > low) & (spans[:, 0] < high)].clip(low, high)
+    if not len(spans):
+        return high - low
+    spans = spans[np.argsort(spans[:, 0])]
+    reached = np.maximum.accumulate(spans[:, 1])  # the covered run's top up to each interval
+    holes = spans[1:, 0] - reached[:-1]
+    return float(spans[0, 0] - low + holes.clip(0.0).sum() + high - reached[-1])
+
+
+def seen_lid_gap(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    centre: np.ndarray,
+    radius: float,
+    axes: np.ndarray,
+    corners: tuple[float, float],
+    columns: int = 48,
+) -> float:
+    """The widest opening a viewer looking straight at the face sees between the lids over the middle half of the
+    eye: at (N, 3) `points`, the length of each vertical line through the eyeball's outline (centre (3,) and
+    `radius`; face frame `axes` (3, 3): x across, y up, z forward) that the skin in front of the eye's centre
+    (the `triangles` (T, 3) with every corner in front of it) leaves uncovered, widest of `columns` lines evenly
+    over the middle half of `corners` (the corners' x, relative to the centre). Unlike `lid_gap` it needs no
+    lid edge, only the skin: lids closed over each other read 0 however thick their margins."""
+    local = (np.asarray(points, dtype=np.float64) - centre) @ np.asarray(axes, dtype=np.float64).T
+    faces = local[np.asarray(triangles, dtype=np.int64)]
+    projected = faces[(faces[:, :, 2] > 0.0).all(axis=1)][:, :, :2]
+    inner, outer = sorted(corners)
+    quarter = 0.25 * (outer - inner)
+    widest = 0.0
+    for x in np.linspace(inner + quarter, outer - quarter, columns):
+        half = np.sqrt(max(radius * radius - x * x, 0.0))
+        if half > 0.0:
+            widest = max(widest, _uncovered(_column_spans(projected, x), -half, half))
+    return widest

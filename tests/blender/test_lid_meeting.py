@@ -1,5 +1,5 @@
 """A full blink on the sample head: the lids meet along the whole eye and no part of one passes through the other
-(`eyelids.meet_lids`; docs/eyes_brows.md)."""
+(`eyelids.meet_lids`), and a viewer sees no opening between them (`overlaps.seen_lid_gap`; docs/eyes_brows.md)."""
 
 import dataclasses
 
@@ -7,7 +7,7 @@ import bpy
 import numpy as np
 
 from addon.blender import eyelid_rig, face_data, live
-from addon.deform.overlaps import crossing_pairs, edge_chain, lid_gap
+from addon.deform.overlaps import crossing_pairs, edge_chain, lid_gap, seen_lid_gap
 
 from .helpers import positions, set_up_sample
 
@@ -43,10 +43,21 @@ def test_a_full_blink_closes_the_lids_without_one_passing_through_the_other():
     gaps = [lid_gap(closed, upper, lower) for upper, lower in chains]
     rest_gaps = [lid_gap(rest, upper, lower) for upper, lower in chains]
     assert min(rest_gaps) > 0.009  # 9.15 mm open at rest
-    assert max(gaps) < 0.0017  # shut to 1.67 mm at most over the middle half (the lower lid's edge lies deeper)
+    assert max(gaps) < 0.0017  # 1.67 mm at most over the middle half between the edge chains (the margins' back edges)
+    # what a viewer sees: nothing of the eye straight on, at most 0.5 mm from 30 degrees below (the upper lid closes
+    # in front of the lower one, 0.6-1.4 mm apart in depth)
+    rig = eyelid_rig._rigs[head.session_uid][1]
+    for e, (inner, outer, pupil) in enumerate((("3.11", "3.7", "3.5"), ("3.8", "3.12", "3.6"))):
+        centre = rig.centres[e] @ rig.axes
+        radius = np.linalg.norm(np.array(empties[pupil].location) - centre)
+        for pitch, seen in ((0.0, 1e-9), (-30.0, 0.0005)):
+            a = np.radians(pitch)
+            axes = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]]) @ rig.axes
+            corners = tuple((np.array([empties[inner].location, empties[outer].location]) - centre) @ axes[0])
+            assert seen_lid_gap(rest, triangles, centre, radius, axes, corners) > 0.004  # open at rest
+            assert seen_lid_gap(closed, triangles, centre, radius, axes, corners) <= seen
     # the lids stopped only under the mid-lid FPs (as before `meet_lids`): rows behind the upper margin near the
     # inner corner pass through the lower lid
-    rig = eyelid_rig._rigs[head.session_uid][1]
     eyelid_rig._rigs[head.session_uid] = (eyelid_rig._rigs[head.session_uid][0], dataclasses.replace(rig, meeting=None))
     crossed = closed_eyes(head)
     assert len(crossing_pairs(crossed, triangles, np.any(crossed != rest, axis=1))) == 46

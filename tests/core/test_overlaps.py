@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from addon.deform.overlaps import crossing_pairs, crossings, edge_chain, edge_roughness, lid_gap
+from addon.deform.overlaps import crossing_pairs, crossings, edge_chain, edge_roughness, lid_gap, seen_lid_gap
 
 
 def _sheet(offset: float):
@@ -85,3 +85,39 @@ def test_unfold_skin_takes_fewer_steps_a_frame_the_finer_the_mesh():
     assert frame_steps(4278) == 935  # the sample
     assert frame_steps(53522) == 74  # the 2 mm voxel remesh: 800 steps took 0.45 s there
     assert frame_steps(10_000_000) == MIN_FRAME_STEPS
+
+
+def _margins(upper_front: float, lower_front: float):
+    """Two lids across x = -10..10 mm in front of an eye centred at the origin (x across, y up, z forward, mm):
+    each a band of skin down (up) to a thick margin that slants back, the upper's front edge at height
+    `upper_front` and 15 mm forward, its back edge 0.5 mm higher and 1 mm back; the lower's front edge at
+    `lower_front` and 13.8 mm forward, its back edge 0.4 mm lower and 0.8 mm back. Returns the points (m), the
+    triangles and the back edges' vertex chains, upper and lower (what `lid_gap` measures on the sample)."""
+    rows = [(12.0, 15.0), (upper_front, 15.0), (upper_front + 0.5, 14.0)]  # upper: skin, front edge, back edge
+    rows += [(-12.0, 13.8), (lower_front, 13.8), (lower_front - 0.4, 13.0)]  # lower: skin, front edge, back edge
+    x = np.linspace(-10.0, 10.0, 11)
+    points = np.array([(xi, y, z) for y, z in rows for xi in x]) * 1e-3
+    triangles = []
+    for first in (0, 3):  # two strips of quads per lid: skin to front edge, front edge to back edge
+        for row in (first, first + 1):
+            for i in range(10):
+                a, b, c, d = row * 11 + i, row * 11 + i + 1, (row + 1) * 11 + i + 1, (row + 1) * 11 + i
+                triangles += [(a, b, c), (a, c, d)]
+    return points, np.array(triangles), np.arange(22, 33), np.arange(55, 66)
+
+
+def test_the_seen_gap_is_the_opening_a_viewer_sees_however_thick_the_margins():
+    eye = (np.zeros(3), 0.012, np.eye(3), (-0.01, 0.01))  # centre, eyeball radius, face axes, corners' x
+    points, triangles, upper, lower = _margins(4.0, -4.0)
+    assert seen_lid_gap(points, triangles, *eye) == pytest.approx(0.008)  # open: front edge to front edge
+    points, triangles, upper, lower = _margins(0.5, 0.0)
+    assert seen_lid_gap(points, triangles, *eye) == pytest.approx(0.0005)  # a slit between the front edges
+    # closed, the upper lid over the lower one: nothing to see, though the back edges stay apart in depth
+    points, triangles, upper, lower = _margins(-0.2, 0.0)
+    assert seen_lid_gap(points, triangles, *eye) == pytest.approx(0.0, abs=1e-12)
+    assert lid_gap(points, upper, lower) == pytest.approx(np.hypot(0.7, 1.0) * 1e-3)
+    # no skin at all: the eyeball's whole height at the middle column (x = 0 among the columns)
+    assert seen_lid_gap(points, triangles[:0], *eye, columns=3) == pytest.approx(0.024)
+    # skin behind the eye's centre (the back of the head) hides nothing
+    behind = points * [1.0, 1.0, -1.0]
+    assert seen_lid_gap(behind, triangles, *eye, columns=3) == pytest.approx(0.024)

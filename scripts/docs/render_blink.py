@@ -1,0 +1,65 @@
+"""Close-ups of the full blink from the front and from above and below (docs/blink_closeup.png).
+
+    .venv/bin/python -m scripts.docs.render_blink [--out docs/blink_closeup.png] [--targets DIR]
+
+Rows: the sample's left eye at rest; the add-on's full blink (`scripts.bench.evaluate.BLINK`: 3.1 moved onto 3.3,
+as the evaluation's blink); the sculptor's closed eye (eye-left-closure). Columns: looked at straight, from 30
+degrees below and above (views the seen gap, `overlaps.seen_lid_gap`, is measured from: `evaluate.VIEWS`), from 45
+degrees below and to the temple side (beyond them), and from the temple side (the lids' margins in profile).
+Workbench, 240 px tiles; each view's seen gap of the left eye is printed (the side view's: none, the eye's
+opening is not across that view).
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+from scripts import convert
+from scripts.bench import evaluate
+from scripts.docs.closeups import aim_camera, closeup_camera, save_rows, set_up_sample, unit_arguments
+from scripts.docs.render_eyes_brows import positions
+
+ROOT = Path(__file__).resolve().parents[2]
+TILE = 240
+# yaw (degrees, + to the face's left), pitch (+ above), ortho scale (m)
+VIEWS = ((0.0, 0.0, 0.03), (0.0, -30.0, 0.03), (0.0, 30.0, 0.03), (45.0, -45.0, 0.03), (75.0, 0.0, 0.03))
+
+
+def main(argv=None) -> int:
+    args = unit_arguments(__doc__, ROOT / "docs" / "blink_closeup.png", argv)
+    sample = evaluate.load_face(evaluate.DEFAULT_FACE)
+    files = {evaluate.target_name(p): p for p in evaluate.target_files(args.targets)}
+    sculpt = sample.rest + evaluate.target_motion(files["eye-left-closure"], sample)[0]
+    scene, head, empties, controls, at_rest, rest = set_up_sample(sample.fp_ids)
+    for upper, lower in evaluate.BLINK:
+        empties[upper].location = Vector(empties[lower].location)
+    bpy.context.view_layer.update()
+    convert._addon("blender.live").apply_face(head, force=True)
+    shapes = {"rest": rest, "add-on's full blink": positions(head.data), "the sculpt (eye-left-closure)": sculpt}
+    camera = closeup_camera(scene, head, TILE, VIEWS[0][-1])
+    pupil = bpy.data.objects["FP 3.5"].matrix_world.translation
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, shape in shapes.items():
+            head.data.attributes["position"].data.foreach_set("vector", shape.astype(np.float32).ravel())
+            head.data.update()
+            seen = [1e3 * evaluate.seen_gap(sample, shape, (0,), (view[:2],)) for view in VIEWS[:-1]]
+            print(f"{name}: seen gap (mm) " + ", ".join(f"{g:.2f}" for g in seen))
+            tiles = []
+            for yaw, pitch, ortho in VIEWS:
+                camera.data.ortho_scale = ortho
+                aim_camera(camera, pupil, 0.4, yaw, pitch)
+                tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
+            rows.append(np.concatenate(tiles, axis=1))
+    save_rows(rows, args.out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
