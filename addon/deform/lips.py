@@ -212,13 +212,17 @@ def bind_lip_guard(
         spread[:, rows[u]] += share
         spread[:, rows[b]] += share
     knots_x = spread @ np.asarray(control_rest, dtype=np.float64) @ axes[0]
-    vertices = np.concatenate([np.flatnonzero(upper), np.flatnonzero(lower)])
-    n_upper = int(upper.sum())
-    side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
     tris = np.asarray(triangles, dtype=np.intp)
     reach = tuple(
         float(np.ptp(face_rest[tris[lip[tris].all(axis=1)], 0], axis=1).max(initial=0.0)) for lip in (lower, upper)
     )
+    # skin of a lip with more of the same lip straight past it toward the other lip (the fold where the lip's skin
+    # turns up into a mouth corner) is not what meets the other lip: it is carried with the skin over it, not
+    # pushed on its own, which moved the layers of the fold by different amounts, through each other
+    upper, lower = upper & ~_shadowed(face_rest, tris, upper, -1.0), lower & ~_shadowed(face_rest, tris, lower, 1.0)
+    vertices = np.concatenate([np.flatnonzero(upper), np.flatnonzero(lower)])
+    n_upper = int(upper.sum())
+    side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
     face = face_rest[vertices]
     nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
@@ -245,6 +249,30 @@ def bind_lip_guard(
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
     return LipGuard(**{**guard.__dict__, "slack": np.minimum(clearance, 0.0)})
+
+
+def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> np.ndarray:
+    """(N,) the vertices of `lip` (N,) bool over which, looking along `toward` (1: the face's up, from the lower
+    lip; -1: down, from the upper) from their rest position in the (N, 3) face frame, lies a triangle of the same
+    lip that is not theirs. A triangle is the lip's with two of its corners on it: the mouth box ends at the
+    corners' x, and the lip's skin there has a corner past it."""
+    lip = np.asarray(lip, bool)
+    tris = triangles[lip[triangles].sum(axis=1) >= 2]
+    a, b, c = (face[tris[:, k]] for k in range(3))
+    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
+    seen = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA  # a triangle seen edge-on covers no column
+    tris, a, b, c, normal_y = tris[seen], a[seen], b[seen], c[seen], normal_y[seen]
+    shadowed = np.zeros(len(face), bool)
+    for chunk in np.array_split(np.flatnonzero(lip), max(1, int(lip.sum()) // 256)):
+        px, py, pz = (face[chunk, None, k] for k in range(3))
+        wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
+        wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
+        wa = 1.0 - wb - wc
+        ahead = toward * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - py) > 0.0
+        inside = (wa > EDGE_SLACK) & (wb > EDGE_SLACK) & (wc > EDGE_SLACK)  # strictly: a flat lip shadows nothing
+        own = (tris[None] == chunk[:, None, None]).any(axis=2)
+        shadowed[chunk] = (inside & ahead & ~own).any(axis=1)
+    return shadowed
 
 
 def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
