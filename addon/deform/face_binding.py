@@ -32,7 +32,7 @@ that a body joined under the head leaves the face as it is on the head alone.
 
 The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
 triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
-away from the lips, so their pairs' weights fall with the distance from the nearest lip or jaw FP.
+away from the lips, so their pairs' weights fall with the distance along the skin from the nearest lip or jaw FP.
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ import numpy as np
 
 from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
+from .auto_masks import geodesic_distance
 from .planar_bones import Binding, bind, cover_over_control_mesh
 
 FADE_BELOW = 0.2
@@ -114,7 +115,7 @@ def bind_face(
         local_float32=local_float32,
     )
     if triangle_parts is not None and mouth_rows is not None and len(mouth_rows) and es0 > 0:
-        binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0)
+        binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0, edges)
     if triangle_parts is None or edges is None:
         return binding
     width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
@@ -148,15 +149,30 @@ def smooth_follow(
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale[binding.pair_vertex])
 
 
-def fall_from_mouth(binding: Binding, mouth_triangles: np.ndarray, mouth_rows: Sequence[int], es0: float) -> Binding:
+def fall_from_mouth(
+    binding: Binding,
+    mouth_triangles: np.ndarray,
+    mouth_rows: Sequence[int],
+    es0: float,
+    edges: np.ndarray | None = None,
+) -> Binding:
     """`binding` with the weights of its pairs on the (T,) bool `mouth_triangles` scaled by 1 - (d / R)² (at least
     0), d a vertex's distance from the nearest of the control rows `mouth_rows` (the lips' and jaw's FPs, groups 2
     and 8) and R = MOUTH_REACH_PER_ES0 x `es0`: the mouth and jaw's triangles span the cheek to the cheekbone, and
     interpolating their FPs' motion linearly over it moves the cheek's skin more than sculpted expressions do
-    (their motion falls off away from the lips)."""
+    (their motion falls off away from the lips). With the mesh's (E, 2) `edges`, d is measured along the skin
+    (shortest paths over the edges and the steps across two of them, `_two_ring`, from each FP's nearest vertex):
+    skin the lips' motion reaches only around a fold or an opening (the mouth's, the nostrils', the nasolabial
+    fold) is farther than the straight line says; without them, the straight distance."""
     rest, control = binding.rest_vertices, np.asarray(binding.control_rest)
     mouth_rows = np.asarray(mouth_rows, dtype=np.intp)
-    cap = np.clip(1.0 - (_nearest(rest, control[mouth_rows]) / (MOUTH_REACH_PER_ES0 * es0)) ** 2, 0.0, 1.0)
+    reach = MOUTH_REACH_PER_ES0 * es0
+    if edges is None:
+        distance = _nearest(rest, control[mouth_rows])
+    else:
+        sources = np.argmin(np.linalg.norm(rest[None] - control[mouth_rows][:, None], axis=2), axis=1)
+        distance = geodesic_distance(rest, _two_ring(edges), sources, reach)
+    cap = np.clip(1.0 - (distance / reach) ** 2, 0.0, 1.0)
     # the triangles' other FPs (the cheeks', 5.x, which FAPs 39-42 move): skin at them still follows them fully, as
     # at every control FP (`bind_face`'s pin, same width); only the lips' motion carried across the cheek falls
     others = np.setdiff1d(np.unique(np.asarray(binding.triangles)[np.asarray(mouth_triangles)]), mouth_rows)
@@ -173,3 +189,20 @@ def _nearest(points: np.ndarray, sources: np.ndarray) -> np.ndarray:
     for source in sources:
         near = np.minimum(near, np.linalg.norm(points - source, axis=1))
     return near
+
+
+def _two_ring(edges: np.ndarray) -> np.ndarray:
+    """(F, 2) the (E, 2) `edges` and each vertex's pairs with its neighbours' neighbours: straight steps across
+    two triangles, so that shortest paths over them zig-zag less than along the edges alone."""
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    both = np.concatenate([edges, edges[:, ::-1]])
+    both = both[np.argsort(both[:, 0], kind="stable")]
+    start = np.searchsorted(both[:, 0], np.arange(int(both.max(initial=-1)) + 2))
+    degree = np.diff(start)[both[:, 1]]
+    firsts = np.repeat(both[:, 0], degree)
+    # the neighbours of each edge's end: its rows of `both`, counted on from where they start
+    rows = np.arange(int(degree.sum())) + np.repeat(start[both[:, 1]] - (np.cumsum(degree) - degree), degree)
+    seconds = both[rows, 1]
+    pairs = np.concatenate([edges, np.stack([firsts, seconds], axis=1)])
+    pairs = np.sort(pairs[pairs[:, 0] != pairs[:, 1]], axis=1)
+    return np.unique(pairs, axis=0)

@@ -50,3 +50,37 @@ def test_skin_at_a_cheek_fp_of_a_mouth_triangle_still_follows_it_fully():
     at_fp = int(np.argmin(np.linalg.norm(rest - control[2], axis=1)))
     np.testing.assert_allclose(evaluate(fallen, moved)[at_fp], evaluate(binding, moved)[at_fp], atol=1e-12)
     assert np.linalg.norm(evaluate(fallen, moved)[at_fp] - rest[at_fp]) > 0.0099
+
+
+def _grid_edges(n: int, cut_below: int = 0) -> np.ndarray:
+    """The edges of the n x n grid of `_two_mouth_triangles` (vertex i * n + j at x = i mm, y = j mm), without
+    those across x = 10.5 mm for y < `cut_below` mm: a slit in the skin, as the mouth's opening is."""
+    index = np.arange(n * n).reshape(n, n)
+    along_x = np.column_stack([index[:-1].ravel(), index[1:].ravel()])
+    along_y = np.column_stack([index[:, :-1].ravel(), index[:, 1:].ravel()])
+    slit = (along_x[:, 0] // n == 10) & (along_x[:, 0] % n < cut_below)
+    return np.concatenate([along_x[~slit], along_y])
+
+
+def test_the_falloff_follows_the_skin_not_the_straight_line():
+    """With the mesh's edges the distance from the lips is measured along the skin (over the edges and steps
+    across two of them). On the flat grid it is the straight one at a vertex 15 mm along x and one 15 mm along the
+    diagonal (the steps across two edges run diagonally): the falloff is as without edges, 1 - (d / R)². Across
+    a slit from y = 0 to 30 mm at x = 10.5 mm, a vertex 15 mm from the lip corner in a straight line is at least
+    2 x 30 mm = R = ES0 away along the skin, around the slit's end: it stays still, where the straight distance
+    moved it by 1 - (15 / 60)² = 0.94 of the paper's motion. A vertex on the lip's side of the slit is as before."""
+    rest, control, binding, fallen, es0 = _two_mouth_triangles()
+    moved = control.copy()
+    moved[0, 0] -= 0.01
+    along_skin = fall_from_mouth(binding, np.array([True, True]), [0], es0, _grid_edges(41))
+    straight = evaluate(fallen, moved)
+    for point in ([0.015, 0.0, 0.0], [0.015, 0.015, 0.0]):
+        k = int(np.argmin(np.linalg.norm(rest - point, axis=1)))
+        np.testing.assert_allclose(evaluate(along_skin, moved)[k], straight[k], atol=1e-12)
+    slit = evaluate(fall_from_mouth(binding, np.array([True, True]), [0], es0, _grid_edges(41, 30)), moved)
+    beyond = int(np.argmin(np.linalg.norm(rest - [0.015, 0.0, 0.0], axis=1)))
+    paper = np.linalg.norm(evaluate(binding, moved)[beyond] - rest[beyond])
+    np.testing.assert_allclose(np.linalg.norm(straight[beyond] - rest[beyond]), 0.9375 * paper, rtol=1e-9)
+    np.testing.assert_allclose(slit[beyond], rest[beyond], atol=1e-15)
+    near = int(np.argmin(np.linalg.norm(rest - [0.005, 0.0, 0.0], axis=1)))
+    np.testing.assert_allclose(slit[near], straight[near], atol=1e-12)
