@@ -205,4 +205,5 @@ def _two_ring(edges: np.ndarray) -> np.ndarray:
     seconds = both[rows, 1]
     pairs = np.concatenate([edges, np.stack([firsts, seconds], axis=1)])
     pairs = np.sort(pairs[pairs[:, 0] != pairs[:, 1]], axis=1)
-    return np.unique(pairs, axis=0)
+    span = len(start)
+    return np.column_stack(np.divmod(np.unique(pairs[:, 0] * span + pairs[:, 1]), span))

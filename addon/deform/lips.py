@@ -105,16 +105,9 @@ def _depth(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
     other way, the first surface facing `up` gives the clearance (negative)."""
     if len(points) == 0 or len(tris) == 0:
         return np.full(len(points), np.nan)
-    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
-    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
-    # normal_y is twice the signed xz-projected area: the triangle's normal y times its area (y = z cross x)
-    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA
-    a, b, c, normal_y = a[usable], b[usable], c[usable], normal_y[usable]
-    px, pz = points[:, None, 0], points[:, None, 2]
-    # barycentric coordinates in the xz plane (the column through each point)
-    wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
-    wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
-    wa = 1.0 - wb - wc
+    usable, normal_y = _seen_from_above(tris)
+    a, b, c = tris[usable, 0], tris[usable, 1], tris[usable, 2]
+    wa, wb, wc = _in_columns(points, a, b, c, normal_y)
     # a column through an edge belongs to both triangles, whichever way rounding puts it
     inside = (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wc >= -EDGE_SLACK)
     height = wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1]
@@ -128,6 +121,24 @@ def _depth(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
     behind = np.where(inside & (offset < 0.0) & faces_up, -offset, np.inf)
     clearance = behind.min(axis=1)
     return np.where(np.isnan(depth) & np.isfinite(clearance), -clearance, depth)
+
+
+def _seen_from_above(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(T,) bool: the triangles with (T, 3, 3) `corners` that cover a column (not seen edge-on from above), and
+    (T',) twice the signed xz-projected area of those: the triangle's normal y times its area (y = z cross x)."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
+    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA
+    return usable, normal_y[usable]
+
+
+def _in_columns(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, normal_y: np.ndarray) -> tuple:
+    """(P, T) barycentric coordinates of the (P, 3) points in the xz plane (the vertical column through each) in the
+    triangles with (T, 3) corners a, b, c and twice their signed xz-projected areas `normal_y`."""
+    px, pz = points[:, None, 0], points[:, None, 2]
+    wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
+    wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
+    return 1.0 - wb - wc, wb, wc
 
 
 # The seam between the lips, right corner to left corner: (upper inner FP, lower inner FP) pairs
@@ -258,17 +269,13 @@ def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: 
     corners' x, and the lip's skin there has a corner past it."""
     lip = np.asarray(lip, bool)
     tris = triangles[lip[triangles].sum(axis=1) >= 2]
+    seen, normal_y = _seen_from_above(face[tris])
+    tris = tris[seen]
     a, b, c = (face[tris[:, k]] for k in range(3))
-    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
-    seen = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA  # a triangle seen edge-on covers no column
-    tris, a, b, c, normal_y = tris[seen], a[seen], b[seen], c[seen], normal_y[seen]
     shadowed = np.zeros(len(face), bool)
     for chunk in np.array_split(np.flatnonzero(lip), max(1, int(lip.sum()) // 256)):
-        px, py, pz = (face[chunk, None, k] for k in range(3))
-        wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
-        wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
-        wa = 1.0 - wb - wc
-        ahead = toward * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - py) > 0.0
+        wa, wb, wc = _in_columns(face[chunk], a, b, c, normal_y)
+        ahead = toward * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - face[chunk, None, 1]) > 0.0
         inside = (wa > EDGE_SLACK) & (wb > EDGE_SLACK) & (wc > EDGE_SLACK)  # strictly: a flat lip shadows nothing
         own = (tris[None] == chunk[:, None, None]).any(axis=2)
         shadowed[chunk] = (inside & ahead & ~own).any(axis=1)
