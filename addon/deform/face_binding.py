@@ -115,6 +115,7 @@ def bind_face(
         raisable=raisable,
         local_float32=local_float32,
     )
+    covered = binding  # the skin the volumes reach, which counts the smoothing's steps
     if triangle_parts is not None and mouth_rows is not None and len(mouth_rows) and es0 > 0:
         binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0, edges)
     if triangle_parts is None or edges is None:
@@ -123,24 +124,32 @@ def bind_face(
     # the skin at a control FP follows it fully, and less so up to half the width away (flat at the FP)
     near = _nearest(rest, np.asarray(control_rest)[np.unique(triangles)])
     pinned = np.clip(1.0 - (near / (0.5 * width)) ** 2, 0.0, 1.0)
-    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width)
+    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width, counted=covered)
 
 
 def smooth_follow(
-    binding: Binding, edges: np.ndarray, width: float, pinned: np.ndarray, domain: np.ndarray | None = None
+    binding: Binding,
+    edges: np.ndarray,
+    width: float,
+    pinned: np.ndarray,
+    domain: np.ndarray | None = None,
+    counted: Binding | None = None,
 ) -> Binding:
     """`binding` with each vertex's share of the control mesh's motion (the sum of its eq. 8 weights) lowered to
     the share smoothed over about `width` of skin along the (E, 2) mesh `edges`, or to (N,) `pinned`, whichever is
     more, where that is less than the share. Smoothed among the vertices that move and those in (N,) bool `domain`
     (all when None: the add-on passes the skin within SMOOTHED_REACH widths of a control FP, so a body under the
     head does not change the face's result). The steps are counted on the mean length of the edges between
-    vertices that move, so a denser mesh smooths over the same skin."""
+    vertices that move (in `counted` when given: the add-on passes its binding before the mouth's falloff, so that
+    the falloff, which stills some skin, does not change how far the share is smoothed elsewhere), so a denser
+    mesh smooths over the same skin."""
     rest = binding.rest_vertices
     share = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(rest))
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     if domain is not None:
         edges = edges[(np.asarray(domain) | (share > 0.0))[edges].all(axis=1)]
-    moving = edges[(share[edges] > 0.0).all(axis=1)]
+    moves = share if counted is None else np.bincount(counted.pair_vertex, counted.pair_weight, minlength=len(rest))
+    moving = edges[(moves[edges] > 0.0).all(axis=1)]
     if len(moving) == 0:
         return binding
     length = float(np.linalg.norm(rest[moving[:, 0]] - rest[moving[:, 1]], axis=1).mean())

@@ -40,7 +40,7 @@ def main() -> int:
         regions = " | ".join(f"{s['regions'][n]:.3f}" for n in evaluate.REGION_NAMES)
         print(f"| {reach:g} | {s['e_pooled']:.3f} | {regions} | {s['folds'][0]} / {s['folds'][1]} |")
     pooled, chosen = leave_one_out(results)
-    print(f"\\nleave-one-unit-and-twin-out pooled E {pooled:.3f}; chosen: {chosen}")
+    print(f"\nleave-one-unit-and-twin-out pooled E {pooled:.3f}; chosen: {chosen}")
     return 0
 
 
