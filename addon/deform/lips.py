@@ -211,7 +211,9 @@ def bind_lip_guard(
     must include the inner-lip FPs 2.2-2.9.
 
     A vertex is near the seam knot nearest to it across the mouth, at rest. A vertex still past the seam
-    at rest (where the lips touch, at the corners) keeps that much as slack."""
+    at rest (where the lips touch, at the corners) keeps that much as slack. A lip vertex with its own lip's
+    skin straight past it toward the other lip (`_shadowed`: a fold, as at the mouth's corners) is carried with
+    the skin beside the lips, not guarded."""
     rows = {fp_id: k for k, fp_id in enumerate(fp_ids)}
     upper, lower = np.asarray(upper, bool), np.asarray(lower, bool) & ~np.asarray(upper, bool)
     axes = np.asarray(axes, dtype=np.float64)
