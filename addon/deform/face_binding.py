@@ -180,7 +180,7 @@ def fall_from_mouth(
     if edges is None:
         distance = _nearest(rest, control[mouth_rows])
     else:
-        sources = np.argmin(np.linalg.norm(rest[None] - control[mouth_rows][:, None], axis=2), axis=1)
+        sources = [int(np.argmin(np.linalg.norm(rest - point, axis=1))) for point in control[mouth_rows]]
         distance = geodesic_distance(rest, _two_ring(edges), sources, reach)
     cap = np.clip(1.0 - (distance / reach) ** 2, 0.0, 1.0)
     # the triangles' other FPs (the cheeks', 5.x, which FAPs 39-42 move): skin at them still follows them fully, as
