@@ -36,8 +36,11 @@ EYE_OPENINGS = ((*EYE_WIDTH_FPS[0], "3.1", "3.3"), (*EYE_WIDTH_FPS[1], "3.2", "3
 RIM_SAMPLES, RIM_CORNER = 24, 0.1  # points along an opening's edge; the share of it left out at each corner
 
 
-def geodesic_distance(vertices: np.ndarray, edges: np.ndarray, sources: np.ndarray) -> np.ndarray:
-    """(N,) length of the shortest edge path from each vertex to the nearest of `sources` (inf: unreached)."""
+def geodesic_distance(
+    vertices: np.ndarray, edges: np.ndarray, sources: np.ndarray, limit: float = np.inf
+) -> np.ndarray:
+    """(N,) length of the shortest edge path from each vertex to the nearest of `sources` (inf: unreached, or
+    farther than `limit`)."""
     vertices = np.asarray(vertices, dtype=np.float64)
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
@@ -58,7 +61,7 @@ def geodesic_distance(vertices: np.ndarray, edges: np.ndarray, sources: np.ndarr
         for k in range(start[v], start[v + 1]):
             nd = d + wgt[k]
             u = nbr[k]
-            if nd < dist[u]:
+            if nd < dist[u] and nd <= limit:
                 dist[u] = nd
                 heapq.heappush(heap, (nd, u))
     return np.array(dist)

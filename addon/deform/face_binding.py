@@ -32,7 +32,7 @@ that a body joined under the head leaves the face as it is on the head alone.
 
 The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
 triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
-away from the lips, so their pairs' weights fall with the distance from the nearest lip or jaw FP.
+away from the lips, so their pairs' weights fall with the distance along the skin from the nearest lip or jaw FP.
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ import numpy as np
 
 from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
+from .auto_masks import geodesic_distance
 from .planar_bones import Binding, bind, cover_over_control_mesh
 
 FADE_BELOW = 0.2
@@ -53,9 +54,10 @@ FACE_DEPTH_PER_ES0 = 0.25
 # (`scripts.bench.still_skin_fractions`, docs/eyes_brows.md)
 LOCAL_RADIUS_FRACTIONS = {EYES: 0.05, BROWS: 0.3, OTHER_UPPER: 0.5, MOUTH_AND_JAW: 1.5}
 FOLLOW_SMOOTHING_PER_ES0 = 0.4  # the width of skin `smooth_follow` spreads a vertex's share of the motion over
-# the mouth and jaw's triangles move skin fully at their lips' and jaw's FPs, less away; the reach a
-# leave-one-unit-and-twin-out check picks (33 of 34 times), not the one meeting the cheeks' target (eyes_brows.md)
-MOUTH_REACH_PER_ES0 = 1.0
+# the mouth and jaw's triangles move skin fully at their lips' and jaw's FPs, less away along the skin; the reach
+# a leave-one-unit-and-twin-out check picks (32 of 34 times on 1.0-1.6, `scripts.bench.mouth_reach`), not the one
+# meeting the cheeks' target (eyes_brows.md)
+MOUTH_REACH_PER_ES0 = 1.2
 SMOOTHED_REACH = 3.0  # widths from the nearest control FP: the skin `smooth_follow` smooths among
 
 
@@ -113,32 +115,41 @@ def bind_face(
         raisable=raisable,
         local_float32=local_float32,
     )
+    covered = binding  # the skin the volumes reach, which counts the smoothing's steps
     if triangle_parts is not None and mouth_rows is not None and len(mouth_rows) and es0 > 0:
-        binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0)
+        binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0, edges)
     if triangle_parts is None or edges is None:
         return binding
     width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
     # the skin at a control FP follows it fully, and less so up to half the width away (flat at the FP)
     near = _nearest(rest, np.asarray(control_rest)[np.unique(triangles)])
     pinned = np.clip(1.0 - (near / (0.5 * width)) ** 2, 0.0, 1.0)
-    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width)
+    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width, counted=covered)
 
 
 def smooth_follow(
-    binding: Binding, edges: np.ndarray, width: float, pinned: np.ndarray, domain: np.ndarray | None = None
+    binding: Binding,
+    edges: np.ndarray,
+    width: float,
+    pinned: np.ndarray,
+    domain: np.ndarray | None = None,
+    counted: Binding | None = None,
 ) -> Binding:
     """`binding` with each vertex's share of the control mesh's motion (the sum of its eq. 8 weights) lowered to
     the share smoothed over about `width` of skin along the (E, 2) mesh `edges`, or to (N,) `pinned`, whichever is
     more, where that is less than the share. Smoothed among the vertices that move and those in (N,) bool `domain`
     (all when None: the add-on passes the skin within SMOOTHED_REACH widths of a control FP, so a body under the
     head does not change the face's result). The steps are counted on the mean length of the edges between
-    vertices that move, so a denser mesh smooths over the same skin."""
+    vertices that move (in `counted` when given: the add-on passes its binding before the mouth's falloff, so that
+    the falloff, which stills some skin, does not change how far the share is smoothed elsewhere), so a denser
+    mesh smooths over the same skin."""
     rest = binding.rest_vertices
     share = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(rest))
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     if domain is not None:
         edges = edges[(np.asarray(domain) | (share > 0.0))[edges].all(axis=1)]
-    moving = edges[(share[edges] > 0.0).all(axis=1)]
+    moves = share if counted is None else np.bincount(counted.pair_vertex, counted.pair_weight, minlength=len(rest))
+    moving = edges[(moves[edges] > 0.0).all(axis=1)]
     if len(moving) == 0:
         return binding
     length = float(np.linalg.norm(rest[moving[:, 0]] - rest[moving[:, 1]], axis=1).mean())
@@ -148,15 +159,30 @@ def smooth_follow(
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale[binding.pair_vertex])
 
 
-def fall_from_mouth(binding: Binding, mouth_triangles: np.ndarray, mouth_rows: Sequence[int], es0: float) -> Binding:
+def fall_from_mouth(
+    binding: Binding,
+    mouth_triangles: np.ndarray,
+    mouth_rows: Sequence[int],
+    es0: float,
+    edges: np.ndarray | None = None,
+) -> Binding:
     """`binding` with the weights of its pairs on the (T,) bool `mouth_triangles` scaled by 1 - (d / R)² (at least
     0), d a vertex's distance from the nearest of the control rows `mouth_rows` (the lips' and jaw's FPs, groups 2
     and 8) and R = MOUTH_REACH_PER_ES0 x `es0`: the mouth and jaw's triangles span the cheek to the cheekbone, and
     interpolating their FPs' motion linearly over it moves the cheek's skin more than sculpted expressions do
-    (their motion falls off away from the lips)."""
+    (their motion falls off away from the lips). With the mesh's (E, 2) `edges`, d is measured along the skin
+    (shortest paths over the edges and the steps across two of them, `_two_ring`, from each FP's nearest vertex):
+    skin the lips' motion reaches only around a fold or an opening (the mouth's, the nostrils', the nasolabial
+    fold) is farther than the straight line says; without them, the straight distance."""
     rest, control = binding.rest_vertices, np.asarray(binding.control_rest)
     mouth_rows = np.asarray(mouth_rows, dtype=np.intp)
-    cap = np.clip(1.0 - (_nearest(rest, control[mouth_rows]) / (MOUTH_REACH_PER_ES0 * es0)) ** 2, 0.0, 1.0)
+    reach = MOUTH_REACH_PER_ES0 * es0
+    if edges is None:
+        distance = _nearest(rest, control[mouth_rows])
+    else:
+        sources = [int(np.argmin(np.linalg.norm(rest - point, axis=1))) for point in control[mouth_rows]]
+        distance = geodesic_distance(rest, _two_ring(edges), sources, reach)
+    cap = np.clip(1.0 - (distance / reach) ** 2, 0.0, 1.0)
     # the triangles' other FPs (the cheeks', 5.x, which FAPs 39-42 move): skin at them still follows them fully, as
     # at every control FP (`bind_face`'s pin, same width); only the lips' motion carried across the cheek falls
     others = np.setdiff1d(np.unique(np.asarray(binding.triangles)[np.asarray(mouth_triangles)]), mouth_rows)
@@ -173,3 +199,21 @@ def _nearest(points: np.ndarray, sources: np.ndarray) -> np.ndarray:
     for source in sources:
         near = np.minimum(near, np.linalg.norm(points - source, axis=1))
     return near
+
+
+def _two_ring(edges: np.ndarray) -> np.ndarray:
+    """(F, 2) the (E, 2) `edges` and each vertex's pairs with its neighbours' neighbours: straight steps across
+    two triangles, so that shortest paths over them zig-zag less than along the edges alone."""
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    both = np.concatenate([edges, edges[:, ::-1]])
+    both = both[np.argsort(both[:, 0], kind="stable")]
+    start = np.searchsorted(both[:, 0], np.arange(int(both.max(initial=-1)) + 2))
+    degree = np.diff(start)[both[:, 1]]
+    firsts = np.repeat(both[:, 0], degree)
+    # the neighbours of each edge's end: its rows of `both`, counted on from where they start
+    rows = np.arange(int(degree.sum())) + np.repeat(start[both[:, 1]] - (np.cumsum(degree) - degree), degree)
+    seconds = both[rows, 1]
+    pairs = np.concatenate([edges, np.stack([firsts, seconds], axis=1)])
+    pairs = np.sort(pairs[pairs[:, 0] != pairs[:, 1]], axis=1)
+    span = len(start)
+    return np.column_stack(np.divmod(np.unique(pairs[:, 0] * span + pairs[:, 1]), span))

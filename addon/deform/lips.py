@@ -105,16 +105,9 @@ def _depth(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
     other way, the first surface facing `up` gives the clearance (negative)."""
     if len(points) == 0 or len(tris) == 0:
         return np.full(len(points), np.nan)
-    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
-    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
-    # normal_y is twice the signed xz-projected area: the triangle's normal y times its area (y = z cross x)
-    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA
-    a, b, c, normal_y = a[usable], b[usable], c[usable], normal_y[usable]
-    px, pz = points[:, None, 0], points[:, None, 2]
-    # barycentric coordinates in the xz plane (the column through each point)
-    wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
-    wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
-    wa = 1.0 - wb - wc
+    usable, normal_y = _seen_from_above(tris)
+    a, b, c = tris[usable, 0], tris[usable, 1], tris[usable, 2]
+    wa, wb, wc = _in_columns(points, a, b, c, normal_y)
     # a column through an edge belongs to both triangles, whichever way rounding puts it
     inside = (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wc >= -EDGE_SLACK)
     height = wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1]
@@ -128,6 +121,24 @@ def _depth(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
     behind = np.where(inside & (offset < 0.0) & faces_up, -offset, np.inf)
     clearance = behind.min(axis=1)
     return np.where(np.isnan(depth) & np.isfinite(clearance), -clearance, depth)
+
+
+def _seen_from_above(corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(T,) bool: the triangles with (T, 3, 3) `corners` that cover a column (not seen edge-on from above), and
+    (T',) twice the signed xz-projected area of those: the triangle's normal y times its area (y = z cross x)."""
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
+    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA
+    return usable, normal_y[usable]
+
+
+def _in_columns(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, normal_y: np.ndarray) -> tuple:
+    """(P, T) barycentric coordinates of the (P, 3) points in the xz plane (the vertical column through each) in the
+    triangles with (T, 3) corners a, b, c and twice their signed xz-projected areas `normal_y`."""
+    px, pz = points[:, None, 0], points[:, None, 2]
+    wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / normal_y
+    wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / normal_y
+    return 1.0 - wb - wc, wb, wc
 
 
 # The seam between the lips, right corner to left corner: (upper inner FP, lower inner FP) pairs
@@ -200,7 +211,9 @@ def bind_lip_guard(
     must include the inner-lip FPs 2.2-2.9.
 
     A vertex is near the seam knot nearest to it across the mouth, at rest. A vertex still past the seam
-    at rest (where the lips touch, at the corners) keeps that much as slack."""
+    at rest (where the lips touch, at the corners) keeps that much as slack. A lip vertex with its own lip's
+    skin straight past it toward the other lip (`_shadowed`: a fold, as at the mouth's corners) is carried with
+    the skin beside the lips, not guarded."""
     rows = {fp_id: k for k, fp_id in enumerate(fp_ids)}
     upper, lower = np.asarray(upper, bool), np.asarray(lower, bool) & ~np.asarray(upper, bool)
     axes = np.asarray(axes, dtype=np.float64)
@@ -212,13 +225,17 @@ def bind_lip_guard(
         spread[:, rows[u]] += share
         spread[:, rows[b]] += share
     knots_x = spread @ np.asarray(control_rest, dtype=np.float64) @ axes[0]
-    vertices = np.concatenate([np.flatnonzero(upper), np.flatnonzero(lower)])
-    n_upper = int(upper.sum())
-    side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
     tris = np.asarray(triangles, dtype=np.intp)
     reach = tuple(
         float(np.ptp(face_rest[tris[lip[tris].all(axis=1)], 0], axis=1).max(initial=0.0)) for lip in (lower, upper)
     )
+    # skin of a lip with more of the same lip straight past it toward the other lip (the fold where the lip's skin
+    # turns up into a mouth corner) is not what meets the other lip: it is carried with the skin over it, not
+    # pushed on its own, which moved the layers of the fold by different amounts, through each other
+    upper, lower = upper & ~_shadowed(face_rest, tris, upper, -1.0), lower & ~_shadowed(face_rest, tris, lower, 1.0)
+    vertices = np.concatenate([np.flatnonzero(upper), np.flatnonzero(lower)])
+    n_upper = int(upper.sum())
+    side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
     face = face_rest[vertices]
     nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
@@ -245,6 +262,26 @@ def bind_lip_guard(
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
     return LipGuard(**{**guard.__dict__, "slack": np.minimum(clearance, 0.0)})
+
+
+def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> np.ndarray:
+    """(N,) the vertices of `lip` (N,) bool over which, looking along `toward` (1: the face's up, from the lower
+    lip; -1: down, from the upper) from their rest position in the (N, 3) face frame, lies a triangle of the same
+    lip that is not theirs. A triangle is the lip's with two of its corners on it: the mouth box ends at the
+    corners' x, and the lip's skin there has a corner past it."""
+    lip = np.asarray(lip, bool)
+    tris = triangles[lip[triangles].sum(axis=1) >= 2]
+    seen, normal_y = _seen_from_above(face[tris])
+    tris = tris[seen]
+    a, b, c = (face[tris[:, k]] for k in range(3))
+    shadowed = np.zeros(len(face), bool)
+    for chunk in np.array_split(np.flatnonzero(lip), max(1, int(lip.sum()) // 256)):
+        wa, wb, wc = _in_columns(face[chunk], a, b, c, normal_y)
+        ahead = toward * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - face[chunk, None, 1]) > 0.0
+        inside = (wa > EDGE_SLACK) & (wb > EDGE_SLACK) & (wc > EDGE_SLACK)  # strictly: a flat lip shadows nothing
+        own = (tris[None] == chunk[:, None, None]).any(axis=2)
+        shadowed[chunk] = (inside & ahead & ~own).any(axis=1)
+    return shadowed
 
 
 def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:

@@ -44,20 +44,26 @@ def score_grid(targets: Path) -> dict[tuple[float, ...], dict[str, evaluate.Scor
         for point in itertools.product(*GRID):
             face_binding.LOCAL_RADIUS_FRACTIONS = dict(zip(PARTS, point, strict=False))
             face_binding.FOLLOW_SMOOTHING_PER_ES0 = point[-1]
-            face = evaluate.load_face(evaluate.DEFAULT_FACE)
-            method = evaluate.AddOnMethod(face)
-            scores = {}
-            for path in evaluate.target_files(targets):
-                offsets, fp_offsets = evaluate.target_motion(path, face)
-                if np.any(offsets):
-                    control = face.control_rest + fp_offsets
-                    deformed = method.evaluate(control)
-                    folds = evaluate.folds(method, face, control)
-                    scores[evaluate.target_name(path)] = evaluate.score(deformed, face.rest + offsets, face.rest, folds)
-            results[point] = (scores, face.region)
+            results[point] = score_units(targets)
     finally:
         face_binding.LOCAL_RADIUS_FRACTIONS, face_binding.FOLLOW_SMOOTHING_PER_ES0 = default
     return results
+
+
+def score_units(targets: Path) -> tuple[dict[str, evaluate.Score], np.ndarray]:
+    """The add-on as `evaluate --method add_on` plays it, with `face_binding`'s values as they are now, on every
+    unit that moves the head: the scores by unit and the head's regions."""
+    face = evaluate.load_face(evaluate.DEFAULT_FACE)
+    method = evaluate.AddOnMethod(face)
+    scores = {}
+    for path in evaluate.target_files(targets):
+        offsets, fp_offsets = evaluate.target_motion(path, face)
+        if np.any(offsets):
+            control = face.control_rest + fp_offsets
+            deformed = method.evaluate(control)
+            folds = evaluate.folds(method, face, control)
+            scores[evaluate.target_name(path)] = evaluate.score(deformed, face.rest + offsets, face.rest, folds)
+    return scores, face.region
 
 
 def leave_one_out(results: dict) -> tuple[float, dict]:

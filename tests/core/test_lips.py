@@ -168,3 +168,29 @@ def test_the_skin_beside_a_pushed_lip_follows_it_and_no_face_turns_over():
     assert depth(deformed, triangles, upper, lower) <= 1e-12
     assert count_inverted(rest, deformed, triangles) == 0
     assert np.all(deformed[above, 1] > deformed[edge, 1])  # the skin still stands above the lip's edge
+
+
+def test_a_fold_of_a_lip_moves_as_one():
+    """A flap of the lower lip's skin over a lower-lip vertex v, joined to it (as where the lip's skin turns up into
+    a mouth corner): v has its own lip straight above it, so it is carried with the skin around it, not guarded
+    (the old guard pushed each layer of such a fold onto the seam by its own amount, through each other). The
+    deformer raises v and the flap alike 0.8 mm, past the seam (y = 0) by 0.3 and 0.5 mm: the flap goes back onto
+    the seam and v is carried down by the flap's push times the falloff of its nearest guarded vertex's distance,
+    1 - smoothstep(d / 8 mm), staying under the flap."""
+    rest, triangles, upper, lower, fps = mouth()
+    v = int(np.flatnonzero(lower & np.isclose(rest[:, 0], 0.0) & np.isclose(rest[:, 2], ZS[1]))[0])
+    flap = rest[v] + np.array([[-0.001, 0.0002, -0.001], [0.001, 0.0002, -0.001], [0.0, 0.0002, 0.001]])
+    f1, f2, f3 = len(rest) + np.arange(3)
+    rest = np.concatenate([rest, flap])
+    triangles = np.concatenate([triangles, [(v, f2, f1), (f1, f2, f3)]])
+    upper, lower = np.r_[upper, False, False, False], np.r_[lower, True, True, True]
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    assert v not in guard.vertices and v in guard.skin
+    assert np.isin([f1, f2, f3], guard.vertices).all()
+    deformed = rest.copy()
+    deformed[[v, f1, f2, f3], 1] += 0.0008
+    guard_lips(guard, deformed, fps)
+    np.testing.assert_allclose(deformed[[f1, f2, f3], 1], 0.0, atol=1e-15)  # the flap onto the seam
+    t = np.linalg.norm(flap[0] - rest[v]) / 0.008
+    assert deformed[v, 1] == pytest.approx(0.0003 - 0.0005 * (1.0 - t * t * (3.0 - 2.0 * t)), abs=1e-15)
+    assert deformed[v, 1] < 0.0

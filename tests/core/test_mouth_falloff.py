@@ -25,7 +25,7 @@ def test_a_lip_corner_moves_fully_and_the_cheek_toward_the_cheekbone_less():
     before = np.linalg.norm(evaluate(binding, moved) - rest, axis=1)
     after = np.linalg.norm(evaluate(fallen, moved) - rest, axis=1)
     corner = int(np.argmin(np.linalg.norm(rest - [0.0, 0.0, 0.0], axis=1)))  # at it
-    cheek = int(np.argmin(np.linalg.norm(rest - [0.015, 0.015, 0.0], axis=1)))  # 21 mm from the corner
+    cheek = int(np.argmin(np.linalg.norm(rest - [0.02, 0.02, 0.0], axis=1)))  # 28 mm from the corner
     np.testing.assert_allclose(after[corner], before[corner], rtol=1e-9)  # at the lip: as the paper moves it
     assert before[corner] > 0.0099
     d = np.linalg.norm(rest[cheek] - control[0])
@@ -50,3 +50,40 @@ def test_skin_at_a_cheek_fp_of_a_mouth_triangle_still_follows_it_fully():
     at_fp = int(np.argmin(np.linalg.norm(rest - control[2], axis=1)))
     np.testing.assert_allclose(evaluate(fallen, moved)[at_fp], evaluate(binding, moved)[at_fp], atol=1e-12)
     assert np.linalg.norm(evaluate(fallen, moved)[at_fp] - rest[at_fp]) > 0.0099
+
+
+def _grid_edges(n: int, cut_below: int = 0) -> np.ndarray:
+    """The edges of the n x n grid of `_two_mouth_triangles` (vertex i * n + j at x = i mm, y = j mm), without
+    those across x = 10.5 mm for y < `cut_below` mm: a slit in the skin, as the mouth's opening is."""
+    index = np.arange(n * n).reshape(n, n)
+    along_x = np.column_stack([index[:-1].ravel(), index[1:].ravel()])
+    along_y = np.column_stack([index[:, :-1].ravel(), index[:, 1:].ravel()])
+    slit = (along_x[:, 0] // n == 10) & (along_x[:, 0] % n < cut_below)
+    return np.concatenate([along_x[~slit], along_y])
+
+
+def test_the_falloff_follows_the_skin_not_the_straight_line():
+    """With the mesh's edges the distance from the lips is measured along the skin (over the edges and steps
+    across two of them). On the flat grid it is the straight one at a vertex 15 mm along x and one 15 mm along the
+    diagonal (the steps across two edges run diagonally): the falloff is as without edges, 1 - (d / R)². Across
+    a slit from y = 0 to 38 mm at x = 10.5 mm, a vertex 15 mm from the lip corner in a straight line is more than
+    2 x 38 mm away along the skin, around the slit's end, beyond R = 1.2 ES0 = 72 mm: it stays still, where the
+    straight distance moved it by 1 - (15 / 72)² = 0.96 of the paper's motion. A vertex on the lip's side of the
+    slit is as before."""
+    rest, control, binding, fallen, es0 = _two_mouth_triangles()
+    moved = control.copy()
+    moved[0, 0] -= 0.01
+    along_skin = fall_from_mouth(binding, np.array([True, True]), [0], es0, _grid_edges(41))
+    straight = evaluate(fallen, moved)
+    for point in ([0.015, 0.0, 0.0], [0.015, 0.015, 0.0]):
+        k = int(np.argmin(np.linalg.norm(rest - point, axis=1)))
+        np.testing.assert_allclose(evaluate(along_skin, moved)[k], straight[k], atol=1e-12)
+    slit = evaluate(fall_from_mouth(binding, np.array([True, True]), [0], es0, _grid_edges(41, 38)), moved)
+    beyond = int(np.argmin(np.linalg.norm(rest - [0.015, 0.0, 0.0], axis=1)))
+    paper = np.linalg.norm(evaluate(binding, moved)[beyond] - rest[beyond])
+    assert 2 * 0.038 > MOUTH_REACH_PER_ES0 * es0
+    falloff = 1.0 - (0.015 / (MOUTH_REACH_PER_ES0 * es0)) ** 2
+    np.testing.assert_allclose(np.linalg.norm(straight[beyond] - rest[beyond]), falloff * paper, rtol=1e-9)
+    np.testing.assert_allclose(slit[beyond], rest[beyond], atol=1e-15)
+    near = int(np.argmin(np.linalg.norm(rest - [0.005, 0.0, 0.0], axis=1)))
+    np.testing.assert_allclose(slit[near], straight[near], atol=1e-12)
