@@ -50,6 +50,7 @@ import numpy as np
 from .boundaries import (
     FLOOR_PERCENTILE,
     HOP_SECONDS,
+    MIN_PHONE_SECONDS,
     SOUND_MARGIN_DB,
     WINDOW_SECONDS,
     band_centres_hz,
@@ -116,8 +117,11 @@ def _split_quiet_murmurs(phone: TimedLabel, index: np.ndarray, murmur_frames, le
         if (b - a) * HOP_SECONDS < MIN_MURMUR_SECONDS or level[a:b].mean() > loudest - MURMUR_BELOW_VOWEL_DB:
             continue
         # frame k's centre is k hop + window / 2: the run covers the hops around its frames' centres
-        run_start = max(phone.start, a * HOP_SECONDS + (WINDOW_SECONDS - HOP_SECONDS) / 2)
+        run_start = max(start, a * HOP_SECONDS + (WINDOW_SECONDS - HOP_SECONDS) / 2)
         run_end = min(phone.end, b * HOP_SECONDS + (WINDOW_SECONDS - HOP_SECONDS) / 2)
+        # a remnant shorter than any phone is no sound of its own: the murmur takes it
+        run_start = start if run_start - start < MIN_PHONE_SECONDS else run_start
+        run_end = phone.end if phone.end - run_end < MIN_PHONE_SECONDS else run_end
         if run_start > start:
             out.append(phone._replace(start=start, end=run_start))
         out.append(phone._replace(start=run_start, end=run_end, label="m"))
