@@ -122,10 +122,11 @@ def test_recognition_closes_the_lips_on_more_bilabials():
             truth_runs, found_runs = truth_runs + len(truth), found_runs + len(found)
             hits += sum(meets(run, found) for run in truth)
             true_found += sum(meets(run, truth) for run in found)
-    # espeak-ng's noise sources (aspiration, frication) are random, so each synthesis differs a little; in 4
-    # runs: 27-30 of 36 closures found, 83-89 % of the found ones true (without these cues: 23-25 of 36)
+    # espeak-ng's noise sources (aspiration, frication) are random, so each synthesis differs a little; in 3
+    # runs: 29-33 of 36 closures found, 89-93 % of the found ones true (without these cues: 23-25 of 36; with
+    # the three whole-phone cues only, in 4 runs: 27-30)
     assert truth_runs == 36
-    assert hits >= 26
+    assert hits >= 28
     assert true_found >= 0.8 * found_runs
 
 
