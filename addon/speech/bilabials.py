@@ -24,8 +24,9 @@ phones (`bilabials_from_acoustics`):
   bar by more) becomes an /m/; the rest of the phone keeps its name. The voice bar of a /b/ has the same
   spectrum (only the voice's lowest harmonics pass the closed tract's walls), and the same viseme. /n/ and
   /ng/ murmurs pass this test too, so only phones heard as sonorants are split: a recognised nasal keeps its
-  viseme. Measured (docs/voice.md): closure recall without a transcript 85 -> 90 % on clean dev takes and
-  74 -> 82 % on held-out ones, frame agreement up 1 point on both, unchanged on the real recordings.
+  viseme. Measured (docs/voice.md, phones decoded once): closure recall without a transcript 85 -> 90 % on
+  clean dev takes and 74 -> 82 % on held-out ones, frame agreement up 1 point on both; on the real
+  recordings of pocketsphinx-testdata agreement is unchanged, and none of the 4 closures it adds there is true.
 - **Burst.** The release of a stop made at the lips excites no cavity in front of the closure, so its burst
   spectrum falls with frequency ("diffuse-falling"), while an alveolar's rises and a velar's has a compact
   mid-frequency peak (Blumstein and Stevens 1979, the place templates of the burst onset spectrum). A phone of
