@@ -11,10 +11,10 @@ by espeak-ng) and the phones keep their CMU names. A transcript whose alignment 
 within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
 gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript,
 phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
-phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, and a /k/, /t/ or
-/th/ with a labial burst for a /p/, and an /f/ or /v/ that is only noise for a /p/ or /b/ closure
-(`bilabials.bilabials_from_acoustics`). CMU phones are written in lower case (`data/phones_cmu.json` maps them
-to visemes, and the timed-label reader knows them).
+phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, a quiet murmur
+within any other sonorant split off as an /m/, a /k/, /t/ or /th/ with a labial burst taken for a /p/, and
+an /f/ or /v/ without frication for a /p/ or /b/ closure (`bilabials.bilabials_from_acoustics`). CMU phones
+are written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the

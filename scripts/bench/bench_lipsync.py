@@ -16,6 +16,7 @@ Per set and condition:
                fps): recall = found / truth closures, precision = audio-path closures that meet a truth one
   onset        |start of the audio path's run - start of the truth's run| for every truth viseme run that the
                audio path has within 150 ms (same viseme), median and 90th percentile in ms
+  confusion    frames of each truth viseme (rows) found as each viseme (columns)
   speed        seconds of speech per second of wall time (reading the samples at 16 kHz and finding the phones),
                and per second of this process's CPU time (what one free core gives: the machine is shared)
 
@@ -24,7 +25,10 @@ the sets this was developed on; "held-out" (the last 12 sentences, voices en-us+
 a minute), looked at only to report. A long take (the held-out sentences in one recording, over PIECE_SECONDS)
 checks the cutting at pauses. Last, real human recordings with transcripts from Debian's
 pocketsphinx-testdata (LibriVox "Sense and Sensibility", and card names), where only a word-level check is
-possible: every word with /p b m/ must get a closure (a PP segment) inside its aligned span.
+possible: every word with /p b m/ must get a closure (a PP segment) inside its aligned span; and, without
+their transcripts, their recognised visemes scored against their aligned ones (the aligner, given the words,
+is the nearest to a truth they have). After the tables, the viseme confusion matrices of recognition (frames
+of each truth viseme found as each viseme): what the path without a transcript gets wrong.
 """
 
 from __future__ import annotations
@@ -104,7 +108,27 @@ def score(truth, found, duration: float) -> dict:
         "found_closures": len(found_closures),
         "found_closures_true": sum(meets(c, closures) for c in found_closures),
         "onsets_ms": onsets,
+        "confusion": confusion(t, f).tolist(),
     }
+
+
+def confusion(truth_frames: np.ndarray, found_frames: np.ndarray) -> np.ndarray:
+    """(15, 15) frame counts: row = the truth's viseme, column = the audio path's."""
+    counts = np.zeros((len(Viseme), len(Viseme)), int)
+    np.add.at(counts, (truth_frames, found_frames), 1)
+    return counts
+
+
+def confusion_table(counts) -> str:
+    """A confusion matrix as text: one row per truth viseme, its frames, the share found as itself."""
+    counts = np.asarray(counts)
+    names = [v.name for v in Viseme]
+    lines = ["truth \\ found " + " ".join(f"{n:>5}" for n in names) + " frames  found"]
+    for i, name in enumerate(names):
+        row = counts[i]
+        share = f"{row[i] / row.sum():6.1%}" if row.sum() else "     -"
+        lines.append(f"{name:>14} " + " ".join(f"{x:5d}" for x in row) + f" {row.sum():6d} {share}")
+    return "\n".join(lines)
 
 
 def closure_truth(speech) -> list:
@@ -184,6 +208,7 @@ def summary_of(results: list[dict]) -> dict:
         "closures": total("closures"),
         "onset_median_ms": float(np.median(onsets)) if len(onsets) else float("nan"),
         "onset_p90_ms": float(np.percentile(onsets, 90)) if len(onsets) else float("nan"),
+        "confusion": sum((np.asarray(r["confusion"]) for r in results), np.zeros((len(Viseme),) * 2, int)).tolist(),
     }
 
 
@@ -243,10 +268,29 @@ def word_closures(wav: Path, text: str) -> dict:
     return {"words": len(bilabial), "closed": closed, "duration": take.duration, "seconds": seconds, "cpu": cpu}
 
 
+def recognised_against_aligned(wav: Path, text: str) -> dict:
+    """A real recording's recognised visemes (no transcript) scored against its aligned ones, the nearest to a
+    truth a human recording without phone labels has (the aligner, given the words, is far more exact)."""
+    take = recording.read_recording(wav)
+    aligned = phone_alignment.phone_segments(phone_alignment.phones_from_recording(take, text))
+    began, cpu = time.perf_counter(), time.process_time()
+    phones = phone_alignment.phones_from_recording(take, None)
+    seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
+    result = score(aligned, phone_alignment.phone_segments(phones), take.duration)
+    return {**result, "duration": take.duration, "seconds": seconds, "cpu": cpu}
+
+
 def real(transcript: bool) -> dict | None:
     recordings = real_recordings()
-    if not recordings or not transcript:
+    if not recordings:
         return None
+    if not transcript:
+        results = [recognised_against_aligned(wav, text) for wav, text in recordings]
+        return {
+            **summary_of(results),
+            "speed": sum(r["duration"] for r in results) / sum(r["seconds"] for r in results),
+            "speed_cpu": sum(r["duration"] for r in results) / sum(r["cpu"] for r in results),
+        }
     results = [word_closures(wav, text) for wav, text in recordings]
     return {
         "recordings": len(results),
@@ -282,6 +326,14 @@ def table(report: dict, truth: str) -> str:
             f"{real_['closed_inside_word']} of {real_['bilabial_words']} words with /p b m/ close inside the word; "
             f"{real_['speed']:.1f}× real time ({real_['speed_cpu']:.1f}× in CPU time)."
         )
+    recognised = report.get("real recognised")
+    if recognised and truth == TRUTHS[-1]:
+        lines.append(
+            f"Without their transcripts, against their aligned visemes: frame agreement {recognised['agreement']:.1%} "
+            f"({recognised['speech_agreement']:.1%}), closure recall {recognised['closure_recall']:.1%} of "
+            f"{recognised['closures']}, precision {recognised['closure_precision']:.1%}; "
+            f"{recognised['speed']:.1f}× real time ({recognised['speed_cpu']:.1f}× in CPU time)."
+        )
     return "\n".join(lines)
 
 
@@ -299,10 +351,17 @@ def main(argv=None) -> int:
         report["held-out"][mode] = synthetic(held_out, HELD_OUT["voices"], HELD_OUT["rates"], transcript)
         report["long take"][mode] = long_take(held_out, transcript)
     report["real"] = real(True)
+    report["real recognised"] = real(False)
     print("Truth: the text path's visemes, stops at espeak-ng's reported (burst) times")
     print(table(report, "espeak"))
     print("\nTruth: the same, each stop from the onset of its closure (the silence before its burst)")
     print(table(report, "closure"))
+    print("\nViseme confusion without a transcript, closure truth, clean (frames; rows: truth, columns: found)")
+    for name in ("dev", "held-out"):
+        print(f"\n{name}:\n" + confusion_table(report[name]["without"]["clean"]["closure"]["confusion"]))
+    if report["real recognised"]:
+        counts = report["real recognised"]["confusion"]
+        print("\nreal recordings, against their aligned visemes:\n" + confusion_table(counts))
     if args.json:
         args.json.write_text(json.dumps(report, indent=1))
     return 0

@@ -240,10 +240,12 @@ def test_frames_become_seconds_at_each_tasks_frame_rate():
 
 @needs_espeak
 @needs_pocketsphinx
-def test_recognition_resolves_phones_shorter_than_three_10_ms_frames():
+def test_recognition_resolves_phones_shorter_than_three_10_ms_frames(monkeypatch):
     # at 5 ms frames a three-state phone may last 15 ms: fluent speech has phones that short. Three sentences,
     # not one: espeak-ng's noise differs from one synthesis to the next (its random generator carries on between
-    # calls and seeding it does not make the audio repeat), and one sentence's few short phones came and went
+    # calls and seeding it does not make the audio repeat), and one sentence's few short phones came and went.
+    # The recogniser's own phones: the bilabial cues split murmurs off on a finer grid
+    monkeypatch.setattr(phone_alignment, "bilabials_from_acoustics", lambda phones, samples: phones)
     take, _ = _take("Maybe Bob bought a map. Please pass me the apple pie. My mother made a bowl of plum jam.")
     phones = phone_alignment.phones_from_recording(take, None)
     inside = [p for p in phones[1:] if p.end < take.duration]  # the last ones are clipped to the take
