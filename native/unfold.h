@@ -81,7 +81,7 @@ static int unfold_ascending(const void *a, const void *b) {
  * membrane's change kept. Returns 0. */
 PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_t *triangles,
                           const double *rest_normals, const int32_t *neighbour_start, const int32_t *neighbours,
-                          const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
+                          const double *weights, const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
                           int64_t n_start, const int32_t *start, void *work, int32_t max_steps, double step,
                           int32_t check_every, int32_t stall_checks, int32_t bisections, double margin,
                           int32_t *moved, int64_t *result, double *share) {
@@ -144,14 +144,13 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
                 int32_t first = neighbour_start[v], last = neighbour_start[v + 1];
                 double total[3];
                 const int64_t head = 3 * (int64_t)neighbours[first];
-                for (int c = 0; c < 3; ++c) total[c] = p[head + c] - rest[head + c];
+                for (int c = 0; c < 3; ++c) total[c] = weights[first] * (p[head + c] - rest[head + c]);
                 for (int32_t e = first + 1; e < last; ++e)
                     for (int c = 0; c < 3; ++c)
-                        total[c] += p[3 * (int64_t)neighbours[e] + c] - rest[3 * (int64_t)neighbours[e] + c];
-                double degree = (double)(last - first);
+                        total[c] += weights[e] * (p[3 * (int64_t)neighbours[e] + c] - rest[3 * (int64_t)neighbours[e] + c]);
                 for (int c = 0; c < 3; ++c) {
                     double own = p[3 * (int64_t)v + c] - rest[3 * (int64_t)v + c];
-                    next[3 * m + c] = p[3 * (int64_t)v + c] + step * (total[c] / degree - own);
+                    next[3 * m + c] = p[3 * (int64_t)v + c] + step * (total[c] - own);
                 }
             }
             for (int64_t m = 0; m < size; ++m)
