@@ -77,8 +77,9 @@ static int unfold_ascending(const void *a, const void *b) {
 /* positions (n x 3 float32) in place. The first look is at the triangles at the n_start vertices `start` (at
  * every triangle when n_start < 0): the caller vouches that no other triangle is turned over. work: the mesh's
  * work space (pbk_unfold_work_bytes). moved (n) receives the vertices it may have moved, ascending, and result[0]
- * their count, result[1] the steps made, result[2] the triangles left turned over; share[0] the share of the
- * membrane's change kept. Returns 0. */
+ * their count, result[1] the steps made, result[2] the triangles left turned over (where the steps ended with no
+ * fewer than they found, none moved and that many are left); share[0] the share of the membrane's change
+ * kept. Returns 0. */
 PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_t *triangles,
                           const double *rest_normals, const int32_t *neighbour_start, const int32_t *neighbours,
                           const double *weights, const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
@@ -107,6 +108,7 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
                     bad[n_bad++] = t;
             }
     }
+    const int64_t found = n_bad;
     int64_t count = n_bad;
     if (count == 0) return 0;
     int64_t rings = 1, steps = 0, best = count, stall = 0, n_moved = 0;
@@ -172,6 +174,10 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
         } else if (++stall >= stall_checks) {
             ++rings, stall = 0;
         }
+    }
+    if (count >= found) { /* the budget ended with no fewer turned over: the positions stay as they came */
+        result[1] = steps, result[2] = found;
+        return 0;
     }
     qsort(moved, (size_t)n_moved, sizeof *moved, unfold_ascending);
     double high = 1.0;

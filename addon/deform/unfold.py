@@ -18,7 +18,9 @@ limits in places. The Planar Bones paper does not treat fold-overs. This pass re
    where a fold compresses the skin those moves turned other triangles over (a subdivided face with its new
    vertices jittered, the lips at demo frame 120: 565 steps over 3,645 vertices with the plain mean, the fold
    spreading to 78 triangles on the way; 25 steps over 12 vertices with these weights);
-3. look again; stop once no triangle is turned over, or after ``MAX_STEPS`` steps (what is left then stays).
+3. look again; stop once no triangle is turned over, or after ``MAX_STEPS`` steps (what is left then stays, and
+   where the steps have not left fewer triangles turned over than they found, the positions stay as they were
+   found: the subdivided variant's lip fold, 25 faces, became 65 when a frame's budget ended mid-way).
    When the count has not fallen for ``STALL_CHECKS`` looks the region widens by one ring: a control triangle
    that turned over carries a fold several faces wide, which a one-ring membrane cannot open;
 4. keep only the least share s of that change (deformed + s (opened − deformed) at the moved vertices) that
@@ -226,7 +228,7 @@ def unfold(
     points = positions.astype(np.float64)
     watched = None if start is None else _at_vertices(mesh, np.asarray(start, dtype=np.int64))
     bad = _watched_turned(mesh, points, watched)
-    count = int(np.count_nonzero(bad))
+    count = found = int(np.count_nonzero(bad))
     if count == 0:
         return Unfolded(np.zeros(0, np.int32), 0, 0)
     n = mesh.n_vertices
@@ -261,6 +263,8 @@ def unfold(
             stall += 1
             if stall >= STALL_CHECKS:
                 rings, stall = rings + 1, 0
+    if count >= found:  # the budget ended with no fewer turned over: leave the frame as it came
+        return Unfolded(np.zeros(0, np.int32), steps, found)
     where = np.flatnonzero(moved).astype(np.int32)
     share = 1.0
     if count == 0:
