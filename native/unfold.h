@@ -77,11 +77,12 @@ static int unfold_ascending(const void *a, const void *b) {
 /* positions (n x 3 float32) in place. The first look is at the triangles at the n_start vertices `start` (at
  * every triangle when n_start < 0): the caller vouches that no other triangle is turned over. work: the mesh's
  * work space (pbk_unfold_work_bytes). moved (n) receives the vertices it may have moved, ascending, and result[0]
- * their count, result[1] the steps made, result[2] the triangles left turned over; share[0] the share of the
- * membrane's change kept. Returns 0. */
+ * their count, result[1] the steps made, result[2] the triangles left turned over (where the steps ended with no
+ * fewer than they found, none moved and that many are left); share[0] the share of the membrane's change
+ * kept. Returns 0. */
 PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_t *triangles,
                           const double *rest_normals, const int32_t *neighbour_start, const int32_t *neighbours,
-                          const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
+                          const double *weights, const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
                           int64_t n_start, const int32_t *start, void *work, int32_t max_steps, double step,
                           int32_t check_every, int32_t stall_checks, int32_t bisections, double margin,
                           int32_t *moved, int64_t *result, double *share) {
@@ -107,6 +108,7 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
                     bad[n_bad++] = t;
             }
     }
+    const int64_t found = n_bad;
     int64_t count = n_bad;
     if (count == 0) return 0;
     int64_t rings = 1, steps = 0, best = count, stall = 0, n_moved = 0;
@@ -144,14 +146,13 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
                 int32_t first = neighbour_start[v], last = neighbour_start[v + 1];
                 double total[3];
                 const int64_t head = 3 * (int64_t)neighbours[first];
-                for (int c = 0; c < 3; ++c) total[c] = p[head + c] - rest[head + c];
+                for (int c = 0; c < 3; ++c) total[c] = weights[first] * (p[head + c] - rest[head + c]);
                 for (int32_t e = first + 1; e < last; ++e)
                     for (int c = 0; c < 3; ++c)
-                        total[c] += p[3 * (int64_t)neighbours[e] + c] - rest[3 * (int64_t)neighbours[e] + c];
-                double degree = (double)(last - first);
+                        total[c] += weights[e] * (p[3 * (int64_t)neighbours[e] + c] - rest[3 * (int64_t)neighbours[e] + c]);
                 for (int c = 0; c < 3; ++c) {
                     double own = p[3 * (int64_t)v + c] - rest[3 * (int64_t)v + c];
-                    next[3 * m + c] = p[3 * (int64_t)v + c] + step * (total[c] / degree - own);
+                    next[3 * m + c] = p[3 * (int64_t)v + c] + step * (total[c] - own);
                 }
             }
             for (int64_t m = 0; m < size; ++m)
@@ -173,6 +174,10 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
         } else if (++stall >= stall_checks) {
             ++rings, stall = 0;
         }
+    }
+    if (count >= found) { /* the budget ended with no fewer turned over: the positions stay as they came */
+        result[1] = steps, result[2] = found;
+        return 0;
     }
     qsort(moved, (size_t)n_moved, sizeof *moved, unfold_ascending);
     double high = 1.0;

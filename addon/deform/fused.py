@@ -48,7 +48,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 11  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 12  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -73,7 +73,7 @@ BIND_FRAME = 48  # doubles per triangle in `bind_frames` (BIND_FRAME in native/b
 _LOCATE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 7]
 _COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *[_POINTER] * 6]
 _FOLD_FREE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int32, ctypes.c_double, ctypes.c_double]
-_UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 8, ctypes.c_int64, _POINTER, _POINTER]
+_UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int64, _POINTER, _POINTER]
 _UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_double, ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_double]
 _UNFOLD_ARGUMENTS += [_POINTER, _POINTER, _POINTER]
 
@@ -730,7 +730,7 @@ def unfold(mesh, positions: np.ndarray, start: np.ndarray | None, max_steps: int
     moved = np.empty(len(positions), np.int32)
     result = np.zeros(3, np.int64)
     share = np.ones(1)
-    arrays = (mesh.rest, mesh.triangles, mesh.rest_normals, mesh.neighbour_start, mesh.neighbours)
+    arrays = (mesh.rest, mesh.triangles, mesh.rest_normals, mesh.neighbour_start, mesh.neighbours, mesh.weights)
     arrays += (mesh.corner_start, mesh.corner_triangles, positions)
     kernel.pbk_unfold(
         len(positions), len(mesh.triangles), *(a.ctypes.data for a in arrays),
