@@ -116,9 +116,9 @@ def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():
 def test_jaw_open_at_one_is_the_jaws_maximal_opening():
     """ARKit's 1.0 is the 'maximum movement'; the jaw's maximal opening turns it 36-39 deg (Muto and Kanazawa
     1996). On the sample head's sizes (the chin 72.3 mm below the turn's centre and 59.9 mm in front, an MNS0 of
-    18.1 mm) that turn brings the chin to the bottom of its arc, 21.6 mm down at 39.6 deg: jawOpen's open_jaw
-    reaches it. The face's soft limit (the jaw up to 1100 MNS) eases it to a 27 deg turn, more than the 22.7 deg of
-    open_jaw 1000 before."""
+    18.1 mm) that turn brings the chin near the bottom of its arc (21.6 mm down at 39.6 deg): jawOpen's open_jaw
+    turns it 38 deg. The face's soft limit (the jaw up to 1100 MNS) eases it to a 26.4 deg turn, more than the
+    22.7 deg of open_jaw 1000 before."""
     table = load_recipes()
     chin, origin, axis = np.array([0.0, -0.0723, 0.0599]), np.zeros(3), np.array([1.0, 0.0, 0.0])
     mns = 0.0181 / 1024.0
