@@ -10,7 +10,9 @@ from addon.arkit.deformations import (
     nostril_lift,
     whole_lip_push,
 )
+from addon.arkit.recipes import load_recipes
 from addon.mpeg4.decode import JAW_RIDERS
+from addon.mpeg4.fap_groups import shape_faps
 from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
 
 FACE_FRAME = np.eye(3)  # x left, y up, z forward: mesh coordinates are the face frame
@@ -109,6 +111,22 @@ def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():
     missing = neutral.copy()
     missing[fp_index("3.12")] = np.nan
     assert hinge_axis(missing) is None
+
+
+def test_jaw_open_at_one_is_the_jaws_maximal_opening():
+    """ARKit's 1.0 is the 'maximum movement'; the jaw's maximal opening turns it 36-39 deg (Muto and Kanazawa
+    1996). On the sample head's sizes (the chin 72.3 mm below the turn's centre and 59.9 mm in front, an MNS0 of
+    18.1 mm) that turn brings the chin near the bottom of its arc (21.6 mm down at 39.6 deg): jawOpen's open_jaw
+    turns it 38 deg. The face's soft limit (the jaw up to 1100 MNS) eases it to a 26.4 deg turn, more than the
+    22.7 deg of open_jaw 1000 before."""
+    table = load_recipes()
+    chin, origin, axis = np.array([0.0, -0.0723, 0.0599]), np.zeros(3), np.array([1.0, 0.0, 0.0])
+    mns = 0.0181 / 1024.0
+    open_jaw = table.recipe("jawOpen")[2]
+    assert np.degrees(hinge_angle(chin, origin, axis, open_jaw * mns)) > 36.0
+    eased = shape_faps(table.recipe("jawOpen")[None])[0, 2]
+    assert 26.0 < np.degrees(hinge_angle(chin, origin, axis, eased * mns)) < 28.0
+    assert np.degrees(hinge_angle(chin, origin, axis, shape_faps(np.eye(68)[2:3] * 1000.0)[0, 2] * mns)) < 23.5
 
 
 def test_the_jaw_turn_is_the_same_in_any_mesh_frame():

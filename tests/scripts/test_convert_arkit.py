@@ -33,7 +33,7 @@ def test_a_capture_converts_and_a_stream_goes_out_as_arkit_weights(tmp_path):
     assert result.returncode == 0, result.stdout + result.stderr
     stream = read_fap(out / "take.fap")
     assert stream.fps == 30.0 and stream.n_frames == 8
-    assert stream.values[7, 2] == 1000  # jawOpen 1 -> open_jaw 1000
+    assert stream.values[7, 2] == 1220  # jawOpen 1 -> open_jaw 1220
     assert (out / "take.abc").exists() and (out / "short.abc").exists()
     back = read_capture(out / "short_arkit.csv", timecode_fps=25)
     assert back.n_frames == read_fap(short).n_frames and back.weights.max() <= 1.0
