@@ -37,6 +37,13 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    to the two inner lip contours); the jaw's own weight from the jaw line does not reach in there. Held by
    the head, the lining behind the lower lip stayed behind as the lip dropped with the jaw, and an open jaw
    turned it over (14 faces at 20 mm on the sample head).
+5. where the lip bones act, the rows are smoothed once more (LIP_SMOOTHING times step 3's steps, over the
+   same cut edges), each vertex moved toward its smoothed row by the lip bones' share of it: step 3 smooths
+   the falloffs, but the side masks multiply them afterwards and fade over a few edges at the mouth corners,
+   and the head's leftover rises as steeply as the lip bones fall, so a lip corner pulled back or a lip
+   parted turned faces over where the weights changed most (a face folds where a bone's displacement times
+   the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
+   rows. The rest of the face keeps its weights (smoothing them all blurred the brows and lids).
 """
 
 from __future__ import annotations
@@ -55,6 +62,7 @@ CUT_JUMP = 0.5  # an edge is cut where a side mask jumps by at least this much a
 WEIGHT_TOLERANCE = 1e-6
 LINING_SHARPNESS = 4  # the lining's jaw share u^p / (u^p + l^p): held by the gums, stretched where the sides meet
 SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
+LIP_SMOOTHING = 1  # step 5's smoothing on the lips' skin, in step 3's steps (docs/elastic_bones.md: folds, E)
 
 
 def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
@@ -281,8 +289,18 @@ def skin_weights(
         left = (1.0 - share) * left
     raw[:, roots[0]] = left
     weights = raw / raw.sum(axis=1, keepdims=True)
+    if {*LIP_LINES[0], *LIP_LINES[1]} <= set(skeleton.rows):
+        weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, lip_bones(skeleton))
     check_weights(weights, n, len(bones))
     return weights
+
+
+def smooth_lips(weights: np.ndarray, edges: np.ndarray, steps: int, lip_rows: list[int]) -> np.ndarray:
+    """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
+    smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting."""
+    smoothed = smooth_over_edges(weights, edges, steps)
+    share = np.clip(smoothed[:, lip_rows].sum(axis=1, keepdims=True), 0.0, 1.0)
+    return weights + share * (smoothed - weights)
 
 
 def check_weights(weights: np.ndarray, n_vertices: int, n_bones: int) -> np.ndarray:
