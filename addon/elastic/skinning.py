@@ -43,7 +43,9 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    and the head's leftover rises as steeply as the lip bones fall, so a lip corner pulled back or a lip
    parted turned faces over where the weights changed most (a face folds where a bone's displacement times
    the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
-   rows. The rest of the face keeps its weights (smoothing them all blurred the brows and lids).
+   rows; a lip bone stays within its side mask, the head taking what that leaves. On the mouth's lining the
+   move is halved (in full it turned a sliver deep in the second sample's mouth over at a small open jaw).
+   The rest of the face keeps its weights (smoothing them all blurred the brows and lids).
 """
 
 from __future__ import annotations
@@ -290,16 +292,34 @@ def skin_weights(
     raw[:, roots[0]] = left
     weights = raw / raw.sum(axis=1, keepdims=True)
     if {*LIP_LINES[0], *LIP_LINES[1]} <= set(skeleton.rows):
-        weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, lip_bones(skeleton))
+        sides = {b: masks[bone.side] for b, bone in enumerate(bones) if bone.side in masks}
+        reach = 1.0 - lining / 2 if mouth else np.ones(n)
+        weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, lip_bones(skeleton), sides, roots[0], reach)
     check_weights(weights, n, len(bones))
     return weights
 
 
-def smooth_lips(weights: np.ndarray, edges: np.ndarray, steps: int, lip_rows: list[int]) -> np.ndarray:
+def smooth_lips(
+    weights: np.ndarray,
+    edges: np.ndarray,
+    steps: int,
+    lip_rows: list[int],
+    sides: Mapping[int, np.ndarray],
+    root: int,
+    reach: np.ndarray,
+) -> np.ndarray:
     """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
-    smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting."""
+    smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting,
+    times `reach` (N,) (half on the mouth's lining: all of it turned a sliver deep in the second sample's mouth
+    over, weighted to the lip corner).
+    The smoothed row keeps each bone of `sides` (row -> (N,) side mask) within its mask, as step 3 does, and
+    gives what that takes off to the `root` bone, so the upper lip's bones still leave the lower lip alone."""
     smoothed = smooth_over_edges(weights, edges, steps)
-    share = np.clip(smoothed[:, lip_rows].sum(axis=1, keepdims=True), 0.0, 1.0)
+    for b, mask in sides.items():
+        taken = smoothed[:, b] * (1.0 - mask)
+        smoothed[:, b] -= taken
+        smoothed[:, root] += taken
+    share = np.clip(smoothed[:, lip_rows].sum(axis=1), 0.0, 1.0)[:, None] * reach[:, None]
     return weights + share * (smoothed - weights)
 
 
