@@ -5,7 +5,7 @@
 `linear_blend_skinning` takes the products T_i T̂_i⁻¹ directly: (B, 4, 4) bone transforms relative to
 rest, which is what `pose` returns and what Blender's Armature modifier applies.
 
-Weights (`skin_weights`; the paper does not say how its weights are made). Our method, in four steps:
+Weights (`skin_weights`; the paper does not say how its weights are made). Our method, in five steps:
 The masks are the Planar Bones vertex groups (`deform.masks`): `upper_lip` is where the upper-lip side
 may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same for the eyelids.
 1. the openings are cut: every mesh edge joining the two sides of the mouth (a vertex the `upper_lip`
