@@ -5,7 +5,7 @@
 `linear_blend_skinning` takes the products T_i T̂_i⁻¹ directly: (B, 4, 4) bone transforms relative to
 rest, which is what `pose` returns and what Blender's Armature modifier applies.
 
-Weights (`skin_weights`; the paper does not say how its weights are made). Our method, in four steps:
+Weights (`skin_weights`; the paper does not say how its weights are made). Our method, in five steps:
 The masks are the Planar Bones vertex groups (`deform.masks`): `upper_lip` is where the upper-lip side
 may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same for the eyelids.
 1. the openings are cut: every mesh edge joining the two sides of the mouth (a vertex the `upper_lip`
@@ -37,6 +37,15 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    to the two inner lip contours); the jaw's own weight from the jaw line does not reach in there. Held by
    the head, the lining behind the lower lip stayed behind as the lip dropped with the jaw, and an open jaw
    turned it over (14 faces at 20 mm on the sample head).
+5. where the lip bones act, the rows are smoothed once more (LIP_SMOOTHING times step 3's steps, over the
+   same cut edges), each vertex moved toward its smoothed row by the lip bones' share of it: step 3 smooths
+   the falloffs, but the side masks multiply them afterwards and fade over a few edges at the mouth corners,
+   and the head's leftover rises as steeply as the lip bones fall, so a lip corner pulled back or a lip
+   parted turned faces over where the weights changed most (a face folds where a bone's displacement times
+   the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
+   rows; a lip bone stays within its side mask, the head taking what that leaves. On the mouth's lining the
+   move is halved (in full it turned a sliver deep in the second sample's mouth over at a small open jaw).
+   The rest of the face keeps its weights (smoothing them all blurred the brows and lids).
 """
 
 from __future__ import annotations
@@ -55,6 +64,7 @@ CUT_JUMP = 0.5  # an edge is cut where a side mask jumps by at least this much a
 WEIGHT_TOLERANCE = 1e-6
 LINING_SHARPNESS = 4  # the lining's jaw share u^p / (u^p + l^p): held by the gums, stretched where the sides meet
 SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
+LIP_SMOOTHING = 1  # step 5's smoothing on the lips' skin, in step 3's steps (docs/elastic_bones.md: folds, E)
 
 
 def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
@@ -281,8 +291,36 @@ def skin_weights(
         left = (1.0 - share) * left
     raw[:, roots[0]] = left
     weights = raw / raw.sum(axis=1, keepdims=True)
+    if {*LIP_LINES[0], *LIP_LINES[1]} <= set(skeleton.rows):
+        sides = {b: masks[bone.side] for b, bone in enumerate(bones) if bone.side in masks}
+        reach = 1.0 - lining / 2 if mouth else np.ones(n)
+        weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, lip_bones(skeleton), sides, roots[0], reach)
     check_weights(weights, n, len(bones))
     return weights
+
+
+def smooth_lips(
+    weights: np.ndarray,
+    edges: np.ndarray,
+    steps: int,
+    lip_rows: list[int],
+    sides: Mapping[int, np.ndarray],
+    root: int,
+    reach: np.ndarray,
+) -> np.ndarray:
+    """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
+    smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting,
+    times `reach` (N,) (half on the mouth's lining: all of it turned a sliver deep in the second sample's mouth
+    over, weighted to the lip corner).
+    The smoothed row keeps each bone of `sides` (row -> (N,) side mask) within its mask, as step 3 does, and
+    gives what that takes off to the `root` bone, so the upper lip's bones still leave the lower lip alone."""
+    smoothed = smooth_over_edges(weights, edges, steps)
+    for b, mask in sides.items():
+        taken = smoothed[:, b] * (1.0 - mask)
+        smoothed[:, b] -= taken
+        smoothed[:, root] += taken
+    share = np.clip(smoothed[:, lip_rows].sum(axis=1), 0.0, 1.0)[:, None] * reach[:, None]
+    return weights + share * (smoothed - weights)
 
 
 def check_weights(weights: np.ndarray, n_vertices: int, n_bones: int) -> np.ndarray:

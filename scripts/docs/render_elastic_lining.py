@@ -12,14 +12,10 @@ Workbench, 300 px tiles. The same shots before this change: docs/elastic_weights
 
 from __future__ import annotations
 
-import argparse
 import sys
-import tempfile
 from pathlib import Path
 
-from scripts.bench.elastic_bones import ElasticBonesMethod
-from scripts.docs.closeups import save_rows
-from scripts.docs.render_elastic_weights import prepare_shots, render_row
+from scripts.docs.render_elastic_weights import sculpt_and_engine_main
 
 ROOT = Path(__file__).resolve().parents[2]
 # (unit, FP motion times, coloured by motion, FP the camera looks at, yaw, pitch, ortho scale)
@@ -33,15 +29,7 @@ SHOTS = (
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_lining.png")
-    args = parser.parse_args(argv)
-    face, motion, camera = prepare_shots(SHOTS)
-    with tempfile.TemporaryDirectory() as tmp:
-        rows = [render_row(face, method, SHOTS, motion, camera, label, Path(tmp))
-                for label, method in (("the sculpt", None), ("Elastic Bones", ElasticBonesMethod(face)))]  # fmt: skip
-    save_rows(rows, args.out)
-    return 0
+    return sculpt_and_engine_main(__doc__, ROOT / "docs" / "elastic_lining.png", SHOTS, argv)
 
 
 if __name__ == "__main__":

@@ -77,6 +77,20 @@ def prepare_shots(shots):
     return face, motion, camera
 
 
+def sculpt_and_engine_main(doc: str, out: Path, shots, argv=None) -> int:
+    """A close-up script's main: two rows of `shots` tiles, the sculpt over Elastic Bones (shipped weights and
+    parameters), saved at `--out` (default `out`)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=out)
+    out = parser.parse_args(argv).out
+    face, motion, camera = prepare_shots(shots)
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = [render_row(face, method, shots, motion, camera, label, Path(tmp))
+                for label, method in (("the sculpt", None), ("Elastic Bones", ElasticBonesMethod(face)))]  # fmt: skip
+    save_rows(rows, out)
+    return 0
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_weights_before_after.png")

