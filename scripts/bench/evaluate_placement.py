@@ -1,13 +1,14 @@
 """Accuracy of automatic feature point placement against known FPs.
 
-    .venv/bin/python -m scripts.bench.evaluate_placement --heads DIR [--json OUT]
+    .venv/bin/python -m scripts.bench.evaluate_placement --heads DIR [--json OUT] [--template NPZ]
 
 Every .blend in DIR holds a face mesh named Head whose 84 FP empties are the truth (the development heads
 of `scripts.bench.placement_heads`). Its meshes are read as the operator reads them, placement runs on them
 (the empties themselves are not read), and each FP's error is its distance to the truth in millimetres of
 the head as made (a head scaled by `placement_heads.BENCH_SCALE` is measured back at its own size). 7.1,
 the top of the spine, is scored against its definition (`landmarks.spine_top`: the midpoint of the truth's
-ear lobes), not against MakeHuman's head joint marker, which the sample places elsewhere.
+ear lobes), not against MakeHuman's head joint marker, which the sample places elsewhere. `--template` places
+with another template file (one built with `build_placement_template --leave-out`, docs/auto_placement.md).
 Prints the mean, 95th percentile and maximum error per FP and overall, and the time each head took.
 """
 
@@ -25,6 +26,7 @@ import numpy as np
 import addon
 from addon.blender import auto_placement
 from addon.mpeg4.feature_points import FP_IDS, fp_index
+from addon.placement import template
 from addon.placement.landmarks import spine_top
 from addon.placement.pipeline import place_feature_points
 from scripts.bench.placement_heads import BENCH_SCALE
@@ -66,7 +68,11 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--heads", type=Path, required=True, help="folder of .blend heads with truth FPs")
     parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument("--template", type=Path, help="place with this template .npz instead of the shipped one")
     args = parser.parse_args()
+    if args.template is not None:
+        template.TEMPLATE_FILE = args.template
+        template.load_template.cache_clear()
     paths = sorted(args.heads.glob("*.blend"))
     if not paths:
         print(f"evaluate_placement: no .blend files in {args.heads}", file=sys.stderr)

@@ -1,0 +1,31 @@
+"""`evaluate_placement --template`: the leave-out measurement of docs/auto_placement.md places with another
+template file, and the shipped one is what placement loads again afterwards."""
+
+import sys
+
+import numpy as np
+import pytest
+
+pytest.importorskip("bpy")
+
+from addon.placement import template
+from scripts.bench import evaluate_placement
+
+
+def test_the_template_option_swaps_the_file_placement_loads(tmp_path, monkeypatch):
+    shipped = template.load_template()
+    other = tmp_path / "other.npz"
+    with np.load(template.TEMPLATE_FILE) as data:
+        arrays = dict(data)
+    arrays["fp_positions"] = arrays["fp_positions"] + 1.0
+    np.savez(other, **arrays)
+    heads = tmp_path / "heads"
+    heads.mkdir()
+    monkeypatch.setattr(template, "TEMPLATE_FILE", template.TEMPLATE_FILE)
+    monkeypatch.setattr(sys, "argv", ["evaluate_placement", "--heads", str(heads), "--template", str(other)])
+    try:
+        assert evaluate_placement.main() == 1  # no heads in the folder: nothing measured
+        assert template.TEMPLATE_FILE == other
+        assert np.allclose(template.load_template().fp_positions, shipped.fp_positions + 1.0)
+    finally:
+        template.load_template.cache_clear()
