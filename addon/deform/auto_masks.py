@@ -1,4 +1,5 @@
-"""Lip and eyelid masks made from the feature points, for a face that has none (no bpy, no scipy).
+"""Lip and eyelid masks made from the feature points, for a face that has none (no bpy; scipy's shortest paths where
+there is scipy, the same in Python where not).
 
 The masks say which side of an opening a vertex is on (paper 000, section 3: the texture masks that keep
 control triangles from moving skin across the mouth and eye openings), with the meaning the hand-made
@@ -40,9 +41,36 @@ def geodesic_distance(
     vertices: np.ndarray, edges: np.ndarray, sources: np.ndarray, limit: float = np.inf
 ) -> np.ndarray:
     """(N,) length of the shortest edge path from each vertex to the nearest of `sources` (inf: unreached, or
-    farther than `limit`)."""
+    farther than `limit`): scipy's Dijkstra, or where a platform has no scipy wheel, `_geodesic_distance_heap`
+    (equal, `tests/core/test_auto_masks.py`)."""
     vertices = np.asarray(vertices, dtype=np.float64)
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    sources = np.unique(np.asarray(sources, dtype=np.intp))
+    try:
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import dijkstra
+    except ImportError:
+        return _geodesic_distance_heap(vertices, edges, sources, limit)
+    n = len(vertices)
+    if not len(sources):
+        return np.full(n, np.inf)
+    # one entry per vertex pair, at its shortest length: a sparse matrix would add up repeated pairs, and a stored
+    # zero (two vertices at one place) must stay an edge, so lengths are kept above zero by the least float
+    pairs = np.sort(edges, axis=1)
+    length = np.maximum(np.linalg.norm(vertices[pairs[:, 0]] - vertices[pairs[:, 1]], axis=1), np.finfo(float).tiny)
+    order = np.lexsort((length, pairs[:, 1], pairs[:, 0]))
+    pairs, length = pairs[order], length[order]
+    first = np.ones(len(pairs), bool)
+    first[1:] = np.any(pairs[1:] != pairs[:-1], axis=1)
+    pairs, length = pairs[first], length[first]
+    graph = csr_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return dijkstra(graph, directed=False, indices=sources, min_only=True, limit=limit)
+
+
+def _geodesic_distance_heap(
+    vertices: np.ndarray, edges: np.ndarray, sources: np.ndarray, limit: float = np.inf
+) -> np.ndarray:
+    """`geodesic_distance` by a binary heap in Python, for a platform without scipy."""
     length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     order = np.argsort(np.concatenate([edges[:, 0], edges[:, 1]]), kind="stable")
     nbr = np.concatenate([edges[:, 1], edges[:, 0]])[order].tolist()
@@ -50,7 +78,7 @@ def geodesic_distance(
     start = np.searchsorted(np.concatenate([edges[:, 0], edges[:, 1]])[order], np.arange(len(vertices) + 1)).tolist()
     dist = [np.inf] * len(vertices)
     heap = []
-    for s in np.unique(np.asarray(sources, dtype=np.intp)).tolist():
+    for s in sources.tolist():
         dist[s] = 0.0
         heap.append((0.0, s))
     heapq.heapify(heap)

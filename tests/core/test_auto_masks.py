@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from addon.deform.auto_masks import LID_REACH, geodesic_distance, make_masks
+from addon.deform.auto_masks import LID_REACH, _geodesic_distance_heap, geodesic_distance, make_masks
 from addon.mpeg4.feature_points import fp_index
 
 
@@ -16,6 +16,29 @@ def test_geodesic_distance_by_hand():
     assert d[5] == np.inf  # in no edge: never reached
     np.testing.assert_allclose(geodesic_distance(verts, edges, np.array([1, 4]))[:5], [1, 0, 1, 1, 0])
 
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_geodesic_distance_scipy_equals_the_heap(seed):
+    # a random graph with repeated pairs (both ways round), a zero-length edge, a limit and unreached vertices:
+    # scipy's Dijkstra (the add-on's path where scipy is installed) and the Python heap (where it is not) agree
+    rng = np.random.default_rng(seed)
+    verts = rng.normal(size=(300, 3))
+    verts[7] = verts[8]
+    edges = rng.integers(0, 280, size=(900, 2))
+    edges = edges[edges[:, 0] != edges[:, 1]]
+    edges = np.concatenate([edges, edges[:50, ::-1], [[7, 8]]])
+    sources = np.array([3, 8, 3])
+    reached = []
+    for limit in (np.inf, 2.5):
+        want = _geodesic_distance_heap(verts, edges, np.unique(sources), limit)
+        got = geodesic_distance(verts, edges, sources, limit)
+        assert np.isinf(want[280:]).all()
+        reached.append(np.isfinite(want).sum())
+        np.testing.assert_array_equal(np.isinf(got), np.isinf(want))
+        np.testing.assert_allclose(got[np.isfinite(want)], want[np.isfinite(want)], rtol=1e-12, atol=1e-12)
+    assert reached[0] > 250 and 0 < reached[1] < reached[0]  # the limit cuts some, not all
+    assert geodesic_distance(verts, edges, np.array([], np.intp)).tolist() == [np.inf] * 300
 
 def _slit_grid(n=61, size=0.1, slit=0.03):
     """A flat face (x across, z up) with a horizontal slit of half-width `slit` at z = 0: no edge crosses it."""
