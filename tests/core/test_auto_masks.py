@@ -17,7 +17,6 @@ def test_geodesic_distance_by_hand():
     np.testing.assert_allclose(geodesic_distance(verts, edges, np.array([1, 4]))[:5], [1, 0, 1, 1, 0])
 
 
-
 @pytest.mark.parametrize("seed", range(4))
 def test_geodesic_distance_scipy_equals_the_heap(seed):
     # a random graph with repeated pairs (both ways round), a zero-length edge, a limit and unreached vertices:
@@ -39,6 +38,7 @@ def test_geodesic_distance_scipy_equals_the_heap(seed):
         np.testing.assert_allclose(got[np.isfinite(want)], want[np.isfinite(want)], rtol=1e-12, atol=1e-12)
     assert reached[0] > 250 and 0 < reached[1] < reached[0]  # the limit cuts some, not all
     assert geodesic_distance(verts, edges, np.array([], np.intp)).tolist() == [np.inf] * 300
+
 
 def _slit_grid(n=61, size=0.1, slit=0.03):
     """A flat face (x across, z up) with a horizontal slit of half-width `slit` at z = 0: no edge crosses it."""
