@@ -63,7 +63,14 @@ def aim_camera(camera, centre: Vector, distance: float, yaw: float, pitch: float
     camera.rotation_euler = Euler((math.pi / 2 + math.radians(pitch), 0.0, math.radians(yaw)), "XYZ")
 
 
-def save_rows(rows: list[np.ndarray], out: Path) -> None:
-    """Stack rows of tiles, the first on top, into one PNG at `out` and print where it went."""
+def render_tile(scene, scratch) -> np.ndarray:
+    """The scene's camera view at its current frame, rendered through a scratch file in the folder `scratch`."""
+    return convert.render_frame(scene, scene.frame_current, Path(scratch) / "tile.png")
+
+
+def save_rows(rows: list[np.ndarray | list[np.ndarray]], out: Path) -> None:
+    """Stack rows (each an image, or a list of tiles left to right), the first on top, into one PNG at `out` and
+    print where it went."""
+    rows = [np.concatenate(row, axis=1) if isinstance(row, list) else row for row in rows]
     convert.save_png(np.concatenate(rows[::-1], axis=0), out)  # image rows go bottom-up
     print(out)

@@ -22,13 +22,21 @@ from mathutils import Vector
 
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.docs.closeups import aim_camera, closeup_camera, save_rows, set_up_sample, unit_arguments
+from scripts.docs.closeups import aim_camera, closeup_camera, render_tile, save_rows, set_up_sample, unit_arguments
 from scripts.docs.render_eyes_brows import positions
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 240
 # yaw (degrees, + to the face's left), pitch (+ above), ortho scale (m)
 VIEWS = ((0.0, 0.0, 0.03), (0.0, -30.0, 0.03), (0.0, 30.0, 0.03), (45.0, -45.0, 0.03), (75.0, 0.0, 0.03))
+
+
+def look_at_the_eye(scene, camera, pupil, view, scratch) -> np.ndarray:
+    """A tile of the eye from one of `VIEWS` (yaw, pitch, the camera's width)."""
+    yaw, pitch, ortho = view
+    camera.data.ortho_scale = ortho
+    aim_camera(camera, pupil, 0.4, yaw, pitch)
+    return render_tile(scene, scratch)
 
 
 def main(argv=None) -> int:
@@ -51,12 +59,7 @@ def main(argv=None) -> int:
             head.data.update()
             seen = [1e3 * evaluate.seen_gap(sample, shape, (0,), (view[:2],)) for view in VIEWS[:-1]]
             print(f"{name}: seen gap (mm) " + ", ".join(f"{g:.2f}" for g in seen))
-            tiles = []
-            for yaw, pitch, ortho in VIEWS:
-                camera.data.ortho_scale = ortho
-                aim_camera(camera, pupil, 0.4, yaw, pitch)
-                tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
-            rows.append(np.concatenate(tiles, axis=1))
+            rows.append([look_at_the_eye(scene, camera, pupil, view, tmp) for view in VIEWS])
     save_rows(rows, args.out)
     return 0
 

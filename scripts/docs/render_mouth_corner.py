@@ -21,7 +21,7 @@ from mathutils import Vector
 
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.docs.closeups import aim_camera, closeup_camera, save_rows, set_up_sample, unit_arguments
+from scripts.docs.closeups import aim_camera, closeup_camera, render_tile, save_rows, set_up_sample, unit_arguments
 from scripts.docs.render_eyes_brows import positions
 from scripts.docs.render_unfold import RED, unit_motion
 
@@ -85,8 +85,8 @@ def main(argv=None) -> int:
                 for yaw, pitch in VIEWS:
                     corner = bpy.data.objects["FP 8.4"].matrix_world.translation  # where the unit moved it
                     aim_camera(camera, corner, 0.4, yaw, pitch)
-                    tiles.append(convert.render_frame(scene, scene.frame_current, Path(tmp) / "tile.png"))
-            rows.append(np.concatenate(tiles, axis=1))
+                    tiles.append(render_tile(scene, tmp))
+            rows.append(tiles)
     save_rows(rows, args.out)
     return 0
 

@@ -16,30 +16,17 @@ import sys
 import tempfile
 from pathlib import Path
 
-import bpy
 import numpy as np
 
 from scripts import convert
-from scripts.bench.variants import HEAD
 from scripts.docs.closeups import ROOT, aim_camera, closeup_camera, save_rows
+from scripts.docs.render_variants import open_playing_demo
 
-DEMO = ROOT / "sample_blends" / "demo.fap"
 CORNER_VIEWS = (("2.5", -40.0), ("2.4", 40.0))  # each inner corner, seen from its own side (yaw, degrees)
 
 
 def row(path: Path, frames: list[int], tile: int, scratch: Path) -> np.ndarray:
-    convert.addon_package()
-    bpy.ops.wm.open_mainfile(filepath=str(path))
-    scene = bpy.context.scene
-    face = bpy.data.objects.get(HEAD) or max(
-        (ob for ob in scene.objects if ob.type == "MESH"), key=lambda ob: len(ob.data.vertices)
-    )
-    convert.select_only(face)
-    assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
-    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO)) == {"FINISHED"}
-    for ob in scene.objects:  # the FP empties and the control mesh stay out of the pictures
-        if ob.type == "EMPTY":
-            ob.hide_render = True
+    scene, face = open_playing_demo(path)
     empties = convert._addon("blender.face_data").fp_empties(face)
     separation = (empties["3.5"].matrix_world.translation - empties["3.6"].matrix_world.translation).length
     camera = closeup_camera(scene, face, tile, 1.2 * separation)

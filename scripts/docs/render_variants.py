@@ -35,7 +35,9 @@ def blink_frame(face) -> int:
     return int(frames[np.argmin(track @ np.array(face_data.face_axes(face))[1])])
 
 
-def row(path: Path, tile: int, scratch: Path) -> np.ndarray:
+def open_playing_demo(path: Path) -> tuple[bpy.types.Scene, bpy.types.Object]:
+    """Open a variant's file, set up its face (the object named Head, else the largest mesh) and key the demo
+    stream onto it, with the FP empties hidden from renders."""
     convert.addon_package()
     bpy.ops.wm.open_mainfile(filepath=str(path))
     scene = bpy.context.scene
@@ -48,6 +50,11 @@ def row(path: Path, tile: int, scratch: Path) -> np.ndarray:
     for ob in scene.objects:  # the FP empties and the control mesh stay out of the pictures
         if ob.type == "EMPTY":
             ob.hide_render = True
+    return scene, face
+
+
+def row(path: Path, tile: int, scratch: Path) -> np.ndarray:
+    scene, face = open_playing_demo(path)
     convert.frame_face(scene, face, tile)
     whole = scene.camera.data.ortho_scale
     camera = closeup_camera(scene, face, tile, whole)

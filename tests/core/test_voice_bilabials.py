@@ -67,6 +67,21 @@ def test_a_falling_burst_heard_as_another_voiceless_stop_is_a_p(heard):
     assert bilabials_from_acoustics(voiced, burst(-6.0)) == voiced
 
 
+def _silent_gap_then_frication(x: np.ndarray, heard: str) -> list[str]:
+    """The labels bilabials_from_acoustics gives a pause, a vowel, `heard`, a vowel, `heard` again, a vowel and a
+    pause (0.3 s each, the two `heard` 80 ms), heard in the recording `x`."""
+    phones = [
+        TimedLabel(0.0, 0.3, "sil"),
+        TimedLabel(0.3, 0.6, "aa"),
+        TimedLabel(0.6, 0.68, heard),
+        TimedLabel(0.68, 0.98, "aa"),
+        TimedLabel(0.98, 1.06, heard),
+        TimedLabel(1.06, 1.36, "aa"),
+        TimedLabel(1.36, 1.66, "sil"),
+    ]
+    return [p.label for p in bilabials_from_acoustics(phones, x)]
+
+
 @pytest.mark.parametrize(("heard", "stop"), [("f", "p"), ("v", "b")])
 def test_an_f_or_v_that_is_only_noise_is_a_closure(heard, stop):
     # a pause, a vowel, 80 ms of nothing but the recording's noise, a vowel, the same gap with frication 20 dB
@@ -77,17 +92,7 @@ def test_an_f_or_v_that_is_only_noise_is_a_closure(heard, stop):
     gap, pause = np.zeros(int(0.08 * RATE)), np.zeros(int(0.3 * RATE))
     x = np.concatenate([pause, vowel, gap, vowel, gap + rng.normal(0.0, 0.03, len(gap)), vowel, pause])
     x = x + rng.normal(0.0, 0.003, len(x))
-    phones = [
-        TimedLabel(0.0, 0.3, "sil"),
-        TimedLabel(0.3, 0.6, "aa"),
-        TimedLabel(0.6, 0.68, heard),
-        TimedLabel(0.68, 0.98, "aa"),
-        TimedLabel(0.98, 1.06, heard),
-        TimedLabel(1.06, 1.36, "aa"),
-        TimedLabel(1.36, 1.66, "sil"),
-    ]
-    labels = [p.label for p in bilabials_from_acoustics(phones, x)]
-    assert labels == ["sil", "aa", stop, "aa", heard, "aa", "sil"]
+    assert _silent_gap_then_frication(x, heard) == ["sil", "aa", stop, "aa", heard, "aa", "sil"]
 
 
 def closures(segments) -> list[tuple[float, float]]:
@@ -178,14 +183,4 @@ def test_a_weak_f_over_a_low_hum_is_frication_not_a_closure(heard, stop):
     gap, pause = np.zeros(n), np.zeros(int(0.3 * RATE))
     x = np.concatenate([pause, vowel, gap, vowel, gap + 0.0018 * hiss / hiss.std(), vowel, pause])
     x = x + 0.03 * np.sin(2 * np.pi * 100 * np.arange(len(x)) / RATE) + rng.normal(0.0, 1e-4, len(x))
-    phones = [
-        TimedLabel(0.0, 0.3, "sil"),
-        TimedLabel(0.3, 0.6, "aa"),
-        TimedLabel(0.6, 0.68, heard),
-        TimedLabel(0.68, 0.98, "aa"),
-        TimedLabel(0.98, 1.06, heard),
-        TimedLabel(1.06, 1.36, "aa"),
-        TimedLabel(1.36, 1.66, "sil"),
-    ]
-    labels = [p.label for p in bilabials_from_acoustics(phones, x)]
-    assert labels == ["sil", "aa", stop, "aa", heard, "aa", "sil"]
+    assert _silent_gap_then_frication(x, heard) == ["sil", "aa", stop, "aa", heard, "aa", "sil"]
