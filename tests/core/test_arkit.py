@@ -76,6 +76,14 @@ def test_the_shrugs_push_their_lip_out_as_far_as_the_pucker():
     assert shrug[fap("push_b_lip").number - 1] > shrug[fap("raise_b_midlip").number - 1]
 
 
+def test_the_inner_brow_raise_moves_the_inner_ends_only():
+    # ARKit: "upward movement of the inner portion of both eyebrows": the middles rose 60 ENS before
+    recipe = load_recipes().recipe("browInnerUp")
+    moved = {fap_number + 1 for fap_number in np.flatnonzero(recipe)}
+    assert moved == {fap("raise_l_i_eyebrow").number, fap("raise_r_i_eyebrow").number}
+    assert recipe[fap("raise_l_i_eyebrow").number - 1] == 180.0
+
+
 def test_left_and_right_recipes_mirror_each_other():
     table = load_recipes()
     for name in ARKIT_NAMES:
