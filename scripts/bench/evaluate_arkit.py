@@ -55,7 +55,13 @@ CAPTURE_MINUTES, CAPTURE_FPS = 10, 60
 # units' names and from where and which way each moves the sample head (looked at as offsets: centroid and mean
 # direction of the moved vertices). Units with no ARKit counterpart: eyebrows-*-up (ARKit splits a brow raise
 # into inner, shared by both brows, and outer), mouth-parling, mouth-part-later, mouth-upward-retraction,
-# neck-platysma, nose-compression, nose-depression, nose-*-dilatation.
+# nose-compression, nose-depression, nose-*-dilatation.
+# Two units were paired wrongly before (found by their motion at the FPs, sculpt against the ARKit shape's
+# definition, not by score): mouthStretch is AU 20, lip stretcher, whose muscles are risorius with platysma
+# (FACS, Ekman, Friesen and Hager 2002): neck-platysma pulls the corners out, back and down (1.9, 4.0 and 3.0 mm at
+# 2.4), as AU 20 does; mouth-depression-retraction, paired with mouthStretch before, keeps the corners still
+# (0.2 mm) and parts the lips at their middle, the lower lip 10 mm down and the upper 5 mm up: the lower lip's
+# depressor (AU 16, mouthLowerDown) and the upper lip's levator (AU 10, mouthUpperUp) on both sides.
 MAKEHUMAN_UNITS = {
     ("eyeBlinkLeft",): ("eye-left-closure",),
     ("eyeBlinkRight",): ("eye-right-closure",),
@@ -71,7 +77,10 @@ MAKEHUMAN_UNITS = {
     ("jawOpen",): ("mouth-open",),
     ("mouthSmileLeft", "mouthSmileRight"): ("mouth-corner-puller",),
     ("mouthFrownLeft", "mouthFrownRight"): ("mouth-depression",),
-    ("mouthStretchLeft", "mouthStretchRight"): ("mouth-depression-retraction",),
+    ("mouthStretchLeft", "mouthStretchRight"): ("neck-platysma",),
+    ("mouthLowerDownLeft", "mouthLowerDownRight", "mouthUpperUpLeft", "mouthUpperUpRight"): (
+        "mouth-depression-retraction",
+    ),
     ("mouthDimpleLeft", "mouthDimpleRight"): ("mouth-retraction",),
     ("mouthPressLeft", "mouthPressRight"): ("mouth-compression",),
     ("mouthUpperUpLeft", "mouthUpperUpRight"): ("mouth-elevation",),

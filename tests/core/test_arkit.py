@@ -53,6 +53,37 @@ def test_the_sneer_raises_the_nostril_without_widening_it():
         assert table.deformations[name] == "nostril_lift"
 
 
+def test_the_press_is_the_lower_lips_upward_press():
+    # ARKit: "upward compression of the lower lip". The lower lip rises 200 MNS (the 80 + 120 both lips closed
+    # before) and the upper lip no longer comes down (lower_t_lip 80 before)
+    table = load_recipes()
+    for name, side in (("mouthPressLeft", "l"), ("mouthPressRight", "r")):
+        recipe = table.recipe(name)
+        for suffix in ("", "_o"):
+            assert recipe[fap(f"raise_b_lip_{side}m{suffix}").number - 1] == 200.0, name
+            assert recipe[fap(f"lower_t_lip_{side}m{suffix}").number - 1] == 0.0, name
+
+
+def test_the_shrugs_push_their_lip_out_as_far_as_the_pucker():
+    # ARKit: "outward movement of the lower/upper lip": the push is the shape's largest motion, as far as the
+    # table pushes a lip anywhere (mouthPucker's 300 MNS); 120 and 100 before
+    table = load_recipes()
+    pucker = table.recipe("mouthPucker")
+    for name, push in (("mouthShrugLower", "push_b_lip"), ("mouthShrugUpper", "push_t_lip")):
+        number = fap(push).number - 1
+        assert table.recipe(name)[number] == pucker[number] == 300.0, name
+    shrug = table.recipe("mouthShrugLower")
+    assert shrug[fap("push_b_lip").number - 1] > shrug[fap("raise_b_midlip").number - 1]
+
+
+def test_the_inner_brow_raise_moves_the_inner_ends_only():
+    # ARKit: "upward movement of the inner portion of both eyebrows": the middles rose 60 ENS before
+    recipe = load_recipes().recipe("browInnerUp")
+    moved = {fap_number + 1 for fap_number in np.flatnonzero(recipe)}
+    assert moved == {fap("raise_l_i_eyebrow").number, fap("raise_r_i_eyebrow").number}
+    assert recipe[fap("raise_l_i_eyebrow").number - 1] == 180.0
+
+
 def test_left_and_right_recipes_mirror_each_other():
     table = load_recipes()
     for name in ARKIT_NAMES:
