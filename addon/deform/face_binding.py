@@ -33,6 +33,9 @@ that a body joined under the head leaves the face as it is on the head alone.
 The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
 triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
 away from the lips, so their pairs' weights fall with the distance along the skin from the nearest lip or jaw FP.
+Past an outline edge or corner of theirs that other parts' FPs hold (the nose's base, the cheeks' points), they reach
+no skin at all (`stop_at_held_outline`): eq. 12-14 would swing it with the triangle's turn; the nose's and the
+cheeks' triangles move it, through the FPs they share.
 """
 
 from __future__ import annotations
@@ -46,6 +49,7 @@ from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from .auto_masks import geodesic_distance
 from .planar_bones import Binding, bind, cover_over_control_mesh
+from .regions import APEX, EDGE
 
 FADE_BELOW = 0.2
 FACE_DEPTH_PER_ES0 = 0.25
@@ -116,8 +120,11 @@ def bind_face(
         local_float32=local_float32,
     )
     covered = binding  # the skin the volumes reach, which counts the smoothing's steps
-    if triangle_parts is not None and mouth_rows is not None and len(mouth_rows) and es0 > 0:
-        binding = fall_from_mouth(binding, np.asarray(triangle_parts) == MOUTH_AND_JAW, mouth_rows, es0, edges)
+    if triangle_parts is not None and mouth_rows is not None and len(mouth_rows):
+        mouth = np.asarray(triangle_parts) == MOUTH_AND_JAW
+        binding = stop_at_held_outline(binding, mouth, mouth_rows)
+        if es0 > 0:
+            binding = fall_from_mouth(binding, mouth, mouth_rows, es0, edges)
     if triangle_parts is None or edges is None:
         return binding
     width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
@@ -191,6 +198,35 @@ def fall_from_mouth(
         cap = np.maximum(cap, np.clip(1.0 - (_nearest(rest, control[others]) / pin_reach) ** 2, 0.0, 1.0))
     scale = np.where(np.asarray(mouth_triangles)[binding.pair_triangle], cap[binding.pair_vertex], 1.0)
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale)
+
+
+def stop_at_held_outline(binding: Binding, mouth_triangles: np.ndarray, mouth_rows: Sequence[int]) -> Binding:
+    """`binding` without the pairs of the (T,) bool `mouth_triangles` on skin past an outline edge or corner of
+    theirs that FPs of other parts hold: an edge region (eq. 12) whose edge has neither end among the control rows
+    `mouth_rows` (the lips' and jaw's FPs), or an apex region (eq. 13-14) whose corner is not among them: the
+    nose's base 9.x and the cheeks' 5.x. Eq. 12-14 carry a triangle's turn to the skin past its edge (the edge's
+    frame turns with it), so a lip moving 8 mm turned the mouth's triangles about their nose edges and swung the
+    nose's wing and the cheek above the nasolabial line with it, skin the sculpts keep still while the lips move
+    (docs/eyes_brows.md, "Fourth round"). That skin is the other parts' triangles' (the nose's, the cheeks'), and
+    what the lips' motion does to it comes through the FPs they share, which those triangles follow; skin past an
+    edge with a lip or jaw FP at an end (the lips' inside, the chin, the jaw line) keeps the mouth's pairs. No
+    constant: which pairs go follows from the control mesh and the FP groups; a vertex left with no pair stays at
+    rest, and `smooth_follow` smooths the share of the motion where it ends."""
+    triangles = np.asarray(binding.triangles)
+    held = np.ones(len(binding.control_rest), dtype=bool)
+    held[np.asarray(mouth_rows, dtype=np.intp)] = False
+    region = binding.pair_region.astype(np.intp)
+    corners = triangles[binding.pair_triangle]
+    j = (region - EDGE) % 3  # the edge (V_j, V_j+1) of an edge region, the corner V_j of an apex region
+    first = held[np.take_along_axis(corners, j[:, None], axis=1)[:, 0]]
+    second = held[np.take_along_axis(corners, ((j + 1) % 3)[:, None], axis=1)[:, 0]]
+    past = np.where(region >= APEX, first, (region >= EDGE) & first & second)
+    drop = np.asarray(mouth_triangles, dtype=bool)[binding.pair_triangle] & past
+    if not drop.any():
+        return binding
+    keep = ~drop
+    pairs = [f.name for f in dataclasses.fields(Binding) if f.name.startswith("pair_")]
+    return dataclasses.replace(binding, **{name: getattr(binding, name)[keep] for name in pairs})
 
 
 def _nearest(points: np.ndarray, sources: np.ndarray) -> np.ndarray:
