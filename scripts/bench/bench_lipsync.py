@@ -29,8 +29,9 @@ checks the cutting at pauses. Last, real human recordings with transcripts from 
 pocketsphinx-testdata (LibriVox "Sense and Sensibility", and card names), where only a word-level check is
 possible: every word with /p b m/ must get a closure (a PP segment) inside its aligned span; and, without
 their transcripts, their recognised visemes scored against their aligned ones (the aligner, given the words,
-is the nearest to a truth they have). After the tables, the viseme confusion matrices of recognition (frames
-of each truth viseme found as each viseme): what the path without a transcript gets wrong.
+is the nearest to a truth they have). After the tables, the viseme confusion matrices with and without a
+transcript (frames of each truth viseme found as each viseme), each headed by how many frames disagree and how
+many of those are a boundary's: what each path gets wrong.
 """
 
 from __future__ import annotations
