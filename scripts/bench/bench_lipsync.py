@@ -17,6 +17,8 @@ Per set and condition:
   onset        |start of the audio path's run - start of the truth's run| for every truth viseme run that the
                audio path has within 150 ms (same viseme), median and 90th percentile in ms
   confusion    frames of each truth viseme (rows) found as each viseme (columns)
+  boundary     of the frames that disagree, those whose truth viseme the audio path has within BOUNDARY_SLACK
+               (a boundary placed off by up to that much; the others are a wrong viseme, inside a phone)
   speed        seconds of speech per second of wall time (reading the samples at 16 kHz and finding the phones),
                and per second of this process's CPU time (what one free core gives: the machine is shared)
 
@@ -27,8 +29,9 @@ checks the cutting at pauses. Last, real human recordings with transcripts from 
 pocketsphinx-testdata (LibriVox "Sense and Sensibility", and card names), where only a word-level check is
 possible: every word with /p b m/ must get a closure (a PP segment) inside its aligned span; and, without
 their transcripts, their recognised visemes scored against their aligned ones (the aligner, given the words,
-is the nearest to a truth they have). After the tables, the viseme confusion matrices of recognition (frames
-of each truth viseme found as each viseme): what the path without a transcript gets wrong.
+is the nearest to a truth they have). After the tables, the viseme confusion matrices with and without a
+transcript (frames of each truth viseme found as each viseme), each headed by how many frames disagree and how
+many of those are a boundary's: what each path gets wrong.
 """
 
 from __future__ import annotations
@@ -50,6 +53,7 @@ TESTDATA = Path("/usr/share/pocketsphinx/test/data")
 FPS = 25
 STEP = 0.01  # s, 100 Hz
 ONSET_WINDOW = 0.15  # s
+BOUNDARY_SLACK = 0.04  # s: a disagreeing frame with the right viseme this near is a boundary's
 SNR_DB = 20.0
 DEV = {"voices": ("en-us", "en"), "rates": (150, 200)}
 HELD_OUT = {"voices": ("en-us+f3", "en-029"), "rates": (130, 240)}
@@ -109,7 +113,18 @@ def score(truth, found, duration: float) -> dict:
         "found_closures_true": sum(meets(c, closures) for c in found_closures),
         "onsets_ms": onsets,
         "confusion": confusion(t, f).tolist(),
+        "boundary_frames": boundary_frames(t, f),
     }
+
+
+def boundary_frames(truth_frames: np.ndarray, found_frames: np.ndarray) -> int:
+    """How many of the frames that disagree have their truth viseme among the found frames within
+    BOUNDARY_SLACK: a boundary off by up to that much, rather than a wrong viseme."""
+    reach = int(round(BOUNDARY_SLACK / STEP))
+    return sum(
+        bool(np.any(found_frames[max(0, i - reach) : i + reach + 1] == truth_frames[i]))
+        for i in np.flatnonzero(truth_frames != found_frames)
+    )
 
 
 def confusion(truth_frames: np.ndarray, found_frames: np.ndarray) -> np.ndarray:
@@ -129,6 +144,15 @@ def confusion_table(counts) -> str:
         share = f"{row[i] / row.sum():6.1%}" if row.sum() else "     -"
         lines.append(f"{name:>14} " + " ".join(f"{x:5d}" for x in row) + f" {row.sum():6d} {share}")
     return "\n".join(lines)
+
+
+def disagreement_line(summary: dict) -> str:
+    """How many frames disagree, and how many of them are a boundary's (`boundary_frames`)."""
+    wrong = summary["frames"] - summary["agree"]
+    return (
+        f"{wrong} of {summary['frames']} frames disagree, {summary['boundary_frames']} of them within "
+        f"{BOUNDARY_SLACK * 1000:.0f} ms of a boundary"
+    )
 
 
 def closure_truth(speech) -> list:
@@ -201,6 +225,8 @@ def summary_of(results: list[dict]) -> dict:
     total = lambda key: sum(r[key] for r in results)  # noqa: E731
     return {
         "recordings": len(results),
+        "frames": total("frames"),
+        "agree": total("agree"),
         "agreement": total("agree") / max(total("frames"), 1),
         "speech_agreement": total("speech_agree") / max(total("speech_frames"), 1),
         "closure_recall": total("closures_found") / max(total("closures"), 1),
@@ -209,6 +235,7 @@ def summary_of(results: list[dict]) -> dict:
         "onset_median_ms": float(np.median(onsets)) if len(onsets) else float("nan"),
         "onset_p90_ms": float(np.percentile(onsets, 90)) if len(onsets) else float("nan"),
         "confusion": sum((np.asarray(r["confusion"]) for r in results), np.zeros((len(Viseme),) * 2, int)).tolist(),
+        "boundary_frames": total("boundary_frames"),
     }
 
 
@@ -356,9 +383,11 @@ def main(argv=None) -> int:
     print(table(report, "espeak"))
     print("\nTruth: the same, each stop from the onset of its closure (the silence before its burst)")
     print(table(report, "closure"))
-    print("\nViseme confusion without a transcript, closure truth, clean (frames; rows: truth, columns: found)")
-    for name in ("dev", "held-out"):
-        print(f"\n{name}:\n" + confusion_table(report[name]["without"]["clean"]["closure"]["confusion"]))
+    for mode in ("with", "without"):
+        print(f"\nViseme confusion {mode} a transcript, closure truth, clean (frames; rows: truth, columns: found)")
+        for name in ("dev", "held-out"):
+            pooled = report[name][mode]["clean"]["closure"]
+            print(f"\n{name}: {disagreement_line(pooled)}\n" + confusion_table(pooled["confusion"]))
     if report["real recognised"]:
         counts = report["real recognised"]["confusion"]
         print("\nreal recordings, against their aligned visemes:\n" + confusion_table(counts))

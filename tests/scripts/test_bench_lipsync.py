@@ -5,7 +5,14 @@ import pytest
 
 from addon.mpeg4.faps import Viseme
 from addon.speech.segments import Segment
-from scripts.bench.bench_lipsync import confusion, confusion_table, score, summary_of
+from scripts.bench.bench_lipsync import (
+    boundary_frames,
+    confusion,
+    confusion_table,
+    disagreement_line,
+    score,
+    summary_of,
+)
 
 
 def _segments(*runs):
@@ -46,3 +53,18 @@ def test_confusion_of_frame_tracks():
     counts = confusion(np.array([0, 1, 1, 10]), np.array([0, 1, 14, 10]))
     assert counts.shape == (15, 15)
     assert counts[1, 14] == 1 and np.trace(counts) == 3
+
+
+def test_disagreements_at_a_boundary_are_told_from_wrong_visemes():
+    # the late closure: its 2 OU frames and 2 PP frames each have the truth's viseme within 40 ms
+    s = score(TRUTH, FOUND, 0.30)
+    assert s["boundary_frames"] == 4
+    # 20 frames of AA heard as E, then an NN found 50 ms late (the AA held on): of the 25 frames that disagree
+    # the last 4 E frames have the found AA within 4 frames, and so have the NN frames 21..24 the found NN
+    # (frame 20 is 5 frames from it)
+    truth = np.array([Viseme.AA] * 20 + [Viseme.NN] * 10)
+    found = np.array([Viseme.E] * 20 + [Viseme.AA] * 5 + [Viseme.NN] * 5)
+    assert boundary_frames(truth, found) == 4 + 4
+    pooled = summary_of([s, s])
+    assert pooled["boundary_frames"] == 8
+    assert disagreement_line(pooled) == "8 of 60 frames disagree, 8 of them within 40 ms of a boundary"
