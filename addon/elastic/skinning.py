@@ -45,10 +45,10 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    parted turned faces over where the weights changed most (a face folds where a bone's displacement times
    the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
    rows; a lip bone stays within its side mask, the head taking what that leaves. On the mouth's lining the
-   move is halved (in full it turned a sliver deep in the second sample's mouth over at a small open jaw).
-   The jaw's share counts too: where its weight gives way to the head's below the chin and on the cheek at
-   the jaw's corner, an open jaw turned faces over (docs/elastic_bones.md: 24 → 14 over the development
-   units at their FP motion). The rest of the face keeps its weights (smoothing them all blurred the brows
+   move is LINING_REACH of it (in full it turned a sliver in the second sample's mouth corner over at a
+   small open jaw). The jaw's share (SMOOTHED_WITH_LIPS) counts too: where its weight gives way to the
+   head's below the chin and on the cheek at the jaw's corner, an open jaw turned faces over
+   (docs/elastic_bones.md). The rest of the face keeps its weights (smoothing them all blurred the brows
    and lids).
 """
 
@@ -70,6 +70,7 @@ LINING_SHARPNESS = 4  # the lining's jaw share u^p / (u^p + l^p): held by the gu
 SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
 LIP_SMOOTHING = 1  # step 5's smoothing on the lips' skin, in step 3's steps (docs/elastic_bones.md: folds, E)
 SMOOTHED_WITH_LIPS = (JAW,)  # bones whose share of a row also counts in step 5 (docs/elastic_bones.md)
+LINING_REACH = 0.75  # step 5's move on the mouth's lining, per its move on the skin (docs/elastic_bones.md)
 
 
 def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
@@ -298,7 +299,7 @@ def skin_weights(
     weights = raw / raw.sum(axis=1, keepdims=True)
     if {*LIP_LINES[0], *LIP_LINES[1]} <= set(skeleton.rows):
         sides = {b: masks[bone.side] for b, bone in enumerate(bones) if bone.side in masks}
-        reach = 1.0 - lining / 2 if mouth else np.ones(n)
+        reach = 1.0 - (1.0 - LINING_REACH) * lining if mouth else np.ones(n)
         acting = lip_bones(skeleton) + [skeleton.index(b) for b in SMOOTHED_WITH_LIPS if b in skeleton.rows]
         weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, acting, sides, roots[0], reach)
     check_weights(weights, n, len(bones))
@@ -316,8 +317,8 @@ def smooth_lips(
 ) -> np.ndarray:
     """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
     smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting,
-    times `reach` (N,) (half on the mouth's lining: all of it turned a sliver deep in the second sample's mouth
-    over, weighted to the lip corner).
+    times `reach` (N,) (LINING_REACH on the mouth's lining: all of it turned a sliver in the second sample's
+    mouth corner over, weighted to the lip corner).
     The smoothed row keeps each bone of `sides` (row -> (N,) side mask) within its mask, as step 3 does, and
     gives what that takes off to the `root` bone, so the upper lip's bones still leave the lower lip alone."""
     smoothed = smooth_over_edges(weights, edges, steps)
