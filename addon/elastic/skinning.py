@@ -39,8 +39,8 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    turned it over (14 faces at 20 mm on the sample head).
 5. where the lip bones and the jaw act, the rows are smoothed once more (LIP_SMOOTHING times step 3's steps,
    over the same cut edges), each vertex moved toward its smoothed row by the lip bones' and the jaw's share
-   of it: step 3 smooths
-   the falloffs, but the side masks multiply them afterwards and fade over a few edges at the mouth corners,
+   of it: step 3 smooths the falloffs, but the side masks multiply them afterwards and fade over a few edges
+   at the mouth corners,
    and the head's leftover rises as steeply as the lip bones fall, so a lip corner pulled back or a lip
    parted turned faces over where the weights changed most (a face folds where a bone's displacement times
    the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
@@ -316,7 +316,8 @@ def smooth_lips(
     reach: np.ndarray,
 ) -> np.ndarray:
     """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
-    smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting,
+    smoothed row's share of the `lip_rows` bones (step 5: the lips' and the jaw): 1 on the lips, fading to 0 where
+    they stop acting,
     times `reach` (N,) (LINING_REACH on the mouth's lining: all of it turned a sliver in the second sample's
     mouth corner over, weighted to the lip corner).
     The smoothed row keeps each bone of `sides` (row -> (N,) side mask) within its mask, as step 3 does, and
