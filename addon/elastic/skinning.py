@@ -40,16 +40,15 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
 5. where the lip bones and the jaw act, the rows are smoothed once more (LIP_SMOOTHING times step 3's steps,
    over the same cut edges), each vertex moved toward its smoothed row by the lip bones' and the jaw's share
    of it: step 3 smooths the falloffs, but the side masks multiply them afterwards and fade over a few edges
-   at the mouth corners,
-   and the head's leftover rises as steeply as the lip bones fall, so a lip corner pulled back or a lip
-   parted turned faces over where the weights changed most (a face folds where a bone's displacement times
-   the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
-   rows; a lip bone stays within its side mask, the head taking what that leaves. On the mouth's lining the
-   move is LINING_REACH of it (in full it turned a sliver in the second sample's mouth corner over at a
-   small open jaw). The jaw's share (SMOOTHED_WITH_LIPS) counts too: where its weight gives way to the
-   head's below the chin and on the cheek at the jaw's corner, an open jaw turned faces over
-   (docs/elastic_bones.md). The rest of the face keeps its weights (smoothing them all blurred the brows
-   and lids).
+   at the mouth corners, and the head's leftover rises as steeply as the lip bones fall, so a lip corner
+   pulled back or a lip parted turned faces over where the weights changed most (a face folds where a bone's
+   displacement times the slope of its weight across the face passes 1). Rows stay normalised: each is a
+   mean of normalised rows; a lip bone stays within its side mask, the head taking what that leaves. On the
+   mouth's lining the move is LINING_REACH of it (in full it turned a sliver in the second sample's mouth
+   corner over at a small open jaw). The jaw's share (SMOOTHED_WITH_LIPS) counts too: where its weight gives
+   way to the head's below the chin and on the cheek at the jaw's corner, an open jaw turned faces over
+   (docs/elastic_bones.md). The rest of the face keeps its weights (smoothing them all blurred the brows and
+   lids).
 """
 
 from __future__ import annotations
@@ -316,10 +315,9 @@ def smooth_lips(
     reach: np.ndarray,
 ) -> np.ndarray:
     """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
-    smoothed row's share of the `lip_rows` bones (step 5: the lips' and the jaw): 1 on the lips, fading to 0 where
-    they stop acting,
-    times `reach` (N,) (LINING_REACH on the mouth's lining: all of it turned a sliver in the second sample's
-    mouth corner over, weighted to the lip corner).
+    smoothed row's share of the `lip_rows` bones (step 5: the lips' and the jaw): 1 on the lips, fading to 0
+    where they stop acting, times `reach` (N,) (LINING_REACH on the mouth's lining: all of it turned a sliver
+    in the second sample's mouth corner over, weighted to the lip corner).
     The smoothed row keeps each bone of `sides` (row -> (N,) side mask) within its mask, as step 3 does, and
     gives what that takes off to the `root` bone, so the upper lip's bones still leave the lower lip alone."""
     smoothed = smooth_over_edges(weights, edges, steps)
