@@ -37,15 +37,18 @@ may act (1, except 0 on the lower lip), `lower_lip` the converse, and the same f
    to the two inner lip contours); the jaw's own weight from the jaw line does not reach in there. Held by
    the head, the lining behind the lower lip stayed behind as the lip dropped with the jaw, and an open jaw
    turned it over (14 faces at 20 mm on the sample head).
-5. where the lip bones act, the rows are smoothed once more (LIP_SMOOTHING times step 3's steps, over the
-   same cut edges), each vertex moved toward its smoothed row by the lip bones' share of it: step 3 smooths
-   the falloffs, but the side masks multiply them afterwards and fade over a few edges at the mouth corners,
-   and the head's leftover rises as steeply as the lip bones fall, so a lip corner pulled back or a lip
-   parted turned faces over where the weights changed most (a face folds where a bone's displacement times
-   the slope of its weight across the face passes 1). Rows stay normalised: each is a mean of normalised
-   rows; a lip bone stays within its side mask, the head taking what that leaves. On the mouth's lining the
-   move is halved (in full it turned a sliver deep in the second sample's mouth over at a small open jaw).
-   The rest of the face keeps its weights (smoothing them all blurred the brows and lids).
+5. where the lip bones and the jaw act, the rows are smoothed once more (LIP_SMOOTHING times step 3's steps,
+   over the same cut edges), each vertex moved toward its smoothed row by the lip bones' and the jaw's share
+   of it: step 3 smooths the falloffs, but the side masks multiply them afterwards and fade over a few edges
+   at the mouth corners, and the head's leftover rises as steeply as the lip bones fall, so a lip corner
+   pulled back or a lip parted turned faces over where the weights changed most (a face folds where a bone's
+   displacement times the slope of its weight across the face passes 1). Rows stay normalised: each is a
+   mean of normalised rows; a lip bone stays within its side mask, the head taking what that leaves. On the
+   mouth's lining the move is LINING_REACH of it (in full it turned a sliver in the second sample's mouth
+   corner over at a small open jaw). The jaw's share (SMOOTHED_WITH_LIPS) counts too: where its weight gives
+   way to the head's below the chin and on the cheek at the jaw's corner, an open jaw turned faces over
+   (docs/elastic_bones.md). The rest of the face keeps its weights (smoothing them all blurred the brows and
+   lids).
 """
 
 from __future__ import annotations
@@ -65,6 +68,8 @@ WEIGHT_TOLERANCE = 1e-6
 LINING_SHARPNESS = 4  # the lining's jaw share u^p / (u^p + l^p): held by the gums, stretched where the sides meet
 SMOOTHING_WIDTH = 0.085  # step 3's smoothing, per skeleton scale (docs/eyes_brows.md: folds and E against it)
 LIP_SMOOTHING = 1  # step 5's smoothing on the lips' skin, in step 3's steps (docs/elastic_bones.md: folds, E)
+SMOOTHED_WITH_LIPS = (JAW,)  # bones whose share of a row also counts in step 5 (docs/elastic_bones.md)
+LINING_REACH = 0.75  # step 5's move on the mouth's lining, per its move on the skin (docs/elastic_bones.md)
 
 
 def segment_distances(points: np.ndarray, heads: np.ndarray, tails: np.ndarray) -> np.ndarray:
@@ -293,8 +298,9 @@ def skin_weights(
     weights = raw / raw.sum(axis=1, keepdims=True)
     if {*LIP_LINES[0], *LIP_LINES[1]} <= set(skeleton.rows):
         sides = {b: masks[bone.side] for b, bone in enumerate(bones) if bone.side in masks}
-        reach = 1.0 - lining / 2 if mouth else np.ones(n)
-        weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, lip_bones(skeleton), sides, roots[0], reach)
+        reach = 1.0 - (1.0 - LINING_REACH) * lining if mouth else np.ones(n)
+        acting = lip_bones(skeleton) + [skeleton.index(b) for b in SMOOTHED_WITH_LIPS if b in skeleton.rows]
+        weights = smooth_lips(weights, kept, LIP_SMOOTHING * steps, acting, sides, roots[0], reach)
     check_weights(weights, n, len(bones))
     return weights
 
@@ -309,9 +315,9 @@ def smooth_lips(
     reach: np.ndarray,
 ) -> np.ndarray:
     """(N, B) `weights` with each row moved toward its smoothed row (`steps` steps over `edges`) by the
-    smoothed row's share of the `lip_rows` bones (step 5): 1 on the lips, fading to 0 where they stop acting,
-    times `reach` (N,) (half on the mouth's lining: all of it turned a sliver deep in the second sample's mouth
-    over, weighted to the lip corner).
+    smoothed row's share of the `lip_rows` bones (step 5: the lips' and the jaw): 1 on the lips, fading to 0
+    where they stop acting, times `reach` (N,) (LINING_REACH on the mouth's lining: all of it turned a sliver
+    in the second sample's mouth corner over, weighted to the lip corner).
     The smoothed row keeps each bone of `sides` (row -> (N,) side mask) within its mask, as step 3 does, and
     gives what that takes off to the `root` bone, so the upper lip's bones still leave the lower lip alone."""
     smoothed = smooth_over_edges(weights, edges, steps)

@@ -91,23 +91,32 @@ def sculpt_and_engine_main(doc: str, out: Path, shots, argv=None) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", type=Path, default=ROOT / "docs" / "elastic_weights_before_after.png")
-    args = parser.parse_args(argv)
-    face, motion, camera = prepare_shots(SHOTS)
-    shipped = skinning.SMOOTHING_WIDTH
-    rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        for label, steps in (("the sculpt", None), ("unsmoothed", 0), ("smoothed", shipped)):
-            method = None
-            if steps is not None:
-                skinning.SMOOTHING_WIDTH = steps
-                method = ElasticBonesMethod(face)
-            rows.append(render_row(face, method, SHOTS, motion, camera, label, Path(tmp)))
-    skinning.SMOOTHING_WIDTH = shipped
-    save_rows(rows, args.out)
+def before_after_main(doc: str, out: Path, shots, settings, argv=None) -> int:
+    """A close-up script's main: rows of `shots` tiles, the sculpt over Elastic Bones with the `skinning`
+    constants set as each (label, {name: value}) of `settings` says in turn (shipped parameters; the constants
+    restored after), saved at `--out` (default `out`)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=out)
+    out = parser.parse_args(argv).out
+    face, motion, camera = prepare_shots(shots)
+    shipped = {name: getattr(skinning, name) for _label, values in settings for name in values}
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            rows = [render_row(face, None, shots, motion, camera, "the sculpt", Path(tmp))]
+            for label, values in settings:
+                for name, value in {**shipped, **values}.items():
+                    setattr(skinning, name, value)
+                rows.append(render_row(face, ElasticBonesMethod(face), shots, motion, camera, label, Path(tmp)))
+    finally:
+        for name, value in shipped.items():
+            setattr(skinning, name, value)
+    save_rows(rows, out)
     return 0
+
+
+def main(argv=None) -> int:
+    settings = (("unsmoothed", {"SMOOTHING_WIDTH": 0}), ("smoothed", {}))
+    return before_after_main(__doc__, ROOT / "docs" / "elastic_weights_before_after.png", SHOTS, settings, argv)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Elastic Bones on the lip units (issue 27): the mouth units that move the lips but not the jaw (every
 `mouth-*` development unit but mouth-open) turn few faces over at their FP motion and at 1.5 times it, as
 `scripts.bench.evaluate --method elastic_bones` drives the engine (shipped weights and trained parameters).
-Before step 5 of `elastic.skinning` (the lips' last smoothing) they turned 12 and 82 faces over (10 and 60 after)."""
+Before step 5 of `elastic.skinning` (the lips' last smoothing) they turned 12 and 82 faces over (10 and 60 after;
+6 and 58 with the jaw's share in step 5 and LINING_REACH 0.75)."""
 
 import numpy as np
 import pytest
@@ -30,6 +31,6 @@ def test_the_lip_units_turn_few_faces_over():
             deformed = method.evaluate(face.control_rest + scale * fp_offsets)
             folds[scale] += count_inverted(face.rest, deformed, *face.fans)
     assert len(units) == 12
-    assert folds[1.0] <= 10  # 12 before
-    assert folds[1.5] <= 60  # 82 before
+    assert folds[1.0] <= 6  # 12 before step 5, 10 with the lips alone in it
+    assert folds[1.5] <= 58  # 82 before step 5, 60 with the lips alone in it
     assert np.isfinite(method.weights).all()
