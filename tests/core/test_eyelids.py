@@ -37,7 +37,7 @@ def _on_shell(centre, x, angle, radius=R_LID):
     return centre + np.stack([x, rho * np.sin(angle), rho * np.cos(angle)], axis=-1)
 
 
-def _eye(xs=XS, shares=np.ones(8)):
+def _eye(xs=XS, shares=(1.0,) * 8):
     """Lids on a shell over two eyeballs: rows of vertices at `xs` from each margin outward, the rows' lid membership
     `shares` (8,) from the margin out; FPs on the margins."""
     verts, upper, lower, margins = [], [], [], {}
@@ -287,7 +287,7 @@ def test_meet_lids_stops_every_row_where_the_other_lid_is_by_hand():
 def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge():
     """Lid masks blended across the margin, as decimation leaves them (the margin row 0.6 of the lid, 1 two rows
     out), at uneven spacing along the eye: a full blink brings each margin onto the other lid, along a smooth curve,
-    no face turned over (it stopped 0.6 of the way, 7 degrees open under the mid-lid FP, before `margin_members`)."""
+    no face turned over (before `margin_members` the margin stopped 0.6 of the way: up to 5 degrees open)."""
     xs = np.sort(np.concatenate([np.linspace(-0.0125, 0.0125, 26), np.random.default_rng(3).uniform(-0.012, 0.012, 9)]))
     rest, upper, lower, neutral, margins = _eye(xs, np.array([0.6, 0.85, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]))
     columns = len(xs)
