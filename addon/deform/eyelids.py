@@ -119,6 +119,23 @@ def trace_margins(t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.
     return margins
 
 
+def margin_members(
+    margins: list, t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The lids' memberships `upper`/`lower` (K,) on the lid's side of its traced margin (`trace_margins`; the
+    vertices at `t` along the eye whose elevation `elev` is at or beyond the margin's there) over the margin's own
+    membership at their place, clipped to [0, 1]: a margin whose membership is below 1 (a mask blended across the
+    margin, as decimation or a soft brush leaves it) turns short of the other lid, which the lids' turn by the
+    opening (`opening_profile`) counts on; dividing by it makes each margin a full member and keeps the lid's fall
+    away from it in proportion. The skin past the margin (the lid's inner rim, the corners' pockets) keeps its own."""
+    out = []
+    for (ts, angles, picked), member, side in zip(margins, (upper, lower), (1.0, -1.0), strict=True):
+        at_margin = np.where(picked >= 0, member[np.maximum(picked, 0)], 1.0)
+        on_lid = side * (elev - np.interp(t, ts, angles)) >= 0.0
+        out.append(np.where(on_lid, np.clip(member / np.interp(t, ts, at_margin), 0.0, 1.0), member))
+    return out[0], out[1]
+
+
 def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | None:
     """Share of the lids' turn along the eye: the opening between the traced `margins` at `t` over the
     opening under the mid-lid FPs (`t_mid`), so that lids that meet under the FPs meet along the whole eye."""
@@ -221,6 +238,7 @@ def bind_eyelids(
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
         profile = opening_profile(margins, t, mid) if margins is not None and trace_opening else None
         if profile is not None:
+            up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
             meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid), inner_x, outer_x)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye

@@ -1,6 +1,7 @@
 """Close-ups of the full blink from the front and from above and below (docs/blink_closeup.png).
 
     .venv/bin/python -m scripts.docs.render_blink [--out docs/blink_closeup.png] [--targets DIR]
+    .venv/bin/python -m scripts.docs.render_blink --faces DIR [--out docs/real_meshes_blink.png]
 
 Rows: the sample's left eye at rest; the add-on's full blink (`scripts.bench.evaluate.BLINK`: 3.1 moved onto 3.3,
 as the evaluation's blink); the sculptor's closed eye (eye-left-closure). Columns: looked at straight, from 30
@@ -8,10 +9,15 @@ degrees below and above (views the seen gap, `overlaps.seen_lid_gap`, is measure
 degrees below and to the temple side (beyond them), and from the temple side (the lids' margins in profile).
 Workbench, 240 px tiles; each view's seen gap of the left eye is printed (the side view's: none, the eye's
 opening is not across that view).
+
+With `--faces` (.blend files, or folders of them, e.g. `scripts.bench.variants OUT`): one row per face, the sample
+first, each set up and given the same full blink (`scripts.bench.variant_blink.full_blink`); tiles: the left eye
+straight on and from 30 degrees below, then the right eye the same, 0.6 times the pupils' distance across.
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
 import tempfile
 from pathlib import Path
@@ -21,7 +27,7 @@ import numpy as np
 from mathutils import Vector
 
 from scripts import convert
-from scripts.bench import evaluate
+from scripts.bench import evaluate, variant_blink
 from scripts.docs.closeups import aim_camera, closeup_camera, render_tile, save_rows, set_up_sample, unit_arguments
 from scripts.docs.render_eyes_brows import positions
 
@@ -39,7 +45,44 @@ def look_at_the_eye(scene, camera, pupil, view, scratch) -> np.ndarray:
     return render_tile(scene, scratch)
 
 
+def blink_rows(files: list[Path], out: Path) -> None:
+    """`--faces`: a row of the full blink per face (see the module's text), written to `out`."""
+    face_data = convert._addon("blender.face_data")
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in [variant_blink.SAMPLE, *files]:
+            bpy.ops.wm.open_mainfile(filepath=str(path))
+            scene, face = bpy.context.scene, variant_blink._face()
+            assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
+            closed = variant_blink.full_blink(face)
+            face.data.attributes["position"].data.foreach_set("vector", closed.astype(np.float32).ravel())
+            face.data.update()
+            for ob in scene.objects:  # the FP empties and the control mesh stay out of the pictures
+                ob.hide_render = ob.type == "EMPTY" or ob == face.mpeg4_face.control_object
+            empties = face_data.fp_empties(face)
+            pupils = [empties[k].matrix_world.translation.copy() for k in ("3.5", "3.6")]
+            camera = closeup_camera(scene, face, TILE, 0.6 * (pupils[0] - pupils[1]).length)
+            tiles = []
+            for pupil in pupils:
+                for pitch in variant_blink.PITCHES:
+                    aim_camera(camera, pupil, 0.4, 0.0, pitch)
+                    tiles.append(render_tile(scene, tmp))
+            print(f"{path.stem}: left eye straight, 30 degrees below; right eye the same")
+            rows.append(tiles)
+    save_rows(rows, out)
+
+
 def main(argv=None) -> int:
+    if argv is None:
+        argv = sys.argv[1:]
+    if "--faces" in argv:
+        parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+        parser.add_argument("--faces", nargs="+", type=Path, required=True)
+        parser.add_argument("--out", type=Path, default=ROOT / "docs" / "real_meshes_blink.png")
+        args = parser.parse_args(argv)
+        convert.addon_package()
+        blink_rows([f for p in args.faces for f in (sorted(p.glob("*.blend")) if p.is_dir() else [p])], args.out)
+        return 0
     args = unit_arguments(__doc__, ROOT / "docs" / "blink_closeup.png", argv)
     sample = evaluate.load_face(evaluate.DEFAULT_FACE)
     files = {evaluate.target_name(p): p for p in evaluate.target_files(args.targets)}

@@ -15,6 +15,7 @@ from addon.deform.eyelids import (
     lid_profile,
     lid_turns,
 )
+from addon.deform.overlaps import edge_roughness
 from addon.mpeg4.decode import meet_at_closure
 from addon.mpeg4.feature_points import fp_index
 
@@ -36,22 +37,23 @@ def _on_shell(centre, x, angle, radius=R_LID):
     return centre + np.stack([x, rho * np.sin(angle), rho * np.cos(angle)], axis=-1)
 
 
-def _eye():
-    """Lids on a shell over two eyeballs: rows of vertices from each margin outward; FPs on the margins."""
+def _eye(xs=XS, shares=(1.0,) * 8):
+    """Lids on a shell over two eyeballs: rows of vertices at `xs` from each margin outward, the rows' lid membership
+    `shares` (8,) from the margin out; FPs on the margins."""
     verts, upper, lower, margins = [], [], [], {}
     neutral = np.full((84, 3), np.nan)
     for e, centre in enumerate(CENTRES):
-        s = lid_profile(XS, -CORNER, 0.0, CORNER)  # the opening narrows to the corners like the profile
+        s = lid_profile(xs, -CORNER, 0.0, CORNER)  # the opening narrows to the corners like the profile
         up_margin, low_margin = s * UP0, s * LOW0
         for k, (start, end, member) in enumerate(
             ((up_margin, np.radians(70), upper), (low_margin, -np.radians(70), lower))
         ):
-            rows = [_on_shell(centre, XS, start + f * (end - start)) for f in np.linspace(0, 1, 8)]
+            rows = [_on_shell(centre, xs, start + f * (end - start)) for f in np.linspace(0, 1, 8)]
             first = sum(len(v) for v in verts)
-            margins[(e, k)] = np.arange(first, first + len(XS))
-            for row in rows:
+            margins[(e, k)] = np.arange(first, first + len(xs))
+            for row, share in zip(rows, shares, strict=True):
                 verts.append(row)
-                member.append(np.ones(len(row)))
+                member.append(np.full(len(row), share))
                 (lower if member is upper else upper).append(np.zeros(len(row)))
         ids = (("3.1", "3.3", "3.11", "3.7", "3.5"), ("3.2", "3.4", "3.8", "3.12", "3.6"))[e]
         sign = 1.0 if e == 0 else -1.0  # inner corner toward the nose (x = 0)
@@ -280,3 +282,45 @@ def test_meet_lids_stops_every_row_where_the_other_lid_is_by_hand():
     rising = np.array([[0.1, 0.0], [0.1, 0.0]])  # away from closure: nothing is stopped
     up, _low = lids.meet_lids(rig, rising, rig.upper * 0.1, np.zeros(3))
     np.testing.assert_allclose(up, rig.upper * 0.1, atol=0)
+
+
+def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge():
+    """Lid masks blended across the margin, as decimation leaves them (the margin row 0.6 of the lid, 1 two rows
+    out), at uneven spacing along the eye: a full blink brings each margin onto the other lid, along a smooth curve,
+    no face turned over (before `margin_members` the margin stopped 0.6 of the way: up to 5 degrees open)."""
+    xs = np.sort(np.concatenate([np.linspace(-0.0125, 0.0125, 26), np.random.default_rng(3).uniform(-0.012, 0.012, 9)]))
+    rest, upper, lower, neutral, margins = _eye(xs, np.array([0.6, 0.85, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]))
+    columns = len(xs)
+    quads = [
+        (
+            base + r * columns + j,
+            base + r * columns + j + 1,
+            base + (r + 1) * columns + j + 1,
+            base + (r + 1) * columns + j,
+        )
+        for base in range(0, len(rest), 8 * columns)
+        for r in range(7)
+        for j in range(columns - 1)
+    ]
+    triangles = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+    rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, np.array([R_EYE, R_EYE]), AXES, triangles)
+    fps = neutral.copy()
+    for e, up in enumerate(("3.1", "3.2")):
+        p = fps[fp_index(up)] - CENTRES[e]
+        c, s = np.cos(LOW0 - UP0), np.sin(LOW0 - UP0)
+        fps[fp_index(up)] = CENTRES[e] + [p[0], c * p[1] + s * p[2], c * p[2] - s * p[1]]
+    out = rest.copy()
+    apply_eyelids(rig, out, fps)
+    inside = np.abs(xs) < CORNER
+    for eye in (0, 1):
+        up = elevation(out[margins[(eye, 0)]], CENTRES[eye])
+        low = elevation(out[margins[(eye, 1)]], CENTRES[eye])
+        np.testing.assert_allclose(up[inside], low[inside] + MEET_CLEARANCE, atol=2 * TRACE)  # shut
+        # smooth: no vertex of the closed margin farther off the curve through its neighbours than at rest
+        edge = margins[(eye, 0)][inside]
+        assert edge_roughness(out, edge, closed=False).max() < edge_roughness(rest, edge, closed=False).max() + 2e-5
+    chart_before = np.cross(
+        rest[triangles[:, 1]] - rest[triangles[:, 0]], rest[triangles[:, 2]] - rest[triangles[:, 0]]
+    )
+    chart_after = np.cross(out[triangles[:, 1]] - out[triangles[:, 0]], out[triangles[:, 2]] - out[triangles[:, 0]])
+    assert np.all(np.einsum("ij,ij->i", chart_before, chart_after) > 0.0)  # no face turned over
