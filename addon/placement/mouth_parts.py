@@ -17,6 +17,13 @@ The tongue's points are read off the tongue piece by the sample's rules (`tongue
 forward point of its mid-line, 6.2 the highest mid-line point at the middle of its length, 6.3 / 6.4 its
 leftmost / rightmost points at 6.2's depth. The tongue piece is the one the estimate of 6.2 (the middle of the
 mouth's floor, far from every tooth) reached.
+
+Confidence (`READ_CONFIDENCE`): a point read off its piece by its definition gets the definition's, not the
+skin fit's (the template skin around a teeth point is the inside of the lips, whose fit says nothing about
+the teeth). The teeth ends and the tongue tip are extremes of their piece, exact once the piece is right;
+6.2 is only "the centre of the tongue body" and 6.3 / 6.4 its borders there, which fix nothing finer along a
+tongue whose top and sides are flat (the development heads' own 6.2-6.4, one vertex each carried by their
+shape targets, lie 3-5 mm along the tongue from this rule), so those three are listed for the user to check.
 """
 
 from __future__ import annotations
@@ -36,6 +43,11 @@ TONGUE_SAMPLES = 8000  # area samples of the tongue piece (about 1 mm apart), so
 TEETH_REACH = 0.01  # template metres (a front tooth's height): the other teeth row's ends come this near the
 # teeth points' estimates when these snapped onto one row
 SLICE = 0.001  # template metres: half the thickness of the slice across the tongue at its middle
+EXTREME_CONFIDENCE = 0.9  # an end of the piece its estimate found (not 1: it may be the wrong piece)
+ALONG_CONFIDENCE = 0.4  # a point the definition does not fix along the piece: below the listing threshold
+READ_CONFIDENCE = {fp_id: EXTREME_CONFIDENCE for fp_id in (*TEETH, "6.1")} | {
+    fp_id: ALONG_CONFIDENCE for fp_id in ("6.2", "6.3", "6.4")
+}
 
 
 def tongue_points(vertices: np.ndarray, triangles: np.ndarray, plane: MidPlane, axes):
@@ -79,12 +91,16 @@ def _reach(ends, estimates: np.ndarray) -> float:
     return float(min(np.linalg.norm(teeth - end, axis=1).min() for end in ends))
 
 
-def mouth_ends(placed: np.ndarray, estimates: np.ndarray, reached: dict, pieces: list, plane: MidPlane, axes) -> set:
+def mouth_ends(
+    placed: np.ndarray, estimates: np.ndarray, reached: dict, pieces: list, plane: MidPlane, axes
+) -> tuple[set, set]:
     """Teeth and tongue points of `placed` (84, 3) moved onto their places on their pieces; `reached` maps an
     FP id to the index in `pieces` ((vertices, triangles) each) its estimate snapped onto, `estimates` are
-    the points before they snapped. Returns the ids placed on a piece."""
+    the points before they snapped. Returns the ids placed on a piece, and those of them read off it by their
+    definition (the rest only snapped onto it)."""
     _left, up, forward = axes
     on_piece = set(reached)
+    read = set()
     tongue = reached.get("6.2")
     ends = {i: teeth_ends(vertices, plane, up, forward) for i, (vertices, _t) in enumerate(pieces) if i != tongue}
     teeth = {reached[f] for f in TEETH if f in reached} - {tongue}
@@ -110,10 +126,10 @@ def mouth_ends(placed: np.ndarray, estimates: np.ndarray, reached: dict, pieces:
     for piece, top, bottom in pairs:
         if ends[piece] is not None:
             placed[fp_index(top)], placed[fp_index(bottom)] = ends[piece]
-            on_piece |= {top, bottom}
+            read |= {top, bottom}
     if tongue is not None:
         found = tongue_points(*pieces[tongue], plane, axes)
         if found is not None:
             placed[[fp_index(f) for f in TONGUE]] = found
-            on_piece |= set(TONGUE)
-    return on_piece
+            read |= set(TONGUE)
+    return on_piece | read, read

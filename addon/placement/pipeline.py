@@ -20,7 +20,7 @@ from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .landmarks import refine
-from .mouth_parts import mouth_ends
+from .mouth_parts import READ_CONFIDENCE, mouth_ends
 from .nicp import border_vertices, register
 from .openings import boundary_loops, refine_openings
 from .parts import find_eyeballs, pupil_on_eyeball
@@ -284,8 +284,8 @@ def _parts(local, triangles, labels, skin_labels):
 
 def _on_parts(template, placed, confidence, estimated, parts, plane: MidPlane):
     """Pupils onto eyeballs, teeth and tongue points onto the pieces in the mouth and their ends
-    (`mouth_parts`); where there is no such piece the carried estimate stays, with a low confidence, and is
-    named in `estimated`."""
+    (`mouth_parts`, whose definitions then give those points' confidence); where there is no such piece the
+    carried estimate stays, with a low confidence, and is named in `estimated`."""
     forward = TEMPLATE_AXES[2]
     eyeballs = find_eyeballs(parts, placed[[fp_index("3.5"), fp_index("3.6")]])
     for fp_id, eyeball in zip(("3.5", "3.6"), eyeballs, strict=True):
@@ -312,7 +312,9 @@ def _on_parts(template, placed, confidence, estimated, parts, plane: MidPlane):
         if best is not None:
             placed[row] = best[1]
             reached[fp.id] = best[2]
-    on_piece = mouth_ends(placed, estimates, reached, mouth_parts, plane, TEMPLATE_AXES)
+    on_piece, read = mouth_ends(placed, estimates, reached, mouth_parts, plane, TEMPLATE_AXES)
+    for fp_id in read:
+        confidence[fp_index(fp_id)] = READ_CONFIDENCE[fp_id]
     for fp in FEATURE_POINTS:
         if fp.surface in ("teeth", "tongue") and fp.id not in on_piece:
             estimated.append(fp.id)

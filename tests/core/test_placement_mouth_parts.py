@@ -5,7 +5,8 @@ ends; the tongue's tip, middle and borders by the sample's rules on the piece th
 import numpy as np
 
 from addon.mpeg4.feature_points import fp_index
-from addon.placement.mouth_parts import TONGUE, mouth_ends, teeth_ends, tongue_points
+from addon.placement.mouth_parts import READ_CONFIDENCE, TONGUE, mouth_ends, teeth_ends, tongue_points
+from addon.placement.pipeline import LOW_CONFIDENCE
 from addon.placement.rigid import TEMPLATE_AXES
 from addon.placement.symmetry import MidPlane
 
@@ -46,7 +47,7 @@ def test_closed_teeth_the_upper_points_go_on_the_higher_piece_whichever_their_es
     placed = np.zeros((84, 3))
     # with the teeth closed the upper edge's estimate reached the lower teeth first
     reached = {"9.8": 0, "9.10": 1, "9.11": 1, "9.9": 1}
-    on_piece = mouth_ends(
+    on_piece, _read = mouth_ends(
         placed, placed.copy(), reached, [(UPPER, NO_TRIANGLES), (LOWER, NO_TRIANGLES)], PLANE, TEMPLATE_AXES
     )
     assert on_piece == {"9.8", "9.9", "9.10", "9.11"}
@@ -62,8 +63,9 @@ def test_one_piece_goes_to_the_pair_whose_estimates_are_nearer_its_ends():
     estimates[fp_index("9.11")], estimates[fp_index("9.9")] = [0, -0.05, -0.001], [0, -0.05, -0.012]
     placed = estimates.copy()
     reached = {"9.10": 0, "9.11": 0}  # both biting edges reached the only piece, the lower teeth
-    on_piece = mouth_ends(placed, estimates, reached, [(LOWER, NO_TRIANGLES)], PLANE, TEMPLATE_AXES)
+    on_piece, read = mouth_ends(placed, estimates, reached, [(LOWER, NO_TRIANGLES)], PLANE, TEMPLATE_AXES)
     assert on_piece == {"9.10", "9.11", "9.9"}  # 9.8 stays an estimate
+    assert read == {"9.11", "9.9"}  # 9.10 only snapped onto the lower teeth: its confidence stays the fit's
     assert np.allclose(placed[fp_index("9.11")], [0.0, -0.05, -0.0005])
     assert np.allclose(placed[fp_index("9.9")], [0.0, -0.05, -0.0105])
     assert np.allclose(placed[fp_index("9.8")], estimates[fp_index("9.8")])
@@ -79,7 +81,7 @@ def test_the_tongue_points_go_on_the_piece_the_estimate_of_its_centre_reached():
     estimates[[fp_index(f) for f in TONGUE]] = TONGUE_TRUTH + [0.0, 0.006, -0.003]  # the estimates 7 mm off
     placed = estimates.copy()
     reached = {"6.1": 0, "6.2": 0, "9.11": 1}
-    on_piece = mouth_ends(placed, estimates, reached, [_tongue(), (LOWER, NO_TRIANGLES)], PLANE, TEMPLATE_AXES)
+    on_piece, _read = mouth_ends(placed, estimates, reached, [_tongue(), (LOWER, NO_TRIANGLES)], PLANE, TEMPLATE_AXES)
     assert set(TONGUE) <= on_piece
     assert np.abs(placed[[fp_index(f) for f in TONGUE]] - TONGUE_TRUTH).max() < 0.0006
 
@@ -92,7 +94,7 @@ def test_a_teeth_piece_no_estimate_reached_is_found_by_its_ends():
     placed = estimates.copy()
     reached = {"9.10": 1, "9.11": 1, "9.9": 1}  # a closed bite: every estimate that snapped took the lower teeth
     pieces = [(UPPER, NO_TRIANGLES), (LOWER, NO_TRIANGLES)]
-    on_piece = mouth_ends(placed, estimates, reached, pieces, PLANE, TEMPLATE_AXES)
+    on_piece, _read = mouth_ends(placed, estimates, reached, pieces, PLANE, TEMPLATE_AXES)
     assert on_piece == {"9.8", "9.9", "9.10", "9.11"}
     assert np.allclose(placed[fp_index("9.8")], [0.0, -0.05, 0.0105])
     assert np.allclose(placed[fp_index("9.10")], [0.0, -0.05, 0.0005])
@@ -103,8 +105,9 @@ def test_the_piece_the_estimate_of_6_2_reached_is_the_tongue_not_teeth():
     estimates[fp_index("9.11")] = TONGUE_TRUTH[0] + [0.0, -0.004, 0.0]  # a lower tooth's estimate near the tip
     placed = estimates.copy()
     reached = {"6.2": 0, "9.11": 0}
-    on_piece = mouth_ends(placed, estimates, reached, [_tongue()], PLANE, TEMPLATE_AXES)
+    on_piece, read = mouth_ends(placed, estimates, reached, [_tongue()], PLANE, TEMPLATE_AXES)
     assert set(TONGUE) <= on_piece
+    assert set(TONGUE) <= read
     assert np.abs(placed[[fp_index(f) for f in TONGUE]] - TONGUE_TRUTH).max() < 0.0006
     assert np.allclose(placed[fp_index("9.11")], estimates[fp_index("9.11")])
 
@@ -117,6 +120,13 @@ def test_with_both_rows_reached_no_other_piece_near_the_estimates_is_taken_for_t
     floor = LOWER - [0.0, 0.0, 0.004]  # a piece under the lower teeth (the mouth's floor), as near the estimates
     reached = {"9.8": 0, "9.9": 1}
     pieces = [(UPPER, NO_TRIANGLES), (LOWER, NO_TRIANGLES), (floor, NO_TRIANGLES)]
-    mouth_ends(placed, estimates, reached, pieces, PLANE, TEMPLATE_AXES)
+    _on, _read = mouth_ends(placed, estimates, reached, pieces, PLANE, TEMPLATE_AXES)
     assert np.allclose(placed[fp_index("9.11")], [0.0, -0.05, -0.0005])
     assert np.allclose(placed[fp_index("9.9")], [0.0, -0.05, -0.0105])
+
+
+def test_points_read_off_a_piece_get_their_definitions_confidence():
+    """The teeth ends and the tongue tip (extremes of their piece) are kept; 6.2-6.4, which "the centre of
+    the tongue body" does not fix along the tongue, are listed for the user to check."""
+    assert all(READ_CONFIDENCE[f] >= LOW_CONFIDENCE for f in ("9.8", "9.9", "9.10", "9.11", "6.1"))
+    assert all(READ_CONFIDENCE[f] < LOW_CONFIDENCE for f in ("6.2", "6.3", "6.4"))
