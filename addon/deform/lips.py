@@ -153,6 +153,10 @@ CARRY_SOURCES = 3  # the guarded vertices nearest a carried one that share their
 TIE = 1e-12  # m: distances along the skin this close are one
 LOWER_SHIFT = 1e6  # face x, beyond any mesh: the lower lip's bound is looked up past the upper lip's
 NO_PAIRS = np.zeros((0, 2), np.intp)  # `_carry` with no (vertex, guarded vertex) pairs
+# a lip vertex this close in front of its lip's triangle, x the triangle's longest edge, is a sliver folded onto it
+# (`_shadowed`); farther, a layer of its own (the 2 mm remesh's fused lips: 0.55 and more; with those too, the guard's
+# rounds and Unfold Skin's fought to the frame's budget, leaving 2 faces turned over in joy.fap)
+SLIVER = 0.25
 
 
 @dataclass(frozen=True)
@@ -274,16 +278,17 @@ def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: 
     """Where the skin of `lip` (N,) bool overlaps itself, looking along `toward` (1: the face's up, from the lower lip;
     -1: down, from the upper) at rest in the (N, 3) face frame. (N,) bool: the lip's vertices over which lies a
     triangle of the same lip that is not their own (the layer behind a fold). (P, 2): (corner, vertex) pairs, a
-    lip vertex straight in front of a triangle of its lip that is not its own, and that triangle's corners on the
-    lip: a sliver of the lip folded onto it that covers none of its corners, as a jittered subdivision's quad whose
-    fourth corner lies 0.2 mm over its other triangle (pushed toward its side 0.13 mm more than them, the corner went
-    through). A triangle is the lip's with two of its corners on it: the mouth box ends at the corners' x, and the
-    lip's skin there has a corner past it."""
+    lip vertex straight in front of a triangle of its lip that is not its own, closer to it than SLIVER x its longest
+    edge, and that triangle's corners on the lip: a sliver of the lip folded onto it that covers none of its corners,
+    as a jittered subdivision's quad whose fourth corner lies 0.2 mm over its other triangle, 0.03 of its longest
+    edge (pushed toward its side 0.13 mm more than them, the corner went through). A triangle is the lip's with two
+    of its corners on it: the mouth box ends at the corners' x, and the lip's skin there has a corner past it."""
     lip = np.asarray(lip, bool)
     tris = triangles[lip[triangles].sum(axis=1) >= 2]
     seen, normal_y = _seen_from_above(face[tris])
     tris = tris[seen]
     a, b, c = (face[tris[:, k]] for k in range(3))
+    longest = np.max([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1)], 0)
     shadowed = np.zeros(len(face), bool)
     over = [np.zeros((0, 2), np.intp)]
     for chunk in np.array_split(np.flatnonzero(lip), max(1, int(lip.sum()) // 256)):
@@ -292,7 +297,7 @@ def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: 
         inside = (wa > EDGE_SLACK) & (wb > EDGE_SLACK) & (wc > EDGE_SLACK)  # strictly: a flat lip shadows nothing
         inside &= ~(tris[None] == chunk[:, None, None]).any(axis=2)
         shadowed[chunk] = (inside & (height > 0.0)).any(axis=1)
-        vertex, triangle = np.nonzero(inside & (height < 0.0))
+        vertex, triangle = np.nonzero(inside & (height < 0.0) & (-height < SLIVER * longest))
         corners = tris[triangle]
         pairs = np.stack([corners.ravel(), np.repeat(chunk[vertex], 3)], axis=1)
         over.append(pairs[lip[pairs[:, 0]]])
