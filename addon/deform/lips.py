@@ -152,6 +152,11 @@ CARRY_RADIUS = 8e-3  # m along the skin: beside the lips, how far their push rea
 CARRY_SOURCES = 3  # the guarded vertices nearest a carried one that share their push with it (and any tied)
 TIE = 1e-12  # m: distances along the skin this close are one
 LOWER_SHIFT = 1e6  # face x, beyond any mesh: the lower lip's bound is looked up past the upper lip's
+NO_PAIRS = np.zeros((0, 2), np.intp)  # `_carry` with no (vertex, guarded vertex) pairs
+# a lip vertex this close in front of its lip's triangle, x the triangle's longest edge, is a sliver folded onto it
+# (`_shadowed`); farther, a layer of its own (the 2 mm remesh's fused lips: 0.55 and more; with those too, the guard's
+# rounds and Unfold Skin's fought to the frame's budget, leaving 2 faces turned over in joy.fap)
+SLIVER = 0.25
 
 
 @dataclass(frozen=True)
@@ -212,8 +217,8 @@ def bind_lip_guard(
 
     A vertex is near the seam knot nearest to it across the mouth, at rest. A vertex still past the seam
     at rest (where the lips touch, at the corners) keeps that much as slack. A lip vertex with its own lip's
-    skin straight past it toward the other lip (`_shadowed`: a fold, as at the mouth's corners) is carried with
-    the skin beside the lips, not guarded."""
+    skin straight past it toward the other lip, or behind it (`_shadowed`: a fold, as at the mouth's corners) is
+    carried with the skin beside the lips, not guarded."""
     rows = {fp_id: k for k, fp_id in enumerate(fp_ids)}
     upper, lower = np.asarray(upper, bool), np.asarray(lower, bool) & ~np.asarray(upper, bool)
     axes = np.asarray(axes, dtype=np.float64)
@@ -229,10 +234,15 @@ def bind_lip_guard(
     reach = tuple(
         float(np.ptp(face_rest[tris[lip[tris].all(axis=1)], 0], axis=1).max(initial=0.0)) for lip in (lower, upper)
     )
-    # skin of a lip with more of the same lip straight past it toward the other lip (the fold where the lip's skin
-    # turns up into a mouth corner) is not what meets the other lip: it is carried with the skin over it, not
-    # pushed on its own, which moved the layers of the fold by different amounts, through each other
-    upper, lower = upper & ~_shadowed(face_rest, tris, upper, -1.0), lower & ~_shadowed(face_rest, tris, lower, 1.0)
+    # where a lip's skin overlaps itself seen from above (the fold where the lip's skin turns up into a mouth corner),
+    # the layer toward the other lip is what meets it: the layer behind is carried with the skin over it, not pushed
+    # on its own, which moved the layers by different amounts, through each other; a lone vertex over its lip's
+    # triangle (a jittered subdivision's quad folded onto itself) pushes that triangle's corners as far as itself
+    (shadowed_upper, over_upper), (shadowed_lower, over_lower) = (
+        _shadowed(face_rest, tris, upper, -1.0),
+        _shadowed(face_rest, tris, lower, 1.0),
+    )
+    upper, lower = upper & ~shadowed_upper, lower & ~shadowed_lower
     vertices = np.concatenate([np.flatnonzero(upper), np.flatnonzero(lower)])
     n_upper = int(upper.sum())
     side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
@@ -241,7 +251,7 @@ def bind_lip_guard(
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
     members = [np.flatnonzero((side == s) & (nearest == k)) for s in (1.0, -1.0) for k in knots]
     unit = face_unit(np.asarray(control_rest)[[rows["2.4"], rows["2.5"]]], axes)
-    carry = _carry(rest, tris, vertices, side, unit)
+    carry = _carry(rest, tris, vertices, side, unit, np.concatenate([over_upper, over_lower]))
     guard = LipGuard(
         vertices=vertices,
         n_upper=n_upper,
@@ -264,24 +274,34 @@ def bind_lip_guard(
     return LipGuard(**{**guard.__dict__, "slack": np.minimum(clearance, 0.0)})
 
 
-def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> np.ndarray:
-    """(N,) the vertices of `lip` (N,) bool over which, looking along `toward` (1: the face's up, from the lower
-    lip; -1: down, from the upper) from their rest position in the (N, 3) face frame, lies a triangle of the same
-    lip that is not theirs. A triangle is the lip's with two of its corners on it: the mouth box ends at the
-    corners' x, and the lip's skin there has a corner past it."""
+def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> tuple:
+    """Where the skin of `lip` (N,) bool overlaps itself, looking along `toward` (1: the face's up, from the lower lip;
+    -1: down, from the upper) at rest in the (N, 3) face frame. (N,) bool: the lip's vertices over which lies a
+    triangle of the same lip that is not their own (the layer behind a fold). (P, 2): (corner, vertex) pairs, a
+    lip vertex straight in front of a triangle of its lip that is not its own, closer to it than SLIVER x its longest
+    edge, and that triangle's corners on the lip: a sliver of the lip folded onto it that covers none of its corners,
+    as a jittered subdivision's quad whose fourth corner lies 0.2 mm over its other triangle, 0.03 of its longest
+    edge (pushed toward its side 0.13 mm more than them, the corner went through). A triangle is the lip's with two
+    of its corners on it: the mouth box ends at the corners' x, and the lip's skin there has a corner past it."""
     lip = np.asarray(lip, bool)
     tris = triangles[lip[triangles].sum(axis=1) >= 2]
     seen, normal_y = _seen_from_above(face[tris])
     tris = tris[seen]
     a, b, c = (face[tris[:, k]] for k in range(3))
+    longest = np.max([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1)], 0)
     shadowed = np.zeros(len(face), bool)
+    over = [np.zeros((0, 2), np.intp)]
     for chunk in np.array_split(np.flatnonzero(lip), max(1, int(lip.sum()) // 256)):
         wa, wb, wc = _in_columns(face[chunk], a, b, c, normal_y)
-        ahead = toward * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - face[chunk, None, 1]) > 0.0
+        height = toward * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - face[chunk, None, 1])
         inside = (wa > EDGE_SLACK) & (wb > EDGE_SLACK) & (wc > EDGE_SLACK)  # strictly: a flat lip shadows nothing
-        own = (tris[None] == chunk[:, None, None]).any(axis=2)
-        shadowed[chunk] = (inside & ahead & ~own).any(axis=1)
-    return shadowed
+        inside &= ~(tris[None] == chunk[:, None, None]).any(axis=2)
+        shadowed[chunk] = (inside & (height > 0.0)).any(axis=1)
+        vertex, triangle = np.nonzero(inside & (height < 0.0) & (-height < SLIVER * longest))
+        corners = tris[triangle]
+        pairs = np.stack([corners.ravel(), np.repeat(chunk[vertex], 3)], axis=1)
+        over.append(pairs[lip[pairs[:, 0]]])
+    return shadowed, np.unique(np.concatenate(over), axis=0)
 
 
 def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
@@ -313,7 +333,14 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
     return True
 
 
-def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: np.ndarray, unit: float) -> dict:
+def _carry(
+    rest: np.ndarray,
+    triangles: np.ndarray,
+    vertices: np.ndarray,
+    side: np.ndarray,
+    unit: float,
+    over: np.ndarray = NO_PAIRS,
+) -> dict:
     """The skin that follows the guard's push (`LipGuard.skin`, `sources`, `shares`).
 
     Each vertex within CARRY_RADIUS along the mesh's edges of the guarded `vertices` takes the average of
@@ -322,7 +349,11 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
     skin instead of folding the faces beside a pushed vertex. Beside the lips, vertices of both lips share
     (where a push up meets a push down, at the mouth's corners, they cancel); a guarded vertex shares only
     its own lip's pushes (toward its side: never toward the other lip) and moves by its own or the shared
-    push, whichever is more."""
+    push, whichever is more. `over` (P, 2) (vertex, guarded vertex) pairs (`_shadowed`: a triangle's corner and a
+    vertex of its lip straight in front of the triangle): such a vertex also takes the mean push of the guarded
+    vertices in front of it, on top of its share (a triangle with one vertex in front of it moves at least as far as
+    that vertex, and stays behind it). Taking that mean instead of the share left the corners' neighbours behind:
+    the jittered subdivision's mouth corner then crossed 2 pairs where it had crossed none."""
     rest = np.asarray(rest, dtype=np.float64)
     n = len(rest)
     radius = CARRY_RADIUS * unit
@@ -362,12 +393,32 @@ def _carry(rest: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, side: 
     falloff = 1.0 - t * t * (3.0 - 2.0 * t)
     most = falloff.max(axis=1, keepdims=True, initial=0.0)  # a lip of one vertex has no neighbour on it
     shares = falloff / np.maximum(falloff.sum(axis=1, keepdims=True), 1e-300) * most
+    sources, shares = _full_shares(sources, shares, np.array(skin[0] + skin[1], np.intp), vertices, over)
     shares *= side[sources] * np.concatenate([side, np.ones(len(skin[1]))])[:, None]
     return {
         "skin": np.array(skin[0] + skin[1], np.intp),
         "sources": np.ascontiguousarray(sources.T),
         "shares": np.ascontiguousarray(shares.T),
     }
+
+
+def _full_shares(
+    sources: np.ndarray, shares: np.ndarray, skin: np.ndarray, vertices: np.ndarray, over: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(R, k) `sources` and `shares` of the rows of `skin`, and where a row's vertex has (vertex, guarded vertex)
+    pairs in `over`, those guarded vertices (rows of `vertices`) too, an equal share each, adding up to one."""
+    row_of = dict(zip(vertices.tolist(), range(len(vertices)), strict=True))
+    at = {v: r for r, v in enumerate(skin.tolist())}
+    extra = [[] for _ in range(len(skin))]
+    for vertex, source in over.tolist():
+        if vertex in at and source in row_of and vertex != source:
+            extra[at[vertex]].append(row_of[source])
+    width = max(map(len, extra), default=0)
+    more_sources, more_shares = np.zeros((len(skin), width), np.intp), np.zeros((len(skin), width))
+    for r, found in enumerate(extra):
+        if found:
+            more_sources[r, : len(found)], more_shares[r, : len(found)] = found, 1.0 / len(found)
+    return np.concatenate([sources, more_sources], axis=1), np.concatenate([shares, more_shares], axis=1)
 
 
 def _nearest(graph: tuple[np.ndarray, np.ndarray, np.ndarray], sources: np.ndarray, k: int, unit: float) -> dict:

@@ -1,12 +1,21 @@
-"""What one played frame of the add-on is made of, for docs/speed.md.
+"""What one played frame of the add-on is made of, for docs/speed.md and docs/real_meshes.md.
 
     .venv/bin/python -m scripts.bench.frame_breakdown [--levels 0 1] [--frames 60]
+    .venv/bin/python -m scripts.bench.frame_breakdown --face FACE.blend [--stream S.fap] [--slowest 5]
 
 On the sample head set up as a user has it (the demo stream imported, `bench.prepare`), medians over the
 frames of: the whole frame (`scene.frame_set` and the evaluated mesh read back); the same with Deform off
 (Blender evaluating the keyed empties, the followers' drivers and the face); the add-on's frame handler
 alone; and Blender's two depsgraph passes (the second runs because the handler changed a mesh), as
 Blender's own `debug_depsgraph_time` prints them.
+
+`--face`: a face as a user brings it (e.g. `scripts.bench.variants`' remesh_2mm) set up and playing the stream
+frame by frame; the CPU time of each stage of every frame (`time.process_time`, which other jobs on the machine do
+not lengthen): Planar Bones (`Playback.evaluate`), the lip guard (each call, the rounds inside Unfold Skin's
+included), the lids' turn, Unfold Skin (its look at the groups, then `open_folds_guarded` with its guard rounds),
+the positions written back, and the whole frame (`scene.frame_set`, Blender's own evaluation included). Printed:
+the median of each over the frames in which the face moved, then the `--slowest` frames by CPU time, each stage's
+time and the calls of the guard and of Unfold Skin's kernel.
 """
 
 from __future__ import annotations
@@ -16,12 +25,14 @@ import os
 import re
 import sys
 import time
+from pathlib import Path
 
 import bpy
 import numpy as np
 
 import addon
-from addon.blender import live
+from addon.blender import eyelid_rig, live, rest_shape
+from addon.deform import fused, unfold
 from scripts.bench import bench
 
 
@@ -91,12 +102,87 @@ def measure(level: int, frames: int) -> dict:
     }
 
 
+STAGES = (  # (name, module or class, attribute): what `--face` times in each frame
+    ("Planar Bones", fused.Playback, "evaluate"),
+    ("lip guard", live, "_keep_lips_apart"),
+    ("lids' turn", eyelid_rig, "apply"),
+    ("Unfold Skin's look", live, "_look"),
+    ("Unfold Skin", unfold, "open_folds_guarded"),
+    ("kernel unfold", fused, "unfold"),
+    ("write back", rest_shape, "write_positions"),
+)
+
+
+def stage_times(face_path: Path, stream: Path) -> tuple[list[int], np.ndarray, np.ndarray, list[str]]:
+    """Set the face up, import `stream` and play it frame by frame with each of STAGES timed: the frames, (F, S)
+    CPU seconds per stage (inclusive: the guard's rounds inside Unfold Skin count in both), (F, S) calls per stage,
+    and the names of the stages, the whole frame last."""
+    from scripts.bench.variant_playback import _face
+
+    bpy.ops.wm.open_mainfile(filepath=str(face_path))
+    _face()  # selected and active: what Set Up Face takes
+    bpy.ops.mpeg4.setup_face()
+    assert bpy.ops.mpeg4.import_fap(filepath=str(stream)) == {"FINISHED"}
+    scene = bpy.context.scene
+    spent = np.zeros(len(STAGES))
+    calls = np.zeros(len(STAGES), np.int64)
+    saved = [getattr(owner, name) for _, owner, name in STAGES]
+
+    def timed(k, function):
+        def call(*args, **kwargs):
+            start = time.process_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                spent[k] += time.process_time() - start
+                calls[k] += 1
+
+        return call
+
+    for k, ((_, owner, name), function) in enumerate(zip(STAGES, saved, strict=True)):
+        setattr(owner, name, timed(k, function))
+    frames, times, counts = [], [], []
+    try:
+        scene.frame_set(scene.frame_start)
+        for frame in range(scene.frame_start + 1, int(np.ceil(scene.frame_end)) + 1):
+            spent[:], calls[:] = 0.0, 0
+            start = time.process_time()
+            scene.frame_set(frame)
+            frames.append(frame)
+            times.append([*spent, time.process_time() - start])
+            counts.append([*calls, 1])
+    finally:
+        for (_, owner, name), function in zip(STAGES, saved, strict=True):
+            setattr(owner, name, function)
+    return frames, np.array(times), np.array(counts), [name for name, _, _ in STAGES] + ["whole frame"]
+
+
+def print_stages(face_path: Path, stream: Path, slowest: int) -> None:
+    frames, times, counts, names = stage_times(face_path, stream)
+    ms = times * 1000
+    moving = counts[:, -2] > 0  # the positions were written back: the face moved
+    median = np.median(ms[moving], axis=0)
+    print(f"{face_path.stem}, {stream.name}: {len(frames)} frames, {int(moving.sum())} moving; CPU ms per stage")
+    print("| frame | " + " | ".join(names) + " | whole / moving median |")
+    print("|---" * (len(names) + 2) + "|")
+    print("| median (moving) | " + " | ".join(f"{m:.2f}" for m in median) + " | 1.0 |")
+    for k in np.argsort(-ms[:, -1])[:slowest]:
+        cells = [f"{ms[k, s]:.2f} ({counts[k, s]})" if counts[k, s] else "-" for s in range(len(names) - 1)]
+        print(f"| {frames[k]} | " + " | ".join(cells) + f" | {ms[k, -1]:.2f} | {ms[k, -1] / median[-1]:.1f} |")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--levels", type=int, nargs="+", default=[0, 1], choices=[0, 1, 2])
     parser.add_argument("--frames", type=int, default=60)
+    parser.add_argument("--face", type=Path, help="a .blend with FPs placed: time each stage of its frames")
+    parser.add_argument("--stream", type=Path, default=bench.DEMO)
+    parser.add_argument("--slowest", type=int, default=5)
     args = parser.parse_args(argv)
     addon.register()
+    if args.face is not None:
+        print_stages(args.face, args.stream, args.slowest)
+        return 0
     print("| vertices | frame (ms) | Deform off (ms) | handler (ms) | first pass (ms) | second pass (ms) |")
     print("|---:|---:|---:|---:|---:|---:|")
     for level in args.levels:

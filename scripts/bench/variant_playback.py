@@ -8,7 +8,9 @@ Each face file (or every .blend in a folder, e.g. what `scripts.bench.variants O
 (the object named Head, else the active mesh) set up with Set Up Face, and each stream imported with the default
 options and played frame by frame through `scene.frame_set`, as a user plays it. Per face and stream it prints:
 the frames; the median and the largest frame time, and how many frames took more than 3x the median (over all
-frames, and over the frames in which the face moved), and the largest over the moving median; the most faces turned
+frames, and over the frames in which the face moved), and the largest over the moving median; the same from the
+process's CPU time per frame (`time.process_time`: what the frame itself cost, which other jobs on the machine
+do not lengthen, as they do the wall-clock time by taking the cores away); the most faces turned
 over in a frame (`folds`); the most crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame;
 pairs that cross at rest already are not counted, their number in brackets); how
 far the upper lids' edges (the vertices along their FPs, `lid_edges`) lie off a smooth curve through their
@@ -71,11 +73,22 @@ def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
     return chains
 
 
+def played_positions(mesh, buffer: np.ndarray | None = None) -> np.ndarray:
+    """(N, 3) float64: the face's positions as the frame left them (a mesh with shape keys is played in the add-on's
+    own key, `rest_shape.deform_target`)."""
+    target = rest_shape.deform_target(mesh)
+    buffer = np.empty(len(mesh.vertices) * 3, np.float32) if buffer is None else buffer
+    if target is None:
+        mesh.attributes["position"].data.foreach_get("vector", buffer)
+    else:
+        target.data.foreach_get("co", buffer)
+    return buffer.reshape(-1, 3).astype(np.float64)
+
+
 def play(face, stream: Path, every: int) -> dict:
     assert bpy.ops.mpeg4.import_fap(filepath=str(stream)) == {"FINISHED"}
     scene, mesh = bpy.context.scene, face.data
     rest = rest_shape.reference_positions(mesh).astype(np.float64)
-    target = rest_shape.deform_target(mesh)  # a mesh with shape keys is played in the add-on's own key
     fans = face_data.mesh_fans(mesh)
     parts = np.zeros(len(rest), bool)  # the eyeballs, teeth and tongue inside the face: not skin
     for members in inner_parts.group_members(face).values():
@@ -85,18 +98,15 @@ def play(face, stream: Path, every: int) -> dict:
     at_rest = crossing_pairs(rest, skin)  # the surface's own crossings before anything moves are not counted
     anchored = [part_anchors(rest, members) for members in inner_parts.group_members(face).values() if len(members)]
     buffer = np.empty(len(mesh.vertices) * 3, np.float32)
-    times, moved, folds, crossed, rough, bent = [], [], [], [], [], [0.0]
+    times, cpu, moved, folds, crossed, rough, bent = [], [], [], [], [], [], [0.0]
     scene.frame_set(scene.frame_start)
     last = rest
     for frame in range(scene.frame_start + 1, int(np.ceil(scene.frame_end)) + 1):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         scene.frame_set(frame)
         times.append(time.perf_counter() - start)
-        if target is None:
-            mesh.attributes["position"].data.foreach_get("vector", buffer)
-        else:
-            target.data.foreach_get("co", buffer)
-        now = buffer.reshape(-1, 3).astype(np.float64)
+        cpu.append(time.process_time() - start_cpu)
+        now = played_positions(mesh, buffer)
         moved.append(not np.array_equal(now, last))
         last = now
         folds.append(count_inverted(rest, now, *fans))
@@ -110,7 +120,8 @@ def play(face, stream: Path, every: int) -> dict:
     else:
         status = ""
     rest_rough = max((edge_roughness(rest, loop, closed=False).max() for loop in lids), default=0.0)
-    got = {"times": np.array(times), "moved": np.array(moved), "folds": folds, "crossed": crossed, "status": status}
+    got = {"times": np.array(times), "cpu": np.array(cpu), "moved": np.array(moved), "folds": folds}
+    got |= {"crossed": crossed, "status": status}
     got["rigid"] = max(bent) if anchored else None
     got["at_rest"] = len(at_rest)
     return got, rough, rest_rough
@@ -141,11 +152,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     files = [f for p in args.faces for f in (sorted(p.glob("*.blend")) if p.is_dir() else [p])]
     addon.register()
-    columns = "frames | median ms (moving) | max ms | >3x median (moving) | max / moving median | folds"
+    columns = "frames | median ms (moving) | max ms | >3x median (moving) | max / moving median"
+    columns += " | CPU: median ms (moving), max ms, max / moving median | folds"
     columns += " | crossings (at rest)"
     columns += " | lid edge mm | parts rigid mm | deformation turned off"
     print(f"| face | stream | {columns} |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for path in files:
         bpy.ops.wm.open_mainfile(filepath=str(path))
         face = _face()
@@ -160,13 +172,16 @@ def main(argv: list[str] | None = None) -> int:
             bpy.ops.wm.open_mainfile(filepath=str(saved))
             face = _face()
             got, rough, rest_rough = play(face, stream, args.every)
-            t, moving = got["times"] * 1000, got["moved"]
+            t, moving, c = got["times"] * 1000, got["moved"], got["cpu"] * 1000
             median, moving_median = np.median(t), np.median(t[moving]) if moving.any() else np.nan
+            cpu_moving = np.median(c[moving]) if moving.any() else np.nan
             rigid = "-" if got["rigid"] is None else f"{got['rigid'] * 1000:.4f}"
             print(
                 f"| {path.stem} | {stream.name} | {len(t)} | {median:.1f} ({moving_median:.1f}) | {t.max():.1f} | "
                 f"{int((t > 3 * median).sum())} ({int((t[moving] > 3 * moving_median).sum())}) | "
-                f"{t.max() / moving_median:.1f} | {max(got['folds'], default=0)} | "
+                f"{t.max() / moving_median:.1f} | "
+                f"{np.median(c):.1f} ({cpu_moving:.1f}), {c.max():.1f}, {c.max() / cpu_moving:.1f} | "
+                f"{max(got['folds'], default=0)} | "
                 f"{max(got['crossed'], default=0)} ({got['at_rest']}) | "
                 f"{rest_rough * 1000:.2f} → {max(rough, default=0.0) * 1000:.2f} | "
                 f"{rigid} | {got['status'] or 'no'} |"

@@ -281,10 +281,12 @@ def test_a_subdivided_face_with_its_new_vertices_moved_opens_the_lips_folds():
     # one cut per edge, the new vertices jittered along the surface (`variants.subdivide`): demo frames 116-125 fold
     # the skin inside the mouth corners (25 faces, the sample's 6 cut in 4), which Unfold Skin must open within a
     # frame's budget (234 steps at 17k vertices). Before (the membrane's plain mean): 565 steps, and the budget left
-    # up to 65 faces turned over (134 crossing pairs); now 25 steps. The lip guard still crosses 7 pairs of the
-    # lower lip's sub-millimetre faces there (docs/real_meshes.md), so crossings are not asserted
+    # up to 65 faces turned over (134 crossing pairs); now 25 steps. The lip guard then crossed 2 pairs in frames
+    # 114-130: a lower-lip quad folded onto itself by the jitter, its fourth corner pushed through its other
+    # triangle (`lips._shadowed`); now none
     from addon.blender import rest_shape
     from addon.deform.folds import count_inverted
+    from addon.deform.overlaps import crossings
 
     head = unset_sample()
     variants.subdivide(head)
@@ -292,8 +294,9 @@ def test_a_subdivided_face_with_its_new_vertices_moved_opens_the_lips_folds():
     assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP)) == {"FINISHED"}
     rest = rest_shape.stored_rest(head.data).astype(np.float64)
     fans = face_data.mesh_fans(head.data)
-    for frame in (117, 120):
+    for frame in (114, 117, 120, 122):
         bpy.context.scene.frame_set(frame)
         now = positions(head.data).astype(np.float64)
         assert head.mpeg4_face.status == ""
         assert count_inverted(rest, now, *fans) == 0
+        assert crossings(now, fans[0], np.any(now != rest, axis=1)) == 0

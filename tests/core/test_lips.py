@@ -176,7 +176,8 @@ def test_a_fold_of_a_lip_moves_as_one():
     (the old guard pushed each layer of such a fold onto the seam by its own amount, through each other). The
     deformer raises v and the flap alike 0.8 mm, past the seam (y = 0) by 0.3 and 0.5 mm: the flap goes back onto
     the seam and v is carried down by the flap's push times the falloff of its nearest guarded vertex's distance,
-    1 - smoothstep(d / 8 mm), staying under the flap."""
+    1 - smoothstep(d / 8 mm), and, as a corner of the triangles straight behind the flap's vertices, by their mean
+    push on top (`_shadowed`'s pairs): at least as far as the flap, so it stays under it."""
     rest, triangles, upper, lower, fps = mouth()
     v = int(np.flatnonzero(lower & np.isclose(rest[:, 0], 0.0) & np.isclose(rest[:, 2], ZS[1]))[0])
     flap = rest[v] + np.array([[-0.001, 0.0002, -0.001], [0.001, 0.0002, -0.001], [0.0, 0.0002, 0.001]])
@@ -192,5 +193,27 @@ def test_a_fold_of_a_lip_moves_as_one():
     guard_lips(guard, deformed, fps)
     np.testing.assert_allclose(deformed[[f1, f2, f3], 1], 0.0, atol=1e-15)  # the flap onto the seam
     t = np.linalg.norm(flap[0] - rest[v]) / 0.008
-    assert deformed[v, 1] == pytest.approx(0.0003 - 0.0005 * (1.0 - t * t * (3.0 - 2.0 * t)), abs=1e-15)
+    assert deformed[v, 1] == pytest.approx(0.0003 - 0.0005 * (2.0 - t * t * (3.0 - 2.0 * t)), abs=1e-15)
     assert deformed[v, 1] < 0.0
+
+
+def test_a_lip_vertex_folded_over_its_own_lip_takes_the_triangle_behind_along():
+    """A quad of the lower lip folded onto itself (a jittered subdivision's): its fourth corner u lies 0.1 mm straight
+    over its other triangle ABC, inside it and over none of its corners. The seam bends down to 2.2-2.3 met at x = 0
+    (-0.5 mm, -0.34 at A and B's x = 4 mm) under the upper lip pressed down to it: ABC's corners lie below it, u
+    0.18 mm above it. The old guard pushed u alone onto the seam, below ABC's plane there (-0.42 mm at rest):
+    through it. Now ABC's corners, behind u, take u's push too, and u stays over ABC."""
+    rest, triangles, upper, lower, fps = mouth()
+    mm = 0.001
+    quad = np.array([[-4, -0.36, 10], [4, -0.36, 10], [0, -0.52, 14], [0, -0.32, 11.5]]) * mm  # A, B, C, u
+    a, b, c, u = len(rest) + np.arange(4)
+    rest = np.concatenate([rest, quad])
+    triangles = np.concatenate([triangles, [(a, b, c), (a, u, b)]])
+    upper, lower = np.r_[upper, [False] * 4], np.r_[lower, [True] * 4]
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    assert np.isin([a, b, c, u], guard.vertices).all()
+    deformed, points = pressed(rest, upper, fps, 0.5)  # the upper lip down to -0.5 mm at x = 0; 2.2 meets 2.3
+    guard_lips(guard, deformed, points)
+    assert deformed[u, 1] <= -GAP + 1e-12  # onto the seam (or below, under the upper lip's triangles)
+    below = 0.625 * deformed[[a, b], 1].mean() + 0.375 * deformed[c, 1]  # ABC's plane under u (x = 0, z = 11.5 mm)
+    assert deformed[u, 1] > below
