@@ -27,7 +27,7 @@ from scripts import convert
 from scripts.bench import evaluate
 from scripts.docs.closeups import aim_camera, closeup_camera, render_tile, save_rows, set_up_sample, unit_arguments
 from scripts.docs.render_eyes_brows import motion_colours, paint, positions
-from scripts.docs.render_unfold import unit_motion
+from scripts.docs.render_unfold import unit_sculpts_and_motions
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 240
@@ -73,9 +73,7 @@ def render_add_on(sample, sculpts: dict, motions: dict, largest: dict, tmp: str,
 def main(argv=None) -> int:
     args = unit_arguments(__doc__, ROOT / "docs" / "cheeks_before_after.png", argv)
     sample = evaluate.load_face(evaluate.DEFAULT_FACE)
-    files = {evaluate.target_name(p): p for p in evaluate.target_files(args.targets)}
-    sculpts = {name: evaluate.target_motion(files[name], sample)[0] for name in UNITS}
-    motions = {name: unit_motion(sample, name, args.targets) for name in UNITS}
+    sculpts, motions = unit_sculpts_and_motions(sample, UNITS, args.targets)
     largest = {name: float(np.linalg.norm(sculpts[name], axis=1).max()) for name in UNITS}
     face_binding = convert._addon("deform.face_binding")
     stop = face_binding.stop_at_held_outline

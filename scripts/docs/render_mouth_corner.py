@@ -23,7 +23,7 @@ from scripts import convert
 from scripts.bench import evaluate
 from scripts.docs.closeups import aim_camera, closeup_camera, render_tile, save_rows, set_up_sample, unit_arguments
 from scripts.docs.render_eyes_brows import positions
-from scripts.docs.render_unfold import RED, unit_motion
+from scripts.docs.render_unfold import RED, unit_sculpts_and_motions
 
 ROOT = Path(__file__).resolve().parents[2]
 TILE = 300
@@ -55,9 +55,7 @@ def paint_crossings(head, rest: np.ndarray, deformed: np.ndarray) -> int:
 def main(argv=None) -> int:
     args = unit_arguments(__doc__, ROOT / "docs" / "mouth_corner_after.png", argv)
     sample = evaluate.load_face(evaluate.DEFAULT_FACE)
-    files = {evaluate.target_name(p): p for p in evaluate.target_files(args.targets)}
-    sculpts = {name: evaluate.target_motion(files[name], sample)[0] for name in UNITS}
-    motions = {name: unit_motion(sample, name, args.targets) for name in UNITS}
+    sculpts, motions = unit_sculpts_and_motions(sample, UNITS, args.targets)
     scene, head, _empties, controls, at_rest, rest = set_up_sample(sample.fp_ids)
     live = convert._addon("blender.live")
     camera = closeup_camera(scene, head, TILE, ORTHO)

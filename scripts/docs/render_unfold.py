@@ -40,6 +40,13 @@ def unit_motion(face: evaluate.SampleFace, name: str, folder: Path) -> np.ndarra
     return evaluate.target_motion(path, face)[1]
 
 
+def unit_sculpts_and_motions(face: evaluate.SampleFace, names, folder: Path) -> tuple[dict, dict]:
+    """For each unit in `names`: the sculpt's (N, 3) vertex offsets and the control FPs' (M, 3) offsets."""
+    files = {evaluate.target_name(p): p for p in evaluate.target_files(folder)}
+    sculpts = {name: evaluate.target_motion(files[name], face)[0] for name in names}
+    return sculpts, {name: unit_motion(face, name, folder) for name in names}
+
+
 def paint_folds(head, rest: np.ndarray) -> int:
     """Colour the faces turned over against the rest pose red (a face-corner colour attribute); their count."""
     face_data = convert._addon("blender.face_data")

