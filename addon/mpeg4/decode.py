@@ -23,7 +23,11 @@ Readings chosen where the standard leaves the decoder free (research/mpeg4-fba.m
   its inner/outer lip counterpart's, in that frame.
 - open_jaw "does not affect mouth opening": the lower lip, chin and lower teeth move with the jaw and
   the lip FAPs add on top. The lip corners take half of the jaw motion (they sit at the hinge between
-  the lips). Unidirectional FAPs are passed through when negative (real streams send such values).
+  the lips), and so do the cheeks' centres 5.1 / 5.2, which the standard puts at the corners' height: skin
+  between the maxilla and the mandible at the level where the teeth meet, stretched between a bone that
+  stays and one that drops (MakeHuman's sculpted mouth-open unit moves them 19 mm as its chin moves 39;
+  before, the cheeks stayed and the skin between them and the chin stretched). Unidirectional FAPs are
+  passed through when negative (real streams send such values).
 - Rotations compose as R = R_yaw @ R_pitch @ R_roll for the head (roll innermost, yaw outermost like a
   neck) and R_yaw @ R_pitch for the eyeballs; both eyes use the same sign convention.
 - dilate_pupil (29, 30) scales the pupil and moves no feature point, so it is ignored here.
@@ -41,7 +45,7 @@ from .feature_points import N_FEATURE_POINTS, fp_index
 JAW_FAPS = (3, 14, 15)
 JAW_RIDERS: dict[str, float] = {
     **dict.fromkeys("2.3 2.8 2.9 2.10 2.11 2.12 8.2 8.7 8.8 9.9 9.11 6.1 6.2 6.3 6.4".split(), 1.0),
-    **dict.fromkeys(("2.4", "2.5", "8.3", "8.4"), 0.5),
+    **dict.fromkeys(("2.4", "2.5", "8.3", "8.4", "5.1", "5.2"), 0.5),
 }
 # (upper FP, lower FP) across the eye openings and the mouth: the upper one must stay above the lower one
 CLOSING_PAIRS = (

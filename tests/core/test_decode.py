@@ -46,8 +46,9 @@ def test_open_jaw_512_moves_chin_down_by_half_mns0():
     # Blender: down is -Z
     np.testing.assert_allclose(out[0, k] - NEUTRAL[k], [0.0, 0.0, -FAPU.MNS0 / 2], atol=1e-15)
     assert moved(out) == {"2.1", *JAW_RIDERS}
-    k = fp_index("8.3")
-    np.testing.assert_allclose(out[0, k] - NEUTRAL[k], [0.0, 0.0, -FAPU.MNS0 / 4], atol=1e-15)
+    for fp_id in ("8.3", "5.1", "5.2"):  # the lip corners and the cheeks' centres at their height: half the jaw
+        k = fp_index(fp_id)
+        np.testing.assert_allclose(out[0, k] - NEUTRAL[k], [0.0, 0.0, -FAPU.MNS0 / 4], atol=1e-15, err_msg=fp_id)
 
 
 def test_translational_faps_follow_axis_and_fapu():
