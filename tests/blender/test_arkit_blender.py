@@ -51,11 +51,14 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
         assert np.average(rest[:, 0], weights=moved[name.replace("Left", "Right")]) < -0.005, name
     blink = offsets["eyeBlinkLeft"]
     assert blink[moved["eyeBlinkLeft"].argmax(), 2] < -0.005  # the upper lid comes down (Blender Z up)
+    # the smile's corner goes up about as far as out (ARKit's "upward movement"; 2.9 mm up, 7.4 out before)
+    fps = {fp_id: np.array(ob.location) for fp_id, ob in face_data.fp_empties(head).items()}
+    corner = offsets["mouthSmileLeft"][np.linalg.norm(rest - fps["2.4"], axis=1).argmin()]
+    assert corner[2] > 0.004 and corner[2] > 0.7 * corner[0] > 0.0  # up (Blender +Z), out (the face's left, +X)
     jaw = offsets["jawOpen"]
     chin = moved["jawOpen"].argmax()
     assert jaw[chin, 2] < -0.01 and rest[chin, 2] < np.median(rest[:, 2])  # the chin drops
     # ... turning about the jaw joints: drawn back (+Y) as it drops, the chin bottom 2.1 by what open_jaw says
-    fps = {fp_id: np.array(ob.location) for fp_id, ob in face_data.fp_empties(head).items()}
     near = {fp_id: np.linalg.norm(rest - point, axis=1).argmin() for fp_id, point in fps.items()}
     assert jaw[near["2.1"], 1] > 0.015 and jaw[near["2.1"], 2] < -0.012
     # ... and so does the skin between the chin and the jaw's turning centre, not only the FPs: every vertex the
