@@ -62,6 +62,9 @@ FOLLOW_SMOOTHING_PER_ES0 = 0.4  # the width of skin `smooth_follow` spreads a ve
 # a leave-one-unit-and-twin-out check picks (32 of 34 times on 1.0-1.6, `scripts.bench.mouth_reach`), not the one
 # meeting the cheeks' target (eyes_brows.md)
 MOUTH_REACH_PER_ES0 = 1.2
+# `stop_at_held_outline`: a pair this share of its triangle's longest edge or less past the edge or corner is on it
+# (float rounding of the rest mesh, e.g. a mesh turned Y-up, is about 1e-7 of it)
+ON_RIM = 1e-6
 SMOOTHED_REACH = 3.0  # widths from the nearest control FP: the skin `smooth_follow` smooths among
 
 
@@ -221,6 +224,14 @@ def stop_at_held_outline(binding: Binding, mouth_triangles: np.ndarray, mouth_ro
     first = held[np.take_along_axis(corners, j[:, None], axis=1)[:, 0]]
     second = held[np.take_along_axis(corners, ((j + 1) % 3)[:, None], axis=1)[:, 0]]
     past = np.where(region >= APEX, first, (region >= EDGE) & first & second)
+    # past the edge or corner, not on it: a vertex on the triangle's rim (an FP's own vertex at its corner, a vertex
+    # on its edge) is the triangle's whichever region float rounding files it under, where eq. 12-14 give the
+    # same image as the face region (`regions.locate`); without this, the sample's cheek vertex under FP 5.1 kept
+    # 7 or 8 of its 8 pairs as the head was bound Z-up or Y-up, and followed 5.1 by 7/8 or all of its motion
+    points = np.asarray(binding.control_rest)[corners]  # (P, 3, 3) each pair's triangle
+    size = np.linalg.norm(points - np.roll(points, 1, axis=1), axis=2).max(axis=1)
+    beyond = np.where(region >= APEX, binding.pair_apex_distance, binding.pair_region_local[:, 1])
+    past &= beyond > ON_RIM * size
     drop = np.asarray(mouth_triangles, dtype=bool)[binding.pair_triangle] & past
     if not drop.any():
         return binding

@@ -67,3 +67,24 @@ def test_a_lip_pushed_out_no_longer_swings_the_nose_it_does_not_move():
     np.testing.assert_array_equal(after[lip_side], before[lip_side])
     assert np.linalg.norm(after[lip_side] - rest[lip_side]) > 0.003
     np.testing.assert_allclose(evaluate(stopped, control), rest, atol=1e-12)  # at rest, the skin stays
+
+
+def test_a_vertex_on_the_held_edge_keeps_its_pair_whatever_rounding_files_it_under():
+    """A vertex on the mouth triangle's nose edge, or at the wing FP itself, is on the triangle: rounding that puts
+    it 1e-12 m past the edge (a mesh turned Y-up) must not take its pair away, where 0.1 mm past does."""
+    control = np.array([[0.0, 0.0, 0.0], [0.02, 0.03, 0.0], [-0.02, 0.03, 0.0], [0.0, 0.05, 0.0]])
+    triangles = np.array([[LIP, WING_L, WING_R], [WING_R, WING_L, TIP]])
+    rest = np.array(
+        [
+            [0.0, 0.03 + 1e-12, 0.0],  # on the nose edge, rounded past it
+            [0.02, 0.03 + 1e-12, 0.0],  # at the wing FP, rounded past its corner
+            [0.0, 0.0301, 0.0],  # 0.1 mm past the edge: the nose's skin
+            [0.0, 0.01, 0.0],  # inside the mouth triangle
+        ]
+    )
+    binding = bind(rest, control, triangles, cover=np.zeros(len(rest), bool), fade_below=0.2)
+    mouth = binding.pair_triangle == 0
+    assert np.all(binding.pair_region[mouth & (binding.pair_vertex < 3)] != FACE)  # filed past the edge or corner
+    stopped = stop_at_held_outline(binding, np.array([True, False]), [LIP])
+    kept = set(stopped.pair_vertex[stopped.pair_triangle == 0].tolist())
+    assert kept == {0, 1, 3}
