@@ -62,9 +62,10 @@ FOLLOW_SMOOTHING_PER_ES0 = 0.4  # the width of skin `smooth_follow` spreads a ve
 # a leave-one-unit-and-twin-out check picks (32 of 34 times on 1.0-1.6, `scripts.bench.mouth_reach`), not the one
 # meeting the cheeks' target (eyes_brows.md)
 MOUTH_REACH_PER_ES0 = 1.2
-# `stop_at_held_outline`: a pair this share of its triangle's longest edge or less past the edge or corner is on it
-# (float rounding of the rest mesh, e.g. a mesh turned Y-up, is about 1e-7 of it)
-ON_RIM = 1e-6
+# `stop_at_held_outline`: a pair this share of its triangle's longest edge or less past the edge or corner is on it:
+# enough for the sample's vertices on a rim when the head is turned Y-up (at 1e-12 one went past), small enough that
+# the head modelled in millimetres and in metres keep the same pairs (at 1e-6 they did not: vertices nm from a rim)
+ON_RIM = 1e-9
 SMOOTHED_REACH = 3.0  # widths from the nearest control FP: the skin `smooth_follow` smooths among
 
 
