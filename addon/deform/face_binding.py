@@ -49,7 +49,7 @@ from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from .auto_masks import geodesic_distance
 from .planar_bones import Binding, bind, cover_over_control_mesh
-from .regions import APEX, EDGE
+from .regions import APEX, EDGE, triangle_frames
 
 FADE_BELOW = 0.2
 FACE_DEPTH_PER_ES0 = 0.25
@@ -229,10 +229,9 @@ def stop_at_held_outline(binding: Binding, mouth_triangles: np.ndarray, mouth_ro
     # on its edge) is the triangle's whichever region float rounding files it under, where eq. 12-14 give the
     # same image as the face region (`regions.locate`); without this, the sample's cheek vertex under FP 5.1 kept
     # 7 or 8 of its 8 pairs as the head was bound Z-up or Y-up, and followed 5.1 by 7/8 or all of its motion
-    points = np.asarray(binding.control_rest)[corners]  # (P, 3, 3) each pair's triangle
-    size = np.linalg.norm(points - np.roll(points, 1, axis=1), axis=2).max(axis=1)
+    size = triangle_frames(np.asarray(binding.control_rest)[triangles]).edge_lengths.max(axis=1)  # (T,) longest edge
     beyond = np.where(region >= APEX, binding.pair_apex_distance, binding.pair_region_local[:, 1])
-    past &= beyond > ON_RIM * size
+    past &= beyond > ON_RIM * size[binding.pair_triangle]
     drop = np.asarray(mouth_triangles, dtype=bool)[binding.pair_triangle] & past
     if not drop.any():
         return binding
