@@ -309,11 +309,12 @@ def _state(face, arm) -> _State:
 
 
 def _channels(state: _State, moved: np.ndarray, previous: np.ndarray | None = None):
-    """(B, 3) locations and (B, 4) quaternions of the skeleton's bones for FP positions `moved` (reader order)."""
+    """(B, 3) locations and (B, 4) quaternions of the skeleton's bones for FP positions `moved` (reader order),
+    and their (B, 4, 4) transforms relative to rest (what the Armature modifier applies)."""
     moved_fps = dict(zip(state.reader.fp_ids, moved, strict=True))
     transforms = pose_from_fps(state.skeleton, state.rest_fps, moved_fps, PARAMETERS)
     basis = bone_basis(state.rest, state.skeleton.parents, transforms)
-    return basis[:, :3, 3], quaternions(basis[:, :3, :3], previous)
+    return basis[:, :3, 3], quaternions(basis[:, :3, :3], previous), transforms
 
 
 def require_skeleton(face) -> bpy.types.Object:
@@ -323,16 +324,23 @@ def require_skeleton(face) -> bpy.types.Object:
     return arm
 
 
-def apply_pose(face, force: bool = False) -> None:
-    """Pose the skeleton from the FP empties as they are now (nothing is written when they did not move)."""
+def apply_pose(face, force: bool = False) -> np.ndarray | None:
+    """Pose the skeleton from the FP empties as they are now; the (B, 4, 4) bone transforms it wrote (skeleton
+    order, `skinned_groups`), or None when nothing was written (they did not move)."""
     arm = require_skeleton(face)
     state = _state(face, arm)
     moved = state.reader.read(face)
     if not force and state.last is not None and np.array_equal(moved, state.last):
-        return
-    location, rotation = _channels(state, moved)
+        return None
+    location, rotation, transforms = _channels(state, moved)
     _write_pose(arm, state, location, rotation)
     state.last = moved
+    return transforms
+
+
+def skinned_groups(face) -> list[str]:
+    """The vertex group name of each bone of the face's skeleton, in the order of `apply_pose`'s transforms."""
+    return [BONE_PREFIX + name for name in _states[face.session_uid].skeleton.names]
 
 
 def _write_pose(arm, state: _State, location: np.ndarray, rotation: np.ndarray) -> None:
@@ -387,7 +395,7 @@ def _bake(face, arm, frames: np.ndarray, fcurve) -> str:
     rotations = np.empty((len(frames), len(state.skeleton.bones), 4))
     previous = None
     for k in range(len(frames)):
-        locations[k], rotations[k] = _channels(state, moved[k], previous)
+        locations[k], rotations[k], _transforms = _channels(state, moved[k], previous)
         previous = rotations[k]
     for b, name in enumerate(state.skeleton.names):
         path = f'pose.bones["{BONE_PREFIX}{name}"]'

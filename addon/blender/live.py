@@ -31,7 +31,17 @@ from ..deform.planar_bones import Binding, evaluate, playback, prepare_playback
 from ..errors import Mpeg4Error
 from ..mpeg4.decode import head_pivot
 from ..mpeg4.feature_points import FP_IDS, fp_index
-from . import binding_store, elastic_rig, eyelid_rig, face_data, fp_empties, head_motion, inner_parts, rest_shape
+from . import (
+    binding_store,
+    elastic_rig,
+    elastic_skin,
+    eyelid_rig,
+    face_data,
+    fp_empties,
+    head_motion,
+    inner_parts,
+    rest_shape,
+)
 
 log = logging.getLogger(__name__)
 
@@ -96,10 +106,12 @@ def forget(face: bpy.types.Object | None = None) -> None:
         _scenes.clear()  # it holds objects: after undo or loading they are gone
         binding_store.forget()
         elastic_rig.forget()
+        elastic_skin.forget()
         eyelid_rig.forget(keep_made=True)
     else:
         _states.pop(face.session_uid, None)
         elastic_rig.forget(face)
+        elastic_skin.forget(face)
         eyelid_rig.forget(face, keep_made=True)
         if face.type == "MESH":
             binding_store.forget(face)
@@ -447,8 +459,21 @@ def _keep_lips_apart(state: _State, driving: np.ndarray, off_rest: np.ndarray | 
 
 
 def _apply_elastic(face, force: bool) -> bool:
+    """Pose the skeleton; with Unfold Skin on, open the skinning's folds under the Armature modifier (paused in
+    Edit Mode, where the edit mesh shows the rest shape)."""
     try:
-        elastic_rig.apply_pose(face, force)
+        editing = face.mode == "EDIT"
+        if editing:
+            _editing.add(face.session_uid)
+            elastic_skin.leave_for_edit_mode(face)
+        elif face.session_uid in _editing:  # back from Edit Mode: this frame's folds again
+            _editing.discard(face.session_uid)
+            force = True
+        transforms = elastic_rig.apply_pose(face, force)
+        if not face.mpeg4_face.unfold_skin:
+            elastic_skin.restore(face)
+        elif transforms is not None and not editing:
+            elastic_skin.apply(face, elastic_rig.skinned_groups(face), transforms)
     except (LookupError, Mpeg4Error) as exc:
         disable(face, f"Deformation turned off: {exc}")
         return False

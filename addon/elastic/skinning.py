@@ -356,5 +356,17 @@ def linear_blend_skinning(rest: np.ndarray, weights: np.ndarray, transforms: np.
     rest = np.asarray(rest, dtype=np.float64)
     transforms = np.asarray(transforms, dtype=np.float64)
     weights = check_weights(weights, len(rest), len(transforms))
-    blended = (weights @ transforms[:, :3, :].reshape(len(transforms), 12)).reshape(-1, 3, 4)
-    return np.einsum("nij,nj->ni", blended[:, :, :3], rest) + blended[:, :, 3]
+    return apply_blended(blended_matrices(weights, transforms), rest)
+
+
+def blended_matrices(weights: np.ndarray, transforms: np.ndarray) -> np.ndarray:
+    """(N, 3, 4) each vertex's Σ_i w_i M_i (eq. 1's matrix, its last row dropped) for (N, B) weights and (B, 4, 4)
+    transforms."""
+    transforms = np.asarray(transforms, dtype=np.float64)
+    flat = transforms[:, :3, :].reshape(len(transforms), 12)
+    return (np.asarray(weights, dtype=np.float64) @ flat).reshape(-1, 3, 4)
+
+
+def apply_blended(matrices: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N, 3) each point moved by its own (3, 4) matrix of `blended_matrices`."""
+    return np.einsum("nij,nj->ni", matrices[:, :, :3], points) + matrices[:, :, 3]

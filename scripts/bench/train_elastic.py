@@ -8,7 +8,9 @@ the engine driven two ways: by the FP motion (as `evaluate --method elastic_bone
 that best explain it (`mpeg4.encode.fp_to_fap`, then the rule table), as a `.fap` stream drives it. Rows:
 untrained (gains 1, w_i = UNTRAINED_WEIGHT); trained gains without the elastic layer; trained (gains, then
 w_i) and the same with its elastic layer switched off; trained leave-one-unit-out (each unit scored by
-parameters trained on the other units), the figure for expressions it was not trained on. `--write`
+parameters trained on the other units), the figure for expressions it was not trained on. Training fits the
+skinning alone (eq. 1); scoring plays the engine as the add-on does, Unfold Skin's membrane after the skinning
+(`ElasticBonesMethod.skin_with`). `--write`
 stores the FP-driven parameters trained on all units in `addon/elastic/trained.py` (`elastic_bones`).
 """
 
@@ -21,7 +23,6 @@ import numpy as np
 from addon.elastic.parameters import UNTRAINED, Parameters
 from addon.elastic.pose import apply_elastic, fp_transforms
 from addon.elastic.rules import fap_transforms
-from addon.elastic.skinning import linear_blend_skinning
 from addon.elastic.training import train
 from addon.mpeg4.encode import fp_to_fap
 from addon.mpeg4.fapu import compute_fapu
@@ -76,7 +77,7 @@ def table(method: ElasticBonesMethod, face, units: dict, first_pass) -> tuple[li
             drive, sculpted = units[name]
             transforms = apply_elastic(method.skeleton, first_pass(drive, params.gain_array(method.skeleton)),
                                        *params.pair_arrays(method.skeleton))  # fmt: skip
-            per_unit.append(errors(linear_blend_skinning(face.rest, method.weights, transforms), sculpted, face.rest))
+            per_unit.append(errors(method.skin_with(transforms), sculpted, face.rest))
         return per_unit
 
     trained = fit(list(units))
