@@ -23,6 +23,7 @@ import numpy as np
 from ..deform import unfold
 from ..deform.folds import fan_triangles
 from ..elastic.membrane import skin_unfolded
+from ..elastic.skinning import blended_matrices
 from . import face_data, rest_shape
 
 ALONE = 1e-4  # the Armature modifier leaves a vertex whose weights sum to no more than this where it is
@@ -32,7 +33,7 @@ ALONE = 1e-4  # the Armature modifier leaves a vertex whose weights sum to no mo
 class _Skin:
     made_from: tuple  # (bone group names, vertex count): made again when they change
     mesh: unfold.SkinMesh
-    weights: np.ndarray  # (N, B + 1): the bones' columns in skeleton order, then one for "stays put"
+    weights: object  # (N, B + 1) scipy sparse: the bones' columns in skeleton order, then one for "stays put"
     written: np.ndarray | None = None  # (V, 3) float32 rest positions the last frame wrote, at `vertices`
     # None: the mesh holds the rest shape; empty at first, as the mesh may hold an earlier state's corrections
     vertices: np.ndarray | None = field(default_factory=lambda: np.zeros(0, np.intp))
@@ -49,6 +50,8 @@ def forget(face=None) -> None:
 
 
 def _skin(face, groups: list[str]) -> _Skin:
+    from scipy import sparse  # (Elastic Bones is refused without scipy: its skin weights need it)
+
     mesh = face.data
     made_from = (tuple(groups), len(mesh.vertices))
     skin = _skins.get(face.session_uid)
@@ -69,7 +72,7 @@ def _skin(face, groups: list[str]) -> _Skin:
     weights[~alone] /= total[~alone, None]
     sizes, corners = face_data.mesh_corners(mesh)
     rest64 = rest.astype(np.float64)
-    skin = _Skin(made_from, unfold.prepare(rest64, fan_triangles(sizes, corners)[0]), weights)
+    skin = _Skin(made_from, unfold.prepare(rest64, fan_triangles(sizes, corners)[0]), sparse.csr_matrix(weights))
     _skins[face.session_uid] = skin
     return skin
 
@@ -78,7 +81,8 @@ def apply(face, groups: list[str], transforms: np.ndarray) -> None:
     """Open this frame's folds: `groups` the skinned bones' vertex group names, (B, 4, 4) their transforms."""
     skin = _skin(face, groups)
     moves = np.concatenate([transforms, np.eye(4)[None]])
-    done = skin_unfolded(skin.mesh, skin.weights, moves, unfold.frame_steps(skin.mesh.n_vertices))
+    matrices = blended_matrices(skin.weights, moves)
+    done = skin_unfolded(skin.mesh, matrices, unfold.frame_steps(skin.mesh.n_vertices))
     if not len(done.vertices) and skin.vertices is None:
         return
     positions = skin.mesh.rest.astype(np.float32)

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..deform import unfold
-from .skinning import apply_blended, blended_matrices, check_weights
+from ..deform.inputs import DeformError
+from .skinning import apply_blended
 
 MIN_DETERMINANT = 1e-3  # a blend that shrinks volume a thousandfold is not inverted (the vertex keeps its skinning)
 
@@ -50,11 +51,13 @@ def pull_back(matrices: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np
     return out, ok
 
 
-def skin_unfolded(mesh: unfold.SkinMesh, weights: np.ndarray, transforms: np.ndarray, max_steps: int) -> Corrected:
-    """Skin `mesh.rest` (eq. 1), open the folds with Unfold Skin's membrane within `max_steps` Jacobi steps, and
-    carry the moved vertices back under the skinning. (N, B) weights summing to 1 per vertex (eq. 2)."""
-    weights = check_weights(weights, mesh.n_vertices, len(transforms))
-    matrices = blended_matrices(weights, transforms)
+def skin_unfolded(mesh: unfold.SkinMesh, matrices: np.ndarray, max_steps: int) -> Corrected:
+    """Skin `mesh.rest` by (N, 3, 4) per-vertex blends of the bone matrices (`skinning.blended_matrices`, eq. 1),
+    open the folds with Unfold Skin's membrane within `max_steps` Jacobi steps, and carry the moved vertices back
+    under the skinning."""
+    matrices = np.asarray(matrices, dtype=np.float64)
+    if matrices.shape != (mesh.n_vertices, 3, 4):
+        raise DeformError(f"blended matrices must be ({mesh.n_vertices}, 3, 4), got {matrices.shape}")
     skinned = apply_blended(matrices, mesh.rest)
     positions = skinned.astype(np.float32)  # as the mesh stores them; the compiled kernel's membrane where it runs
     done = unfold.open_folds(mesh, positions, max_steps=max_steps)

@@ -18,7 +18,7 @@ from addon.elastic.membrane import skin_unfolded
 from addon.elastic.parameters import TRAINED, Parameters
 from addon.elastic.pose import pose_from_fps
 from addon.elastic.skeleton import place_skeleton
-from addon.elastic.skinning import linear_blend_skinning, skin_weights
+from addon.elastic.skinning import blended_matrices, linear_blend_skinning, skin_weights
 
 
 def fp_empties(head: bpy.types.Object) -> dict[str, np.ndarray]:
@@ -57,4 +57,5 @@ class ElasticBonesMethod:
         """(N, 3) the face skinned by (B, 4, 4) transforms (eq. 1), its folds opened when Unfold Skin is on."""
         if self.skin is None:
             return linear_blend_skinning(self.rest, self.weights, transforms)
-        return skin_unfolded(self.skin, self.weights, transforms, unfold.frame_steps(len(self.rest))).deformed
+        matrices = blended_matrices(self.weights, transforms)
+        return skin_unfolded(self.skin, matrices, unfold.frame_steps(len(self.rest))).deformed

@@ -92,9 +92,9 @@ def sculpt_and_engine_main(doc: str, out: Path, shots, argv=None) -> int:
 
 
 def before_after_main(doc: str, out: Path, shots, settings, argv=None) -> int:
-    """A close-up script's main: rows of `shots` tiles, the sculpt over Elastic Bones with the `skinning`
-    constants set as each (label, {name: value}) of `settings` says in turn (shipped parameters; the constants
-    restored after), saved at `--out` (default `out`)."""
+    """A close-up script's main: rows of `shots` tiles, the sculpt over Elastic Bones' skinning (Unfold Skin off)
+    with the `skinning` constants set as each (label, {name: value}) of `settings` says in turn (shipped
+    parameters; the constants restored after), saved at `--out` (default `out`)."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
     parser.add_argument("--out", type=Path, default=out)
     out = parser.parse_args(argv).out
@@ -106,7 +106,8 @@ def before_after_main(doc: str, out: Path, shots, settings, argv=None) -> int:
             for label, values in settings:
                 for name, value in {**shipped, **values}.items():
                     setattr(skinning, name, value)
-                rows.append(render_row(face, ElasticBonesMethod(face), shots, motion, camera, label, Path(tmp)))
+                method = ElasticBonesMethod(face, unfold_skin=False)  # the skinning alone: the weights compared
+                rows.append(render_row(face, method, shots, motion, camera, label, Path(tmp)))
     finally:
         for name, value in shipped.items():
             setattr(skinning, name, value)

@@ -63,7 +63,7 @@ def test_folds_the_skinning_makes_are_opened_and_carried_back_under_it():
     weights, transforms = _two_bones(rest, -2.5)  # the right half pushed back over the blend column
     skinned = linear_blend_skinning(rest, weights, transforms)
     assert count_inverted(rest, skinned, triangles, owner) > 0  # the skinning alone folds the strip
-    done = skin_unfolded(mesh, weights, transforms, unfold.MAX_STEPS)
+    done = skin_unfolded(mesh, blended_matrices(weights, transforms), unfold.MAX_STEPS)
     assert done.left == 0 and count_inverted(rest, done.deformed, triangles, owner) == 0
     assert len(done.vertices)  # rest positions changed where the membrane moved the skin
     corrected = rest.copy()
@@ -78,6 +78,6 @@ def test_folds_the_skinning_makes_are_opened_and_carried_back_under_it():
 def test_a_skinning_without_folds_is_left_exactly_as_it_is(shift):
     rest, triangles = _strip()
     weights, transforms = _two_bones(rest, shift)
-    done = skin_unfolded(unfold.prepare(rest, triangles), weights, transforms, unfold.MAX_STEPS)
+    done = skin_unfolded(unfold.prepare(rest, triangles), blended_matrices(weights, transforms), unfold.MAX_STEPS)
     assert len(done.vertices) == 0 and done.left == 0
     np.testing.assert_array_equal(done.deformed, linear_blend_skinning(rest, weights, transforms))
