@@ -61,8 +61,9 @@ def _pose(empties, points: np.ndarray) -> None:
 
 def _deformed(face) -> np.ndarray:
     """The face's vertices as its engine deforms them from the empties now (float64, mesh coordinates)."""
-    if face.mpeg4_face.engine == elastic_rig.ELASTIC:
-        elastic_rig.apply_pose(face, force=True)
+    if face.mpeg4_face.engine == elastic_rig.ELASTIC:  # the pose, and Unfold Skin's corrections under it
+        if not live.apply_face(face, force=True):
+            raise Mpeg4Error(face.mpeg4_face.status or f"{face.name} could not be deformed")
         depsgraph = bpy.context.evaluated_depsgraph_get()
         depsgraph.update()
         mesh = face.evaluated_get(depsgraph).data

@@ -195,6 +195,13 @@ def make_masks(vertices: np.ndarray, edges: np.ndarray, neutral: np.ndarray) -> 
             vertices, edges, neutral, MASK_SETS["upper_eyelid"], MASK_SETS["lower_eyelid"], SIDE_BAND * eye, rims
         )
         near, far = LID_REACH[0] * eye, LID_REACH[1] * eye
+        if rims is not None:
+            # a lid is a band along its margin (the tarsal plate), so its reach is measured from the margin alone:
+            # measured from its FPs too, the upper lid took a disc of full members about 3.13 / 3.14, which lie on
+            # the lid's surface and, on a head with a deep lid crease (ICT FaceKit's), 8.6 mm above the margin,
+            # inside a ring of skin that is not: a blink turned that disc with the lid and left its ring, spikes
+            # (the rims' curves pass through the middle FPs 3.1-3.4, on the margin)
+            d_up, d_low = (geodesic_distance(vertices, edges, rim) for rim in rims)
         lower_lid = lower * _smoothstep((far - d_low) / (far - near))
         upper_lid = (1.0 - lower) * _smoothstep((far - d_up) / (far - near))
         masks["upper_eyelid"] = 1.0 - lower_lid

@@ -133,3 +133,19 @@ def test_lid_edges_run_along_the_whole_margin():
     upper_lid = 1.0 - masks["lower_eyelid"]
     margin = (np.abs(verts[:, 0]) < 0.009) & (verts[:, 2] > 0) & (verts[:, 2] < 0.002)
     assert np.all(upper_lid[margin] > 0.99)  # the whole margin, not a disc about 3.1
+
+
+def test_a_lid_point_far_above_the_margin_makes_no_disc_of_members():
+    # 3.13 on a deep lid crease, 10 mm above the margin (ICT FaceKit's head: 8.6 mm): the lid's reach is measured
+    # from its margin, so the skin about 3.13 is no member (measured from the FPs too, it was a disc of full
+    # members in a ring of non-members, which a blink turned with the lid: spikes)
+    verts, edges = _slit_grid(slit=0.013)
+    neutral = _eye_fps()
+    neutral[fp_index("3.13")] = [0.005, 0.0, 0.0125]
+    upper_lid = 1.0 - make_masks(verts, edges, neutral)["lower_eyelid"]
+    x, z = verts[:, 0], verts[:, 2]
+    near_313 = np.hypot(x - 0.005, z - 0.0125) < 0.003
+    assert near_313.sum() > 5 and np.all(upper_lid[near_313] < 0.05)
+    width = 0.026
+    margin = (np.abs(x) < 0.009) & (z > 0) & (z < LID_REACH[0] * width)
+    assert np.all(upper_lid[margin] > 0.99)  # the lid itself is as before

@@ -1,0 +1,210 @@
+"""The add-on's ARKit shape keys against ICT FaceKit's sculpted ARKit expressions: a check set from elsewhere
+(another face, another topology, other sculptors), never tuned to.
+
+    .venv/bin/python -m scripts.bench.arkit_ict --ict DIR [--engine planar|elastic] [--json OUT] [--blend OUT.blend]
+
+DIR is ICT FaceKit's `FaceXModel` folder (github.com/ICT-VGL/ICT-FaceKit, MIT licence; read in place, nothing of
+it ships). Its generic neutral head (OBJ, centimetres, Y up) becomes a Blender head as a user would bring it: the
+face, head and neck, mouth and eye sockets (its vertices 0-14061, one piece) as one mesh, each eyeball a mesh of
+its own parented to it, turned Z up and scaled to metres. Then, as a user does: Place Feature Points
+Automatically, Set Up Face (Elastic Bones with `--engine elastic`), Make ARKit Shape Keys. Each ICT expression
+named like an ARKit shape (`browDown_L` is browDownLeft: ICT's L is the face's own left, the side its vertices
+move on, as ARKit's is; ARKit's single browInnerUp and cheekPuff are the sums of ICT's left and right ones) is
+compared with our key: E = Σ‖generated − sculpted‖ / Σ‖sculpted − neutral‖ over ICT's face area (vertices
+0-9408, its "full face area"), at weight 1 and at the one weight (0..2) that fits best. ICT has no tongueOut and
+adds cheekRaiser and the pupils' dilation, which are not ARKit's: those are listed and left out. mouthClose is
+compared like the others (in both it is the lips' closing made to be added to jawOpen; alone it presses the lips
+through each other).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import addon
+from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES
+
+SKIN = range(
+    0, 14062
+)  # face, head and neck, mouth socket, eye sockets (one piece: the sockets hold the lips' and lids' inner sides)
+EYES = {"Eye L": range(21451, 23021), "Eye R": range(23021, 24591)}  # ICT's left eye is at +x, the face's left
+FACE_AREA = 9409  # ICT's "full face area": vertices 0-9408
+SCALE = 0.01  # centimetres to metres
+BEST_WEIGHTS = np.linspace(0.0, 2.0, 41)
+# ICT names that are not ARKit's 52, or not comparable alone
+LEFT_OUT = {"cheekRaiser_L", "cheekRaiser_R", "PupilDilate_L", "PupilDilate_R"}
+BOTH_SIDES = {"browInnerUp", "cheekPuff"}  # one ARKit shape, two ICT expressions
+
+
+def read_obj(path: Path, faces: bool = False):
+    """(N, 3) vertices of an OBJ, in Blender's axes (Z up, the face looking down -Y) and metres; with `faces`, also
+    its polygons as lists of 0-based vertex indices."""
+    vertices, polygons = [], []
+    with path.open() as f:
+        for line in f:
+            if line.startswith("v "):
+                vertices.append(line.split()[1:4])
+            elif faces and line.startswith("f "):
+                polygons.append([int(corner.split("/")[0]) - 1 for corner in line.split()[1:]])
+    v = np.array(vertices, dtype=np.float64)
+    v = np.stack([v[:, 0], -v[:, 2], v[:, 1]], axis=1) * SCALE  # (x, y, z) Y up -> (x, -z, y) Z up
+    return (v, polygons) if faces else v
+
+
+def _mesh_object(name: str, vertices: np.ndarray, polygons: list, rows: range) -> bpy.types.Object:
+    keep = set(rows)
+    local = {v: i for i, v in enumerate(rows)}
+    faces = [[local[v] for v in p] for p in polygons if all(v in keep for v in p)]
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices[rows.start : rows.stop].tolist(), [], faces)
+    mesh.validate()
+    ob = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(ob)
+    return ob
+
+
+def build_head(folder: Path) -> tuple[bpy.types.Object, np.ndarray]:
+    """The ICT neutral head in an empty scene: (the head object, all ICT vertices in Blender's axes)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    vertices, polygons = read_obj(folder / "generic_neutral_mesh.obj", faces=True)
+    head = _mesh_object("Head", vertices, polygons, SKIN)
+    for name, rows in EYES.items():
+        eye = _mesh_object(name, vertices, polygons, rows)
+        eye.parent = head
+    for ob in bpy.context.view_layer.objects:
+        ob.select_set(ob == head)
+    bpy.context.view_layer.objects.active = head
+    return head, vertices
+
+
+def arkit_name(ict: str) -> str | None:
+    if ict in LEFT_OUT:
+        return None
+    if ict[:-2] in BOTH_SIDES:
+        return ict[:-2]
+    if ict.endswith("_L"):
+        return ict[:-2] + "Left"
+    if ict.endswith("_R"):
+        return ict[:-2] + "Right"
+    return ict
+
+
+def _key(block) -> np.ndarray:
+    co = np.empty(3 * len(block.data), dtype=np.float32)
+    block.data.foreach_get("co", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def e_of(generated: np.ndarray, sculpted: np.ndarray) -> tuple[float, float, float]:
+    """(E, Σ‖generated − sculpted‖, Σ‖sculpted‖) for (V, 3) offsets from the neutral."""
+    error = float(np.linalg.norm(generated - sculpted, axis=1).sum())
+    motion = float(np.linalg.norm(sculpted, axis=1).sum())
+    return error / motion, error, motion
+
+
+def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
+    head, neutral = build_head(folder)
+    steps = [
+        ("Place Feature Points Automatically", bpy.ops.mpeg4.auto_place_feature_points),
+        ("Set Up Face", bpy.ops.mpeg4.setup_face),
+    ]
+    for label, op in steps:
+        if op() != {"FINISHED"}:
+            raise SystemExit(f"{label} failed on the ICT head")
+    if engine == "elastic" and bpy.ops.mpeg4.set_engine(engine="ELASTIC_BONES") != {"FINISHED"}:
+        raise SystemExit("Set Engine failed on the ICT head")
+    if bpy.ops.mpeg4.make_arkit_shape_keys() != {"FINISHED"}:
+        raise SystemExit("Make ARKit Shape Keys failed on the ICT head")
+    if blend is not None:
+        bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    blocks = head.data.shape_keys.key_blocks
+    base = _key(head.data.shape_keys.reference_key)
+    face = slice(0, FACE_AREA)
+    sculpts, skipped = {}, []
+    for path in sorted(folder.glob("*.obj")):
+        name = arkit_name(path.stem)
+        if path.stem in ("generic_neutral_mesh",) or path.stem.startswith("identity"):
+            continue
+        if name is None or name not in ARKIT_INDEX:
+            skipped.append(path.stem)
+            continue
+        ict, offsets = sculpts.get(name, ((), 0.0))
+        sculpts[name] = ((*ict, path.stem), offsets + (read_obj(path) - neutral)[face])
+    rows = {}
+    for name, (ict, sculpted) in sculpts.items():
+        generated = (_key(blocks[name]) - base)[face]
+        e, error, motion = e_of(generated, sculpted)
+        weighted = [e_of(w * generated, sculpted)[0] for w in BEST_WEIGHTS]
+        best = int(np.argmin(weighted))
+        rows[name] = {
+            "ict": "+".join(ict),
+            "e": e,
+            "error": error,
+            "motion": motion,
+            "sculpt_max_mm": 1000 * float(np.linalg.norm(sculpted, axis=1).max()),
+            "ours_max_mm": 1000 * float(np.linalg.norm(generated, axis=1).max()),
+            "best_weight": float(BEST_WEIGHTS[best]),
+            "e_best": weighted[best],
+        }
+    error = sum(r["error"] for r in rows.values())
+    return {
+        "engine": engine,
+        "e_pooled": error / sum(r["motion"] for r in rows.values()),
+        "below_1": sum(round(r["e"], 3) < 1.0 for r in rows.values()),  # (eyeLookIn/Out: 0.9998, still skin)
+        "count": len(rows),
+        "missing": [n for n in ARKIT_NAMES if n not in rows],
+        "skipped": skipped,
+        "per_shape": rows,
+    }
+
+
+def print_report(report: dict, command: str) -> None:
+    print(f"`{command}`\n")
+    print(
+        "| ARKit shape | E at weight 1 | share of error | sculpt's largest move (mm) | ours (mm) | best weight "
+        "| E there |"
+    )
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    error = sum(r["error"] for r in report["per_shape"].values())
+    for name in ARKIT_NAMES:
+        r = report["per_shape"].get(name)
+        if r is None:
+            continue
+        print(
+            f"| {name} | {r['e']:.3f} | {100 * r['error'] / error:.0f}% | {r['sculpt_max_mm']:.1f} | "
+            f"{r['ours_max_mm']:.1f} | {r['best_weight']:.2f} | {r['e_best']:.3f} |"
+        )
+    print(
+        f"\npooled E {report['e_pooled']:.3f}; {report['below_1']} of {report['count']} below E 1.0 "
+        f"({report['engine']}); not in ICT: {', '.join(report['missing']) or 'none'}; "
+        f"left out: {', '.join(report['skipped'])}"
+    )
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[sys.argv.index("--") + 1 :] if argv is None and "--" in sys.argv else argv
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ict", type=Path, required=True, help="ICT FaceKit's FaceXModel folder")
+    parser.add_argument("--engine", choices=["planar", "elastic"], default="planar")
+    parser.add_argument("--json", type=Path)
+    parser.add_argument("--blend", type=Path, help="save the set-up head with its keys here (to look at)")
+    args = parser.parse_args(argv)
+    if not (args.ict / "generic_neutral_mesh.obj").is_file():
+        raise SystemExit(f"{args.ict}: no generic_neutral_mesh.obj (give ICT FaceKit's FaceXModel folder)")
+    addon.register()
+    report = evaluate(args.ict, args.engine, args.blend)
+    command = ".venv/bin/python -m scripts.bench.arkit_ict " + " ".join(sys.argv[1:] if argv is None else argv)
+    print_report(report, command)
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
