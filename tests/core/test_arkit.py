@@ -74,6 +74,8 @@ def test_the_shrugs_push_their_lip_out_as_far_as_the_pucker():
         assert table.recipe(name)[number] == pucker[number] == 300.0, name
     shrug = table.recipe("mouthShrugLower")
     assert shrug[fap("push_b_lip").number - 1] > shrug[fap("raise_b_midlip").number - 1]
+    # ARKit names the lower lip only: the chin stays (depress_chin 250 MNS before)
+    assert shrug[fap("depress_chin").number - 1] == 0.0
 
 
 def test_the_inner_brow_raise_moves_the_inner_ends_only():
