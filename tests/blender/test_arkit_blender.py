@@ -92,7 +92,11 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     dimple = offsets["mouthDimpleLeft"]
     assert dimple[near["2.4"], 1] > 0.002 and dimple[near["2.4"], 0] > 0.002, dimple[near["2.4"]]
     assert offsets["mouthShrugLower"][near["8.2"], 1] < -0.001
+    assert abs(offsets["mouthShrugLower"][near["2.10"], 2]) < 0.001  # the chin stays (4.2 mm up before)
     assert offsets["browInnerUp"][moved["browInnerUp"].argmax(), 2] > 0.004
+    # the frown (AU 4) lowers the brow from its inner end: 4.4 mm there, the outer end 3.3 mm before
+    frown = offsets["browDownLeft"]
+    assert frown[near["4.1"], 2] < -0.004 and frown[near["4.5"], 2] > -0.001, (frown[near["4.1"]], frown[near["4.5"]])
     # eyeLook* turn the eyeballs, jawOpen moves the lower teeth and the tongue
     eye_l, eye_r = bpy.data.objects["Eye L"], bpy.data.objects["Eye R"]
     for eye, side in ((eye_l, "Left"), (eye_r, "Right")):

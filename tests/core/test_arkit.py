@@ -74,6 +74,8 @@ def test_the_shrugs_push_their_lip_out_as_far_as_the_pucker():
         assert table.recipe(name)[number] == pucker[number] == 300.0, name
     shrug = table.recipe("mouthShrugLower")
     assert shrug[fap("push_b_lip").number - 1] > shrug[fap("raise_b_midlip").number - 1]
+    # ARKit names the lower lip only: the chin stays (depress_chin 250 MNS before)
+    assert shrug[fap("depress_chin").number - 1] == 0.0
 
 
 def test_the_inner_brow_raise_moves_the_inner_ends_only():
@@ -82,6 +84,18 @@ def test_the_inner_brow_raise_moves_the_inner_ends_only():
     moved = {fap_number + 1 for fap_number in np.flatnonzero(recipe)}
     assert moved == {fap("raise_l_i_eyebrow").number, fap("raise_r_i_eyebrow").number}
     assert recipe[fap("raise_l_i_eyebrow").number - 1] == 180.0
+
+
+def test_the_brow_lowerer_pulls_at_the_inner_end_only():
+    # AU 4's muscles (procerus, depressor supercilii, corrugator) all act at the brow's inner end: down 120 ENS
+    # and in 30 ES; the middle came down 120 and the outer end 80 before
+    table = load_recipes()
+    for name, side in (("browDownLeft", "l"), ("browDownRight", "r")):
+        recipe = table.recipe(name)
+        moved = {fap_number + 1 for fap_number in np.flatnonzero(recipe)}
+        assert moved == {fap(f"raise_{side}_i_eyebrow").number, fap(f"squeeze_{side}_eyebrow").number}, name
+        assert recipe[fap(f"raise_{side}_i_eyebrow").number - 1] == -120.0, name
+        assert recipe[fap(f"squeeze_{side}_eyebrow").number - 1] == 30.0, name
 
 
 def test_left_and_right_recipes_mirror_each_other():
