@@ -34,6 +34,17 @@ def test_closest_point_on_a_triangle_matches_a_dense_search():
     assert np.allclose(np.linalg.norm(found - points, axis=1), best, atol=3e-3)
 
 
+def test_closest_point_on_a_triangle_with_two_corners_in_one_place_is_on_its_one_edge():
+    """A UV sphere's pole triangles: a == b. Points beside the edge were NaN (the empty edge a-b's fraction
+    0 / 0 taken last); they are on the edge a-c."""
+    a, c = np.array([0.0, 0.0, 1.0]), np.array([0.1, 0.0, 0.99])
+    points = np.array([[0.0, 0.0, 1.2], [0.02, 0.3, 1.0], [0.05, -0.2, 1.0]])
+    found = closest_on_triangles(points, *(np.tile(v, (3, 1)) for v in (a, a, c)))
+    t = np.clip(((points - a) @ (c - a)) / ((c - a) @ (c - a)), 0.0, 1.0)
+    assert np.allclose(found, a + t[:, None] * (c - a))
+    assert np.allclose(found[0], a) and 0.1 < t[1] < 0.3 and 0.4 < t[2] < 0.6
+
+
 def test_umeyama_recovers_a_similarity():
     rng = np.random.default_rng(1)
     q, _r = np.linalg.qr(rng.normal(size=(3, 3)))
