@@ -298,7 +298,7 @@ def _on_parts(template, placed, confidence, estimated, parts, plane: MidPlane):
             estimated.append(fp_id)
             confidence[row] = min(confidence[row], ESTIMATE_CONFIDENCE)
         else:
-            placed[row] = pupil_on_eyeball(eyeball, forward)
+            placed[row] = pupil_on_eyeball(eyeball, placed[row], forward)
     used = {id(e) for e in eyeballs if e is not None}
     mouth_parts = [p for p in parts if id(p) not in used]
     reached = {}  # FP id -> the mouth part its estimate snapped onto

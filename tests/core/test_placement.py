@@ -8,6 +8,7 @@ pytest.importorskip("scipy")
 
 from addon.placement.errors import PlacementError
 from addon.placement.nicp import register
+from addon.placement.parts import pupil_on_eyeball
 from addon.placement.pipeline import place_feature_points
 from addon.placement.rigid import Similarity, umeyama
 from addon.placement.surface import Surface, closest_on_triangles
@@ -103,3 +104,26 @@ def test_a_sphere_is_refused_saying_what_was_not_found():
 def test_too_small_a_mesh_is_refused():
     with pytest.raises(PlacementError, match="too few"):
         place_feature_points(np.zeros((8, 3)), np.array([[0, 1, 2]]))
+
+
+def _eyeball(radius=0.012, n=32):
+    """A UV-sphere eyeball centred at (0, 0, 0), poles on the X axis (so none lies on a gaze)."""
+    theta, phi = np.meshgrid(np.linspace(0, np.pi, n), np.linspace(0, 2 * np.pi, 2 * n, endpoint=False))
+    unit = np.stack([np.cos(theta), np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi)], -1).reshape(-1, 3)
+    index = np.arange(len(unit)).reshape(2 * n, n)
+    a, b = index, np.roll(index, -1, axis=0)
+    quads = np.stack([a[:, :-1], b[:, :-1], b[:, 1:], a[:, 1:]], -1).reshape(-1, 4)
+    return radius * unit, np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+
+
+def test_the_pupil_is_where_the_gaze_through_its_estimate_leaves_the_eyeball():
+    """An eye looking 6 degrees down: the pupil is on its sphere along that gaze, 1.25 mm below the point
+    straight ahead (12 mm x sin 6 deg); an estimate behind the centre falls back to straight ahead."""
+    forward = np.array([0.0, -1.0, 0.0])
+    down = np.radians(6.0)
+    gaze = np.array([0.0, -np.cos(down), -np.sin(down)])
+    pupil = pupil_on_eyeball(_eyeball(), 0.02 * gaze, forward)
+    assert np.abs(pupil - 0.012 * gaze).max() < 0.0002
+    assert pupil[2] < -0.001
+    ahead = pupil_on_eyeball(_eyeball(), np.array([0.0, 0.005, 0.0]), forward)
+    assert np.abs(ahead - 0.012 * forward).max() < 0.0002
