@@ -13,17 +13,20 @@ ends are read off each piece: its front (within FRONT of its most forward point)
 of it), highest and lowest. The sample's FP table puts them the same way
 (`scripts/sample/makehuman/fp_rules.py`).
 
-The tongue's points are read off the tongue piece by the sample's rules (`tongue_points`): 6.1 the most
-forward point of its mid-line, 6.2 the highest mid-line point at the middle of its length, 6.3 / 6.4 its
-leftmost / rightmost points at 6.2's depth. The tongue piece is the one the estimate of 6.2 (the middle of the
-mouth's floor, far from every tooth) reached.
+The tongue's tip 6.1 is read off the tongue piece by the sample's rule (`tongue_points`): the most forward
+point of its mid-line. 6.2 (the centre of the tongue body) and 6.3 / 6.4 (its borders there) fix nothing along
+a tongue whose top and sides are flat, so they are not read by a rule: they are the sample's own tongue
+vertices moved by the shape prior as the skin was (`template.fp_basis`, the targets' motion of those vertices
+under the principal shapes the skin fit found) and carried by the registration, then moved with the tip (by
+the tip read minus the tip carried) and snapped onto the piece. The tongue piece is the one the estimate of
+6.2 (the middle of the mouth's floor, far from every tooth) reached.
 
 Confidence (`READ_CONFIDENCE`): a point read off its piece by its definition gets the definition's, not the
 skin fit's (the template skin around a teeth point is the inside of the lips, whose fit says nothing about
 the teeth). The teeth ends and the tongue tip are extremes of their piece, exact once the piece is right;
-6.2 is only "the centre of the tongue body" and 6.3 / 6.4 its borders there, which fix nothing finer along a
-tongue whose top and sides are flat (the development heads' own 6.2-6.4, one vertex each carried by their
-shape targets, lie 3-5 mm along the tongue from this rule), so those three are listed for the user to check.
+6.2-6.4, placed by the shape the skin predicts for the tongue from the tip, get less (`CARRIED_CONFIDENCE`),
+but are not listed: the development heads' are 0.8-1.4 mm off on average (3-4.4 mm by the rule "the middle
+of the length" they replace; docs/auto_placement.md).
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
-from .surface import area_samples
+from .surface import Surface, area_samples
 from .symmetry import MidPlane
 
 FRONT = 0.005  # template metres
@@ -42,36 +45,27 @@ TONGUE_SAMPLES = 8000  # area samples of the tongue piece (about 1 mm apart), so
 # where a remeshed or decimated tongue happens to have vertices
 TEETH_REACH = 0.01  # template metres (a front tooth's height): the other teeth row's ends come this near the
 # teeth points' estimates when these snapped onto one row
-SLICE = 0.001  # template metres: half the thickness of the slice across the tongue at its middle
 EXTREME_CONFIDENCE = 0.9  # an end of the piece its estimate found (not 1: it may be the wrong piece)
-ALONG_CONFIDENCE = 0.4  # a point the definition does not fix along the piece: below the listing threshold
+CARRIED_CONFIDENCE = 0.6  # carried from the tip by the shape the skin predicts: above the listing threshold
 READ_CONFIDENCE = {fp_id: EXTREME_CONFIDENCE for fp_id in (*TEETH, "6.1")} | {
-    fp_id: ALONG_CONFIDENCE for fp_id in ("6.2", "6.3", "6.4")
+    fp_id: CARRIED_CONFIDENCE for fp_id in ("6.2", "6.3", "6.4")
 }
 
 
-def tongue_points(vertices: np.ndarray, triangles: np.ndarray, plane: MidPlane, axes):
+def tongue_points(vertices: np.ndarray, triangles: np.ndarray, plane: MidPlane, axes, estimates: np.ndarray):
     """6.1, 6.2, 6.3, 6.4 (4, 3) on a tongue piece (see the module's doc), or None when no part of it lies on
-    the mid-plane. The sample's rules pick among its vertices; here the top of the mid-line and the
-    sides are flat along the tongue, so "highest near the middle" and "leftmost near 6.2" are taken in a
-    thin slice at the middle of its length, and the mid-line points are put on the mid-plane."""
-    left, up, forward = axes
+    the mid-plane: the tip is the most forward mid-line point (over area samples too, so it does not depend
+    on where a remeshed tongue has vertices), put on the mid-plane; the others are their `estimates` (4, 3)
+    moved by the tip found minus the tip estimated, snapped onto the piece."""
+    forward = axes[2]
     samples, _normals = area_samples(vertices, triangles, TONGUE_SAMPLES)
     points = np.vstack([vertices, samples])
-    depth = points @ forward
     on_mid = np.abs(points @ plane.normal - plane.offset) <= MID
     if not on_mid.any():
         return None
-    tip = points[on_mid][np.argmax(depth[on_mid])]
-    middle = 0.5 * (tip @ forward + depth.min())
-    across = np.abs(depth - middle) <= SLICE
-    body = points[across & on_mid]
-    if not len(body):
-        return None
-    centre = body[np.argmax(body @ up)]
-    side = points[across] @ left
-    border = points[across][[np.argmax(side), np.argmin(side)]]
-    return np.vstack([plane.project(np.array([tip, centre])), border])
+    tip = plane.project(points[on_mid][np.argmax(points[on_mid] @ forward)])
+    body, _normals = Surface(vertices, triangles).closest(estimates[1:] + (tip - estimates[0]))
+    return np.vstack([tip, body])
 
 
 def teeth_ends(vertices: np.ndarray, plane: MidPlane, up: np.ndarray, forward: np.ndarray):
@@ -128,7 +122,7 @@ def mouth_ends(
             placed[fp_index(top)], placed[fp_index(bottom)] = ends[piece]
             read |= {top, bottom}
     if tongue is not None:
-        found = tongue_points(*pieces[tongue], plane, axes)
+        found = tongue_points(*pieces[tongue], plane, axes, estimates[[fp_index(f) for f in TONGUE]])
         if found is not None:
             placed[[fp_index(f) for f in TONGUE]] = found
             read |= set(TONGUE)

@@ -2,8 +2,11 @@
 
 An eyeball is a loose piece that a sphere fits (the `sphere_fit` residual small against its radius) with a
 radius of a human eye, whose sphere holds the pupil estimate carried over from the template. The pupil
-is where the gaze ray from the sphere's centre, straight ahead, leaves the piece: the centre of a cornea
-or of a flat iris cap alike, whatever the eyeball's topology.
+is where the gaze ray from the sphere's centre leaves the piece: the centre of a cornea or of a flat iris
+cap alike, whatever the eyeball's topology. The gaze is the template's own (the ray through its pupil
+estimate, moved by the shape prior and carried by the registration, `pipeline._transfer`), not the face's
+forward: an eye need not look straight ahead (the development heads' eyes look 2.5-6 degrees down in their
+own frame, and straight ahead put their pupils 1.7 mm high).
 """
 
 from __future__ import annotations
@@ -45,22 +48,25 @@ def find_eyeballs(parts: list, pupils: np.ndarray) -> list:
     return found
 
 
-def pupil_on_eyeball(part, forward: np.ndarray) -> np.ndarray:
-    """Where the ray from the eyeball's centre along `forward` leaves the piece (Moller-Trumbore)."""
+def pupil_on_eyeball(part, estimate: np.ndarray, forward: np.ndarray) -> np.ndarray:
+    """Where the ray from the eyeball's centre through the pupil's `estimate` leaves the piece
+    (Moller-Trumbore); along `forward` when the estimate is not in front of the centre."""
     vertices, triangles = part
     centre, _radius = fit_sphere(vertices)
+    gaze = estimate - centre
+    ray = gaze / np.linalg.norm(gaze) if gaze @ forward > 0.0 else forward
     a, b, c = (vertices[triangles[:, j]] for j in range(3))
     e1, e2 = b - a, c - a
-    p = np.cross(forward, e2)
+    p = np.cross(ray, e2)
     det = (e1 * p).sum(1)
     ok = np.abs(det) > 1e-18
     inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
     s = centre - a
     u = (s * p).sum(1) * inv
     q = np.cross(s, e1)
-    v = (q @ forward) * inv
+    v = (q @ ray) * inv
     t = (q * e2).sum(1) * inv
     hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)
     if not hit.any():
-        return vertices[np.argmax(vertices @ forward)]
-    return centre + forward * t[hit].max()
+        return vertices[np.argmax(vertices @ ray)]
+    return centre + ray * t[hit].max()

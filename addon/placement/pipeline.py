@@ -117,7 +117,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     features = _features(template, local, kept)
     yield 0.35
 
-    shaped = fit_shape(
+    shaped, coefficients = fit_shape(
         template.coarse_vertices,
         template.coarse_triangles,
         template.shape_basis,
@@ -129,7 +129,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         register(shaped, template.coarse_triangles, surface, features=features), 0.4, 0.9
     )
 
-    placed, confidence, estimated = _transfer(template, coarse, surface)
+    placed, confidence, estimated = _transfer(template, shaped, coefficients, coarse, surface)
     placed, plane = _symmetric(template, placed, surface)
     parts = _parts(local, triangles, labels, skin_labels)
     placed, confidence, estimated = _on_parts(template, placed, confidence, estimated, parts, plane)
@@ -241,16 +241,20 @@ def _scaled(steps, start: float, end: float):
         yield start + (end - start) * fraction
 
 
-def _transfer(template, coarse, surface):
+def _transfer(template, shaped, coefficients, coarse, surface):
     """Skin FPs: their template vertex carried by the registration and snapped onto the skin; the others
-    carried alone. Confidence from how well the skin around each FP was fitted (the residual distance of
-    the decimated template's vertices around it)."""
+    (7.1, pupils, teeth, tongue) first moved by the shape prior as the skin was (`template.fp_basis` with
+    the fit's `coefficients`), then carried from the `shaped` template by the registration. Confidence from
+    how well the skin around each FP was fitted (the residual distance of the decimated template's vertices
+    around it)."""
     on_vertex = template.fp_vertices >= 0
     placed = np.empty_like(template.fp_positions)
     rest = Surface(template.coarse_vertices, template.coarse_triangles)
     carried = carry_on_surface(template.fp_positions[on_vertex], rest, coarse)
     placed[on_vertex], _normals = surface.closest(carried)
-    placed[~on_vertex] = carry_inside(template.fp_positions[~on_vertex], template.coarse_vertices, coarse)
+    k = len(template.fp_basis)
+    prior = template.fp_positions + np.tensordot(coefficients[:k], template.fp_basis, axes=1) + coefficients[k:]
+    placed[~on_vertex] = carry_inside(prior[~on_vertex], shaped, coarse)
     on_surface, _n = surface.closest(coarse)
     residual = np.linalg.norm(on_surface - coarse, axis=1)
     _d, around = cKDTree(template.coarse_vertices).query(template.fp_positions, k=NEIGHBOURS)
@@ -294,7 +298,7 @@ def _on_parts(template, placed, confidence, estimated, parts, plane: MidPlane):
             estimated.append(fp_id)
             confidence[row] = min(confidence[row], ESTIMATE_CONFIDENCE)
         else:
-            placed[row] = pupil_on_eyeball(eyeball, forward)
+            placed[row] = pupil_on_eyeball(eyeball, placed[row], forward)
     used = {id(e) for e in eyeballs if e is not None}
     mouth_parts = [p for p in parts if id(p) not in used]
     reached = {}  # FP id -> the mouth part its estimate snapped onto

@@ -30,8 +30,9 @@ FAR = 0.02  # template metres: correspondences further than this are not used
 
 def fit_shape(
     vertices: np.ndarray, triangles: np.ndarray, basis: np.ndarray, surface: Surface, border: np.ndarray
-) -> np.ndarray:
-    """`vertices` (m, 3) moved within the span of `basis` (k, m, 3) and translated onto `surface`."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """`vertices` (m, 3) moved within the span of `basis` (k, m, 3) and translated onto `surface`, and the
+    k + 3 numbers that do it (the shapes' coefficients, then the translation)."""
     k = len(basis)
     coefficients = np.zeros(k + 3)
     prior = np.r_[np.ones(k), np.zeros(3)] * SPREAD**2
@@ -46,4 +47,4 @@ def fit_shape(
         lhs = jacobian.T @ jacobian + np.diag(prior)
         coefficients += np.linalg.solve(lhs, jacobian.T @ residual - prior * coefficients)
         shaped = vertices + np.tensordot(coefficients[:k], basis, axes=1) + coefficients[k:]
-    return shaped
+    return shaped, coefficients

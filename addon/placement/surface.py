@@ -61,16 +61,16 @@ def closest_on_triangles(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np
     def take(mask, value):
         result[mask] = value[mask]
 
+    # an edge's region needs the edge to have length (its squared length is the fraction's denominator):
+    # a triangle with two corners in one place (a UV sphere's pole) is its other two edges
     with np.errstate(divide="ignore", invalid="ignore"):
-        bc_edge = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0)
-        t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-        take(bc_edge, b + (c - b) * t[:, None])
-        ac_edge = (vb <= 0) & (d2 >= 0) & (d6 <= 0)
-        t = d2 / (d2 - d6)
-        take(ac_edge, a + ac * t[:, None])
-        ab_edge = (vc <= 0) & (d1 >= 0) & (d3 <= 0)
-        t = d1 / (d1 - d3)
-        take(ab_edge, a + ab * t[:, None])
+        length = (d4 - d3) + (d5 - d6)
+        bc_edge = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0) & (length > 0)
+        take(bc_edge, b + (c - b) * ((d4 - d3) / length)[:, None])
+        ac_edge = (vb <= 0) & (d2 >= 0) & (d6 <= 0) & (d2 - d6 > 0)
+        take(ac_edge, a + ac * (d2 / (d2 - d6))[:, None])
+        ab_edge = (vc <= 0) & (d1 >= 0) & (d3 <= 0) & (d1 - d3 > 0)
+        take(ab_edge, a + ab * (d1 / (d1 - d3))[:, None])
     take((d6 >= 0) & (d5 <= d6), c)
     take((d3 >= 0) & (d4 <= d3), b)
     take((d1 <= 0) & (d2 <= 0), a)

@@ -3,8 +3,9 @@
 `template.npz` is written by `scripts/sample/build_placement_template.py` from the shipped sample head: its
 vertices (metres, the head's own frame: Z up, facing -Y, left on +X, origin at 7.1) and triangles, the 84
 FP positions, for each FP that is a skin vertex that vertex (-1 for the pupils, teeth, tongue and 7.1), and
-the skin decimated to about 1,300 vertices, which the registration solves on (`coarse_*`), and the principal
-shapes of MakeHuman's head and face targets on it (`shape_basis`, the prior `shape.fit_shape` fits).
+the skin decimated to about 1,300 vertices, which the registration solves on (`coarse_*`), the principal
+shapes of MakeHuman's head and face targets on it (`shape_basis`, the prior `shape.fit_shape` fits), and the
+84 FPs' motion under those shapes (`fp_basis`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ class Template:
     coarse_triangles: np.ndarray
     coarse_normals: np.ndarray
     shape_basis: np.ndarray  # (k, m, 3) principal shapes of the decimated skin (`shape`), one deviation each
+    fp_basis: np.ndarray  # (k, 84, 3) the FPs' motion under the same shapes (the tongue's moves with the skin's)
 
 
 @functools.cache
@@ -50,4 +52,5 @@ def load_template() -> Template:
             coarse_triangles=coarse_triangles,
             coarse_normals=vertex_normals(coarse_vertices, coarse_triangles),
             shape_basis=data["shape_basis"].astype(np.float64),
+            fp_basis=data["fp_basis"].astype(np.float64),
         )

