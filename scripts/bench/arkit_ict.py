@@ -2,6 +2,7 @@
 (another face, another topology, other sculptors), never tuned to.
 
     .venv/bin/python -m scripts.bench.arkit_ict --ict DIR [--engine planar|elastic] [--json OUT] [--blend OUT.blend]
+    .venv/bin/python -m scripts.bench.arkit_ict --ict DIR --fp-motion [--engine planar|elastic] [--json OUT]
 
 DIR is ICT FaceKit's `FaceXModel` folder (github.com/ICT-VGL/ICT-FaceKit, MIT licence; read in place, nothing of
 it ships). Its generic neutral head (OBJ, centimetres, Y up) becomes a Blender head as a user would bring it: the
@@ -15,6 +16,12 @@ compared with our key: E = Σ‖generated − sculpted‖ / Σ‖sculpted − ne
 adds cheekRaiser and the pupils' dilation, which are not ARKit's: those are listed and left out. mouthClose is
 compared like the others (in both it is the lips' closing made to be added to jawOpen; alone it presses the lips
 through each other).
+
+`--fp-motion` drives the face by each expression's own motion at the feature points instead (each FP empty moved
+as ICT's vertex nearest it moves, eyeballs included; as `scripts.bench.evaluate` drives the add-on by a sculpt's
+FP motion), so it measures the engine, not the recipes, on another sculptor's expressions (issue 27): E, and the
+spill (the share of the error on skin the sculpt moves less than 0.1 mm), per expression and pooled over the
+upper face's (eye*, brow*, cheekSquint).
 """
 
 from __future__ import annotations
@@ -164,6 +171,71 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
     }
 
 
+UPPER_FACE = ("eye", "brow", "cheekSquint")
+STILL_MM = 0.1
+
+
+def fp_motion(folder: Path, engine: str) -> dict:
+    """E and spill of the engine driven by each ICT expression's own FP motion (`--fp-motion`)."""
+    from addon.blender import face_data, live
+
+    head, neutral = build_head(folder)
+    for label, op in (
+        ("Place Feature Points Automatically", bpy.ops.mpeg4.auto_place_feature_points),
+        ("Set Up Face", bpy.ops.mpeg4.setup_face),
+    ):
+        if op() != {"FINISHED"}:
+            raise SystemExit(f"{label} failed on the ICT head")
+    if engine == "elastic" and bpy.ops.mpeg4.set_engine(engine="ELASTIC_BONES") != {"FINISHED"}:
+        raise SystemExit("Set Engine failed on the ICT head")
+    empties = face_data.fp_empties(head)
+    at_rest = {fp_id: np.array(ob.location) for fp_id, ob in empties.items()}
+    nearest = {fp_id: int(np.argmin(np.linalg.norm(neutral - at_rest[fp_id], axis=1))) for fp_id in empties}
+    face = slice(0, FACE_AREA)
+    out = np.empty(3 * len(head.data.vertices), np.float32)
+    rows = {}
+    for path in sorted(folder.glob("*.obj")):
+        if path.stem == "generic_neutral_mesh" or path.stem.startswith("identity") or path.stem in LEFT_OUT:
+            continue
+        offsets = read_obj(path) - neutral
+        for fp_id, ob in empties.items():
+            ob.location = at_rest[fp_id] + offsets[nearest[fp_id]]
+        bpy.context.view_layer.update()
+        live.apply_face(head, force=True)
+        evaluated = head.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+        evaluated.attributes["position"].data.foreach_get("vector", out)
+        deformed = out.reshape(-1, 3).astype(np.float64)[face] - neutral[face]
+        sculpted = offsets[face]
+        errors = np.linalg.norm(deformed - sculpted, axis=1)
+        motion = np.linalg.norm(sculpted, axis=1)
+        still = motion < STILL_MM * 1e-3
+        error = float(errors.sum())
+        rows[path.stem] = {"error": error, "motion": float(motion.sum()), "spill_error": float(errors[still].sum())}
+        rows[path.stem]["e"] = error / rows[path.stem]["motion"]
+    for fp_id, ob in empties.items():
+        ob.location = at_rest[fp_id]
+
+    def pooled(names):
+        picked = [rows[n] for n in names]
+        error = sum(r["error"] for r in picked)
+        return error / sum(r["motion"] for r in picked), sum(r["spill_error"] for r in picked) / error
+
+    groups = {"all": list(rows), "eyes": [n for n in rows if n.startswith("eye")]}
+    groups["brows"] = [n for n in rows if n.startswith("brow")]
+    groups["upper face"] = [n for n in rows if n.startswith(UPPER_FACE)]
+    return {"engine": engine, "per_expression": rows, "pooled": {k: pooled(v) for k, v in groups.items()}}
+
+
+def print_fp_motion(report: dict, command: str) -> None:
+    print(f"`{command}`\n")
+    print("| ICT expression | E | spill |\n|---|---:|---:|")
+    for name, r in report["per_expression"].items():
+        print(f"| {name} | {r['e']:.3f} | {100 * r['spill_error'] / max(r['error'], 1e-12):.0f} % |")
+    print(f"\n{report['engine']}, driven by each expression's FP motion; pooled E (spill):")
+    for group, (e, spill) in report["pooled"].items():
+        print(f"- {group}: {e:.3f} ({100 * spill:.0f} %)")
+
+
 def print_report(report: dict, command: str) -> None:
     print(f"`{command}`\n")
     print(
@@ -194,13 +266,18 @@ def main(argv=None) -> int:
     parser.add_argument("--engine", choices=["planar", "elastic"], default="planar")
     parser.add_argument("--json", type=Path)
     parser.add_argument("--blend", type=Path, help="save the set-up head with its keys here (to look at)")
+    parser.add_argument("--fp-motion", action="store_true", help="drive the engine by each expression's FP motion")
     args = parser.parse_args(argv)
     if not (args.ict / "generic_neutral_mesh.obj").is_file():
         raise SystemExit(f"{args.ict}: no generic_neutral_mesh.obj (give ICT FaceKit's FaceXModel folder)")
     addon.register()
-    report = evaluate(args.ict, args.engine, args.blend)
     command = ".venv/bin/python -m scripts.bench.arkit_ict " + " ".join(sys.argv[1:] if argv is None else argv)
-    print_report(report, command)
+    if args.fp_motion:
+        report = fp_motion(args.ict, args.engine)
+        print_fp_motion(report, command)
+    else:
+        report = evaluate(args.ict, args.engine, args.blend)
+        print_report(report, command)
     if args.json:
         args.json.write_text(json.dumps(report, indent=2) + "\n")
     return 0
