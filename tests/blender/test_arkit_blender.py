@@ -82,7 +82,7 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     assert abs(sneer[near["9.1"], 0]) < 0.001  # raised, not widened (4.8 mm out with stretch_l_nose, AU 38's)
     # the pursed lips come forward (-Y) all round, not only at their mid-points 2.2 / 2.3
     pucker = offsets["mouthPucker"]
-    for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8"):
+    for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8", "8.9", "8.10"):  # 8.9 / 8.10 1 mm before
         assert pucker[near[fp_id], 1] < -0.003, fp_id
     # ... their corners, coming in, come forward along the face's surface more than the lips' push (5 mm): 8 mm
     for fp_id in ("2.4", "2.5"):
