@@ -98,6 +98,15 @@ def test_the_brow_lowerer_pulls_at_the_inner_end_only():
         assert recipe[fap(f"squeeze_{side}_eyebrow").number - 1] == 30.0, name
 
 
+def test_the_smile_leaves_the_cheek_to_cheek_squint():
+    # ARKit gives the cheek raiser (AU 6) its own shape, cheekSquint; a smile lifted the cheek 120 ENS before,
+    # so a captured smile (both weights) raised it twice
+    table = load_recipes()
+    for side, name in (("l", "Left"), ("r", "Right")):
+        assert table.recipe(f"mouthSmile{name}")[fap(f"lift_{side}_cheek").number - 1] == 0.0, name
+        assert table.recipe(f"cheekSquint{name}")[fap(f"lift_{side}_cheek").number - 1] > 0.0, name
+
+
 def test_left_and_right_recipes_mirror_each_other():
     table = load_recipes()
     for name in ARKIT_NAMES:
