@@ -84,6 +84,11 @@ def test_the_inner_brow_raise_moves_the_inner_ends_only():
     moved = {fap_number + 1 for fap_number in np.flatnonzero(recipe)}
     assert moved == {fap("raise_l_i_eyebrow").number, fap("raise_r_i_eyebrow").number}
     assert recipe[fap("raise_l_i_eyebrow").number - 1] == 180.0
+    # ... and "upward movement of the outer portion of the left eyebrow": the middle rose 100 ENS before
+    for side, name in (("l", "Left"), ("r", "Right")):
+        recipe = load_recipes().recipe(f"browOuterUp{name}")
+        assert {fap_number + 1 for fap_number in np.flatnonzero(recipe)} == {fap(f"raise_{side}_o_eyebrow").number}
+        assert recipe[fap(f"raise_{side}_o_eyebrow").number - 1] == 200.0
 
 
 def test_the_brow_lowerer_pulls_at_the_inner_end_only():
