@@ -112,6 +112,16 @@ def test_the_smile_leaves_the_cheek_to_cheek_squint():
         assert table.recipe(f"cheekSquint{name}")[fap(f"lift_{side}_cheek").number - 1] > 0.0, name
 
 
+def test_the_blink_brings_the_upper_lid_down_the_whole_opening():
+    # in a blink the upper lid travels the whole way and the lower lid hardly rises (Doane 1980): upper 1024
+    # IRISD (IRISD0 is the lids' distance at rest), lower 0; upper 800 and lower 224 before
+    table = load_recipes()
+    for side, name in (("l", "Left"), ("r", "Right")):
+        recipe = table.recipe(f"eyeBlink{name}")
+        assert recipe[fap(f"close_t_{side}_eyelid").number - 1] == 1024.0, name
+        assert recipe[fap(f"close_b_{side}_eyelid").number - 1] == 0.0, name
+
+
 def test_left_and_right_recipes_mirror_each_other():
     table = load_recipes()
     for name in ARKIT_NAMES:
