@@ -58,9 +58,10 @@ CONDYLE_BEFORE_TRAGUS = 0.013  # the condyle's centre, Beyron's point: 13 mm in 
 # outer eye corner (the arbitrary hinge axis of dentistry; 97-98 % of kinematic axes within 5 mm, Schallhorn)
 TURN_BELOW_CONDYLE = 0.0324  # the centre of the mandible's turn over a full opening: 32.4 mm (+-7.4) below the
 # condyle's centre and 0.2 mm behind it (Mehl et al. 2025, in vivo, tracked on CT-segmented bone)
-# each lip's points that no FAP pushes forward, with the point whose push they follow; the corners follow both lips
+# each lip's points that no FAP pushes forward, with the point whose push they follow (the upper lip's outer contour
+# includes the Cupid's bow's peaks 8.9 / 8.10, as control_mesh.UPPER_LIP does); the corners follow both lips
 LIP_FOLLOWERS = {
-    "2.2": ("8.1", "2.6", "2.7", "8.5", "8.6"),
+    "2.2": ("8.1", "2.6", "2.7", "8.5", "8.6", "8.9", "8.10"),
     "2.3": ("8.2", "2.8", "2.9", "8.7", "8.8"),
 }
 LIP_CORNERS = ("2.4", "2.5", "8.3", "8.4")

@@ -154,14 +154,14 @@ def test_the_whole_lip_moves_with_its_mid_points_push():
     pushed[fp_index("8.5"), 1] -= 0.002  # a lip FAP's own motion stays
     moved = whole_lip_push(neutral, pushed, FACE_FRAME)
     forward = moved[:, 2] - neutral[:, 2]
-    for fp in ("2.2", "8.1", "2.6", "2.7", "8.5", "8.6"):
+    for fp in ("2.2", "8.1", "2.6", "2.7", "8.5", "8.6", "8.9", "8.10"):  # the Cupid's bow's peaks too (they stayed)
         assert np.isclose(forward[fp_index(fp)], 0.010), fp
     for fp in ("2.3", "8.2", "2.8", "2.9", "8.7", "8.8"):
         assert np.isclose(forward[fp_index(fp)], 0.006), fp
     for fp in ("2.4", "2.5", "8.3", "8.4"):
         assert np.isclose(forward[fp_index(fp)], 0.008), fp
     assert np.isclose(moved[fp_index("8.5"), 1], pushed[fp_index("8.5"), 1])
-    lips = {fp_index(fp) for fp in "2.2 2.3 2.4 2.5 2.6 2.7 2.8 2.9 8.1 8.2 8.3 8.4 8.5 8.6 8.7 8.8".split()}
+    lips = {fp_index(fp) for fp in "2.2 2.3 2.4 2.5 2.6 2.7 2.8 2.9 8.1 8.2 8.3 8.4 8.5 8.6 8.7 8.8 8.9 8.10".split()}
     others = [k for k in range(N_FEATURE_POINTS) if k not in lips]
     np.testing.assert_array_equal(moved[others], pushed[others])
 
