@@ -123,7 +123,7 @@ def template_arrays(face, package: Path, leave_out: tuple[str, ...] = ()) -> dic
         "coarse_vertices": coarse_vertices.astype(np.float32),
         "coarse_triangles": coarse_triangles.astype(np.int32),
         "shape_basis": basis.astype(np.float16),
-        "fp_basis": fp_basis.astype(np.float32),
+        "fp_basis": fp_basis.astype(np.float16),
     }
 
 
