@@ -37,7 +37,7 @@ COARSE_RATIO = 0.3  # of the faces kept in the decimated skin (about 1,300 verti
 SHAPE_FOLDERS = ("head", "forehead", "eyebrows", "eyes", "nose", "cheek", "mouth", "chin", "ears", "neck")
 SHAPE_MACROS = ("*-young*.target.gz", "*-old*.target.gz")
 SHAPE_SHARE = 0.9999  # of the targets' summed squared motion kept by the principal shapes
-SHAPE_MOST = 30  # principal shapes at most
+SHAPE_MOST = 60  # principal shapes at most: those beyond move the skin under 0.3 mm per standard deviation
 
 
 def _mesh_arrays(mesh) -> tuple[np.ndarray, np.ndarray]:
@@ -123,7 +123,7 @@ def template_arrays(face, package: Path, leave_out: tuple[str, ...] = ()) -> dic
         "coarse_vertices": coarse_vertices.astype(np.float32),
         "coarse_triangles": coarse_triangles.astype(np.int32),
         "shape_basis": basis.astype(np.float16),
-        "fp_basis": fp_basis.astype(np.float32),
+        "fp_basis": fp_basis.astype(np.float16),
     }
 
 
