@@ -42,6 +42,10 @@ SCIPY = {
     "scipy/_lib/tests/test_x.py": b"",
     "scipy/.dylibs/libopenblas.dylib": b"blas" * 50,
     "scipy/testsuite.py": b"# a file named like tests, kept",
+    "scipy/_lib/_ccallback_c.pyx": b"# Cython source",  # files for building against scipy go
+    "scipy/special/cython_special.pxd": b"# Cython declarations",
+    "scipy/_lib/_uarray/vectorcall.h": b"/* header */",
+    "scipy/optimize/_lsq/__init__.pyi": b"# stub",
     "scipy.libs/libgfortran.so": b"fortran",
     "scipy-1.15.3.dist-info/LICENSE.txt": b"BSD",
 }
