@@ -89,6 +89,7 @@ OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from th
 # The model's phones whose sound starts or stops abruptly (stops, affricates, fricatives, nasals, silence):
 # their boundaries are acoustic events that `boundaries.refine_boundaries` can place finer than a frame.
 ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
+_MEAN_WORD = "a"  # in the dictionary of every decoder: the cheapest grammar to end a features-only utterance
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
 ProgressSteps = Generator[float, None, list[TimedLabel]]
@@ -297,9 +298,18 @@ def _pcm(samples: np.ndarray) -> bytes:
 
 
 def _piece_mean(decoder, pcm: bytes) -> str:
-    """The piece's own cepstral mean, from its features alone (no search): the model's feat.params ask for
-    batch normalisation (`-cmn batch`), which decoding a second at a time cannot do by itself, and a
-    mean carried over from other takes, or the model's initial one, misleads the first seconds."""
+    """The piece's own cepstral mean, from its features alone: the model's feat.params ask for batch
+    normalisation (`-cmn batch`), which decoding a second at a time cannot do by itself, and a mean carried
+    over from other takes, or the model's initial one, misleads the first seconds. Ending an utterance
+    searches every frame it holds, even frames fed with `no_search`, so the features are fed under a one-word
+    alignment grammar (`_MEAN_WORD`) without the silence and filler loops every grammar gets by default: its
+    search costs a fifth of an alignment pass. The caller sets its own search afterwards."""
+    fillers = decoder.config["fsgusefiller"]  # read when a grammar is set
+    decoder.config["fsgusefiller"] = False
+    try:
+        decoder.set_align_text(_MEAN_WORD)
+    finally:
+        decoder.config["fsgusefiller"] = fillers
     decoder.start_utt()
     decoder.process_raw(pcm, no_search=True, full_utt=False)
     decoder.end_utt()
@@ -484,8 +494,8 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
         pcm = _pcm(recording.samples[first:end])
         entries = None
         try:
+            mean = _piece_mean(decoder, pcm)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
-            mean = _piece_mean(decoder, pcm)  # once the decoder has a search to start
             yield from _decode_pass(decoder, pcm, mean, done, total)
             if decoder.hyp() is not None:
                 decoder.set_alignment()
@@ -521,7 +531,9 @@ def recognition_steps(
     with _decoder("recognise", accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
-            yield from _decode_pass(decoder, pcm, _piece_mean(decoder, pcm), done, total)
+            mean = _piece_mean(decoder, pcm)
+            decoder.activate_search()  # the phone loop the decoder was made with
+            yield from _decode_pass(decoder, pcm, mean, done, total)
             done += len(pcm) / 2
             entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
             results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))

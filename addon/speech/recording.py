@@ -162,9 +162,11 @@ def _kernel(up: int, down: int, zero_crossings: int = 16) -> tuple[np.ndarray, i
     return taps / taps.sum(axis=1, keepdims=True), half
 
 
-def resample(samples: np.ndarray, rate: int, new_rate: int = RATE, block: int = 2**16) -> np.ndarray:
+def resample(samples: np.ndarray, rate: int, new_rate: int = RATE) -> np.ndarray:
     """(N,) samples at `rate` -> at `new_rate`, by a polyphase windowed-sinc filter (outside the signal the
-    input counts as silence); computed in blocks so memory stays small."""
+    input counts as silence). The outputs of one phase (n % up) read the input at a fixed stride, so each
+    phase is one product of a strided view of the input's windows with its taps: no index arrays, and
+    memory stays the input's and the output's."""
     samples = np.asarray(samples, dtype=np.float64)
     if rate == new_rate:
         return samples.astype(np.float32)
@@ -173,12 +175,12 @@ def resample(samples: np.ndarray, rate: int, new_rate: int = RATE, block: int = 
     taps, half = _kernel(up, down)
     n_out = (len(samples) * up) // down
     padded = np.concatenate([np.zeros(half), samples, np.zeros(half + 1)])
+    windows = np.lib.stride_tricks.sliding_window_view(padded, 2 * half)  # window j: input j - half + 1 ...
     out = np.empty(n_out, dtype=np.float32)
-    for first in range(0, n_out, block):
-        n = np.arange(first, min(first + block, n_out))
-        base = (n * down) // up  # the input sample at or before output n
-        index = base[:, None] + np.arange(-half + 1, half + 1)[None, :] + half
-        out[n] = np.einsum("ij,ij->i", padded[index], taps[n % up])
+    for phase in range(min(up, n_out)):
+        first = (phase * down) // up + 1  # output n reads from input n * down // up - half + 1 on
+        count = len(range(phase, n_out, up))
+        out[phase::up] = windows[first : first + down * count : down] @ taps[phase]
     return out
 
 
