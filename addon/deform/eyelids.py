@@ -266,12 +266,13 @@ def bind_eyelids(
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
     rest_angles = np.full((2, 3), np.nan)
     meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
+    along = np.zeros(len(keep))  # each vertex's place along its eye, 0 at the inner corner, 1 at the outer
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
         inner_x, outer_x = fps[inner, 0], fps[outer, 0]
         rest_angles[e] = elevation(fps[[upper, lower, pupil]], centres[e])
-        t = (x - inner_x) / (outer_x - inner_x)
+        t = along[on] = (x - inner_x) / (outer_x - inner_x)
         elev = elevation(face[keep[on]], centres[e])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
         closure = None  # traced margins: the share of their own mid opening
@@ -302,11 +303,12 @@ def bind_eyelids(
         # held still, it would fold the faces it shares with the lids' edges, whatever the weights outside
         within = np.flatnonzero((near < REACH_RADII[1]) & in_front)
         extra = np.setdiff1d(within, keep)
-        # a lid's members keep their weights, but not where the lid does not turn (weight 0: at and past the corners):
-        # held at 0 beside a margin that still turns (a measured opening closes within a millimetre or two of the
-        # corner), they left the corner's pocket to the fold-free weights, which turned it with one lid or the
-        # other until it crossed (the demo's blink on the sample with its groups deleted: a pair at each outer corner)
-        member = (np.stack([up, low], axis=1) >= MEMBER) & (weights > 0.0)
+        # a lid's members keep their weights, but not past the corners (where they are 0): held at 0 beside a margin
+        # that still turns (a measured opening closes within a millimetre or two of the corner), they left the
+        # corner's pocket to the fold-free weights, which turned it with one lid or the other until it crossed (the
+        # demo's blink on the sample with its groups deleted: a pair at each outer corner). Freeing every member of
+        # weight 0 (the opening's shut stretches inside the corners too) roughened the 2 mm remesh's inner corner
+        member = (np.stack([up, low], axis=1) >= MEMBER) & ((along > 0.0) & (along < 1.0))[:, None]
         member = np.concatenate([member, np.zeros((len(extra), 2), bool)])
         keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
         weights = np.concatenate([weights, np.zeros((len(extra), 2))])
