@@ -6,10 +6,11 @@ FPs at rest (`hold_lids`: the brows, cheeks and head still move the lids through
 added here instead. A lid is skin lying on the eyeball: its vertices turn about the eye's centre, around
 the eye's horizontal axis (face x), by the angle through which the mid-lid FP turned. The angle is
 weighted along the eye by the opening measured on the mesh (`opening_profile`: 1 under the mid-lid FP,
-0 at the eye corners, where the lids are tied to the bone; `lid_profile`, a sine arch, when the mesh
-shows no opening), so lids that meet under the FPs meet along the whole eye and the margin keeps its
-curve; and by the lid's membership weight (how much of the lid a vertex is), so the skin above and below
-follows smoothly. Turning keeps each vertex's distance to the centre: the lid stays on the eye.
+0 at the eye corners, where the lids are tied to the bone; `seen_margins`, the opening seen on the skin, for
+lid masks set-up made; `lid_profile`, a sine arch, when the mesh shows no opening), so lids that meet under
+the FPs meet along the whole eye and the margin keeps its curve; and by the lid's membership weight (how much
+of the lid a vertex is), so the skin above and below follows smoothly. Turning keeps each vertex's distance to
+the centre: the lid stays on the eye.
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
 real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle, under the
@@ -240,8 +241,9 @@ def bind_eyelids(
     no face turns over (`fold_free_weights`) and the turns are kept within the range that holds for
     (`_turn_range`). The share of the turn along the eye follows the opening traced on the mesh through the lid
     weights (`opening_profile`), or with `trace_opening` False (lid weights made from the FPs, which know no
-    more of the margins than the FPs do: margins traced through them bend where the weights do) a sine arch
-    between the corners (`lid_profile`), a function of the position along the eye alone.
+    more of the margins than the FPs do: margins traced through them bend where the weights do) the opening the
+    eye's centre sees on the skin of `triangles` (`seen_margins`) over the mid-lid FPs' own opening; a sine arch
+    between the corners (`lid_profile`) where neither finds an opening.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
