@@ -6,10 +6,11 @@ FPs at rest (`hold_lids`: the brows, cheeks and head still move the lids through
 added here instead. A lid is skin lying on the eyeball: its vertices turn about the eye's centre, around
 the eye's horizontal axis (face x), by the angle through which the mid-lid FP turned. The angle is
 weighted along the eye by the opening measured on the mesh (`opening_profile`: 1 under the mid-lid FP,
-0 at the eye corners, where the lids are tied to the bone; `lid_profile`, a sine arch, when the mesh
-shows no opening), so lids that meet under the FPs meet along the whole eye and the margin keeps its
-curve; and by the lid's membership weight (how much of the lid a vertex is), so the skin above and below
-follows smoothly. Turning keeps each vertex's distance to the centre: the lid stays on the eye.
+0 at the eye corners, where the lids are tied to the bone; `seen_margins`, the opening seen on the skin, for
+lid masks set-up made; `lid_profile`, a sine arch, when the mesh shows no opening), so lids that meet under
+the FPs meet along the whole eye and the margin keeps its curve; and by the lid's membership weight (how much
+of the lid a vertex is), so the skin above and below follows smoothly. Turning keeps each vertex's distance to
+the centre: the lid stays on the eye.
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
 real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle, under the
@@ -33,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.columns import column_cuts, column_gaps
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.decode import meet_at_closure
 from ..mpeg4.feature_points import fp_index
@@ -46,7 +48,7 @@ LOWER_FOLLOWS_PITCH = 0.3
 EYE_FPS = (("3.1", "3.3", "3.11", "3.7", "3.5"), ("3.2", "3.4", "3.8", "3.12", "3.6"))
 _TURN_ROWS = np.array([[fp_index(up), fp_index(low), fp_index(pupil)] for up, low, _i, _o, pupil in EYE_FPS])
 MID_LID_FPS = frozenset(fp_id for eye in EYE_FPS for fp_id in eye[:2])
-PROFILE_BINS = 24  # bins along the eye in which the opening is measured
+PROFILE_BINS = 24  # bins (`trace_margins`) or lines (`seen_margins`) along the eye on which the opening is measured
 ON_EYEBALL = (0.75, 0.95)  # x eyeball radius from its centre: skin turns with a lid from nothing at the first to all
 REACH_RADII = (1.5, 2.0)  # the lids' turn fades out between these multiples of the eyeball radius from its centre
 # Turns (rad, + up) each lid's weights are made fold-free for: the upper lid rises at most TURN_OPENING (the
@@ -117,6 +119,44 @@ def trace_margins(t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.
     for _ts, angles, _picked in margins:
         angles[0], angles[-1] = corner
     return margins
+
+
+def seen_margins(
+    local: np.ndarray, triangles: np.ndarray, radius: float, corners: np.ndarray, columns: int = PROFILE_BINS
+) -> list | None:
+    """The lid margins along the eye as the eye's centre sees them, in `trace_margins`' form (every vertex -1): the
+    opening measured on the skin itself, whatever the lid weights say, in the angles the lids turn through.
+
+    `local` (N, 3) rest positions relative to the eye's centre, face frame; `triangles` (T, 3) the mesh's; `radius`
+    the eyeball's; `corners` (2, 3) the inner and the outer corner FP, relative to the centre. The skin that can
+    cover the eye is the triangles with every corner in front of the centre, outside the eyeball's sphere and within
+    the lids' reach (`REACH_RADII`), each corner at (x, its `elevation`): the lids turn about the face x axis, so a
+    margin meets the other where their elevations meet, whatever their depth (seen straight on, the back of a thick
+    margin can stand below its front). On `columns` lines of x evenly between the corners, the stretch of elevation
+    the skin leaves open across the line between the corners is the opening there, its top the upper margin and its
+    bottom the lower; a line that sees none (past the eyeball's outline, or the skin of a corner) has the margins
+    meet on the line between the corners, as they do at the corners themselves. None when fewer than 3 lines see
+    an opening (an eye closed at rest, or no eye opening in the mesh)."""
+    local = np.asarray(local, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    near = np.linalg.norm(local, axis=1) / radius
+    skin = ((local[:, 2] > 0.0) & (near > 1.0) & (near < REACH_RADII[1]))[triangles].all(axis=1)
+    chart = np.stack([local[:, 0], elevation(local, np.zeros(3))], axis=1)[triangles[skin]]
+    ends = np.asarray(corners, dtype=np.float64)
+    ends = np.stack([ends[:, 0], elevation(ends, np.zeros(3))], axis=1)  # (2, 2) x and elevation, inner and outer
+    ts = np.linspace(0.0, 1.0, columns + 2)
+    margins = np.repeat((ends[0, 1] + ts * (ends[1, 1] - ends[0, 1]))[None], 2, axis=0)  # (2, P) upper, lower
+    seen = 0
+    for k, t in enumerate(ts[1:-1], start=1):
+        x, across = ends[0] + t * (ends[1] - ends[0])  # across: the line between the corners
+        below, above = column_gaps(*column_cuts(chart, x))
+        hit = np.flatnonzero((below[:, 0] <= across) & (above[:, 0] >= across))
+        if len(hit) and abs(x) < radius:
+            margins[:, k] = above[hit[0], 0], below[hit[0], 0]
+            seen += 1
+    if seen < 3:
+        return None
+    return [(ts, margin, np.full(len(ts), -1)) for margin in margins]
 
 
 def margin_members(
@@ -201,8 +241,9 @@ def bind_eyelids(
     no face turns over (`fold_free_weights`) and the turns are kept within the range that holds for
     (`_turn_range`). The share of the turn along the eye follows the opening traced on the mesh through the lid
     weights (`opening_profile`), or with `trace_opening` False (lid weights made from the FPs, which know no
-    more of the margins than the FPs do: margins traced through them bend where the weights do) a sine arch
-    between the corners (`lid_profile`), a function of the position along the eye alone.
+    more of the margins than the FPs do: margins traced through them bend where the weights do) the opening the
+    eye's centre sees on the skin of `triangles` (`seen_margins`) over the mid-lid FPs' own opening; a sine arch
+    between the corners (`lid_profile`) where neither finds an opening.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -227,20 +268,30 @@ def bind_eyelids(
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
     rest_angles = np.full((2, 3), np.nan)
     meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
+    along = np.zeros(len(keep))  # each vertex's place along its eye, 0 at the inner corner, 1 at the outer
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
         inner_x, outer_x = fps[inner, 0], fps[outer, 0]
         rest_angles[e] = elevation(fps[[upper, lower, pupil]], centres[e])
-        t = (x - inner_x) / (outer_x - inner_x)
+        t = along[on] = (x - inner_x) / (outer_x - inner_x)
         elev = elevation(face[keep[on]], centres[e])
-        margins = trace_margins(t, elev, up[on], low[on])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
-        profile = opening_profile(margins, t, mid) if margins is not None and trace_opening else None
+        closure = None  # traced margins: the share of their own mid opening
+        if trace_opening:
+            margins = trace_margins(t, elev, up[on], low[on])
+            profile = opening_profile(margins, t, mid) if margins is not None else None
+        elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
+            margins = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
+            closure = rest_angles[e, 0] - rest_angles[e, 1]
+            profile = meeting_curve(margins, t, mid, closure) if margins is not None and closure > 0.0 else None
+        else:
+            profile = None
         if profile is not None:
-            up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
+            if trace_opening:
+                up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
-            meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid), inner_x, outer_x)
+            meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid, closure=closure), inner_x, outer_x)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
@@ -254,7 +305,13 @@ def bind_eyelids(
         # held still, it would fold the faces it shares with the lids' edges, whatever the weights outside
         within = np.flatnonzero((near < REACH_RADII[1]) & in_front)
         extra = np.setdiff1d(within, keep)
-        member = np.concatenate([np.stack([up, low], axis=1) >= MEMBER, np.zeros((len(extra), 2), bool)])
+        # a lid's members keep their weights, but not past the corners (where they are 0): held at 0 beside a margin
+        # that still turns (a measured opening closes within a millimetre or two of the corner), they left the
+        # corner's pocket to the fold-free weights, which turned it with one lid or the other until it crossed (the
+        # demo's blink on the sample with its groups deleted: a pair at each outer corner). Freeing every member of
+        # weight 0 (the opening's shut stretches inside the corners too) roughened the 2 mm remesh's inner corner
+        member = (np.stack([up, low], axis=1) >= MEMBER) & ((along > 0.0) & (along < 1.0))[:, None]
+        member = np.concatenate([member, np.zeros((len(extra), 2), bool)])
         keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
         weights = np.concatenate([weights, np.zeros((len(extra), 2))])
         arguments = (face, keep, eye, weights, member, centres, np.asarray(triangles), turn_range)
@@ -283,11 +340,13 @@ def bind_eyelids(
     )
 
 
-def meeting_curve(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray:
+def meeting_curve(margins: list, t: np.ndarray, t_mid: float, closure: float | None = None) -> np.ndarray:
     """(P,) at positions `t` along the eye: the opening between the traced `margins` over that under the mid-lid
-    FPs (`t_mid`; `opening_profile` unclipped above), 0 at and beyond the corners and where the traced mid is shut."""
+    FPs (`t_mid`; `opening_profile` unclipped above), 0 at and beyond the corners and where the traced mid is shut.
+    With `closure` (rad, the mid-lid FPs' own opening, which a full blink turns the lids through) over that
+    instead: lids whose margins lie beyond or short of their FPs meet all the same (`seen_margins`)."""
     opening = np.interp(t, *margins[0][:2]) - np.interp(t, *margins[1][:2])
-    mid = np.interp(t_mid, *margins[0][:2]) - np.interp(t_mid, *margins[1][:2])
+    mid = np.interp(t_mid, *margins[0][:2]) - np.interp(t_mid, *margins[1][:2]) if closure is None else closure
     if not mid > 0.0:
         return np.zeros_like(opening)
     return np.where((t > 0.0) & (t < 1.0), opening.clip(0.0) / mid, 0.0)

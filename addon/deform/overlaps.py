@@ -15,6 +15,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from ..geometry.columns import column_cuts
+
 EPS = 1e-12
 
 
@@ -144,15 +146,8 @@ def lid_gap(points: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> float:
 
 def _column_spans(corners: np.ndarray, x: float) -> np.ndarray:
     """(S, 2) the intervals of y over which the projected triangles `corners` (T, 3, 2) cross the line at `x`."""
-    lows, highs = np.full(len(corners), np.inf), np.full(len(corners), -np.inf)
-    for a, b in ((0, 1), (1, 2), (2, 0)):
-        xa, xb = corners[:, a, 0], corners[:, b, 0]
-        cut = (np.minimum(xa, xb) <= x) & (np.maximum(xa, xb) >= x) & (xa != xb)
-        t = np.divide(x - xa, xb - xa, out=np.zeros_like(xa), where=cut)
-        y = corners[:, a, 1] + t * (corners[:, b, 1] - corners[:, a, 1])
-        lows, highs = np.where(cut, np.minimum(lows, y), lows), np.where(cut, np.maximum(highs, y), highs)
-    hit = np.isfinite(lows)
-    return np.stack([lows[hit], highs[hit]], axis=1)
+    lows, highs = column_cuts(corners, x)
+    return np.concatenate([lows, highs], axis=1)
 
 
 def _uncovered(spans: np.ndarray, low: float, high: float) -> float:

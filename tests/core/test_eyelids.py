@@ -14,6 +14,7 @@ from addon.deform.eyelids import (
     hold_lids,
     lid_profile,
     lid_turns,
+    seen_margins,
 )
 from addon.deform.overlaps import edge_roughness
 from addon.mpeg4.decode import meet_at_closure
@@ -37,13 +38,18 @@ def _on_shell(centre, x, angle, radius=R_LID):
     return centre + np.stack([x, rho * np.sin(angle), rho * np.cos(angle)], axis=-1)
 
 
-def _eye(xs=XS, shares=(1.0,) * 8):
+def _opening_shape(arch: np.ndarray, fuller: bool) -> np.ndarray:
+    return arch * (2.0 - arch) if fuller else arch
+
+
+def _eye(xs=XS, shares=(1.0,) * 8, fuller=False):
     """Lids on a shell over two eyeballs: rows of vertices at `xs` from each margin outward, the rows' lid membership
-    `shares` (8,) from the margin out; FPs on the margins."""
+    `shares` (8,) from the margin out; FPs on the margins. The opening narrows to the corners like the sine arch s
+    (`lid_profile`), or if `fuller` like s (2 - s), fuller toward the corners as a real eye's outer corner."""
     verts, upper, lower, margins = [], [], [], {}
     neutral = np.full((84, 3), np.nan)
     for e, centre in enumerate(CENTRES):
-        s = lid_profile(xs, -CORNER, 0.0, CORNER)  # the opening narrows to the corners like the profile
+        s = _opening_shape(lid_profile(xs, -CORNER, 0.0, CORNER), fuller)
         up_margin, low_margin = s * UP0, s * LOW0
         for k, (start, end, member) in enumerate(
             ((up_margin, np.radians(70), upper), (low_margin, -np.radians(70), lower))
@@ -290,7 +296,11 @@ def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge()
     no face turned over (before `margin_members` the margin stopped 0.6 of the way: up to 5 degrees open)."""
     xs = np.sort(np.concatenate([np.linspace(-0.0125, 0.0125, 26), np.random.default_rng(3).uniform(-0.012, 0.012, 9)]))
     rest, upper, lower, neutral, margins = _eye(xs, np.array([0.6, 0.85, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]))
-    columns = len(xs)
+    _closes_on_a_smooth_edge(xs, rest, upper, lower, neutral, margins, trace_opening=True)
+
+
+def _shell_triangles(count: int, columns: int) -> np.ndarray:
+    """The triangles of `_eye`'s `count` vertices: each lid's 8 rows of `columns`, two triangles per quad."""
     quads = [
         (
             base + r * columns + j,
@@ -298,17 +308,24 @@ def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge()
             base + (r + 1) * columns + j + 1,
             base + (r + 1) * columns + j,
         )
-        for base in range(0, len(rest), 8 * columns)
+        for base in range(0, count, 8 * columns)
         for r in range(7)
         for j in range(columns - 1)
     ]
-    triangles = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
-    rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, np.array([R_EYE, R_EYE]), AXES, triangles)
+    return np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+
+
+def _closes_on_a_smooth_edge(xs, rest, upper, lower, neutral, margins, trace_opening, slack=2e-5):
+    """A full blink of `_eye`'s lids (the upper mid-lid FPs turned onto the lower ones) brings each upper margin onto
+    the lower lid all along the eye, no rougher than either margin at rest (`slack` m more), and turns no face
+    over."""
+    triangles = _shell_triangles(len(rest), len(xs))
+    rig = bind_eyelids(
+        rest, upper, lower, neutral, CENTRES, np.array([R_EYE, R_EYE]), AXES, triangles, trace_opening=trace_opening
+    )
     fps = neutral.copy()
     for e, up in enumerate(("3.1", "3.2")):
-        p = fps[fp_index(up)] - CENTRES[e]
-        c, s = np.cos(LOW0 - UP0), np.sin(LOW0 - UP0)
-        fps[fp_index(up)] = CENTRES[e] + [p[0], c * p[1] + s * p[2], c * p[2] - s * p[1]]
+        _turned_fp(fps, up, e, LOW0 - UP0)
     out = rest.copy()
     apply_eyelids(rig, out, fps)
     inside = np.abs(xs) < CORNER
@@ -316,11 +333,47 @@ def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge()
         up = elevation(out[margins[(eye, 0)]], CENTRES[eye])
         low = elevation(out[margins[(eye, 1)]], CENTRES[eye])
         np.testing.assert_allclose(up[inside], low[inside] + MEET_CLEARANCE, atol=2 * TRACE)  # shut
-        # smooth: no vertex of the closed margin farther off the curve through its neighbours than at rest
-        edge = margins[(eye, 0)][inside]
-        assert edge_roughness(out, edge, closed=False).max() < edge_roughness(rest, edge, closed=False).max() + 2e-5
+        # smooth: no vertex of the closed margin farther off the curve through its neighbours than at rest, or than
+        # the lower margin's, which it closes onto
+        edge, other = margins[(eye, 0)][inside], margins[(eye, 1)][inside]
+        at_rest = max(edge_roughness(rest, chain, closed=False).max() for chain in (edge, other))
+        assert edge_roughness(out, edge, closed=False).max() < at_rest + slack
     chart_before = np.cross(
         rest[triangles[:, 1]] - rest[triangles[:, 0]], rest[triangles[:, 2]] - rest[triangles[:, 0]]
     )
     chart_after = np.cross(out[triangles[:, 1]] - out[triangles[:, 0]], out[triangles[:, 2]] - out[triangles[:, 0]])
     assert np.all(np.einsum("ij,ij->i", chart_before, chart_after) > 0.0)  # no face turned over
+
+
+def test_lids_whose_masks_set_up_made_close_an_opening_fuller_than_the_sine_arch():
+    """Lid masks made from the FPs (`trace_opening` False) on an eye whose opening is fuller toward the corners
+    than a sine arch (s (2 - s), as a real eye's outer corner: 0.52 of the middle at 0.8 of the way out, the arch
+    0.31): the opening the eye's centre sees between the skin's margins (`seen_margins`) gives each place
+    along the eye its share of the turn, so a full blink shuts it all along. Before (the sine arch whatever the
+    opening): up to 11 degrees open toward the corners."""
+    rest, upper, lower, neutral, margins = _eye(fuller=True)
+    # the opening is seen on PROFILE_BINS lines, linearly between them: the closed margin is 0.04 mm off smooth
+    _closes_on_a_smooth_edge(XS, rest, upper, lower, neutral, margins, trace_opening=False, slack=5e-5)
+
+
+def test_the_seen_margins_are_the_shells_margins_by_hand():
+    """`_eye`'s margins lie on its shell at 25 * f(x) and -20 * f(x) degrees (f = s (2 - s), s the arch): the
+    opening the eye's centre sees between the skin's triangles ends on them (within the chord between two of
+    the margin's vertices), and meets at the corners' elevation (0). Past the eyeball's outline (a wider eye) no
+    opening is seen: the margins meet there on the line between the corners."""
+    rest, _upper, _lower, neutral, _margins = _eye(fuller=True)
+    triangles = _shell_triangles(len(rest), len(XS))
+    corners = neutral[[fp_index("3.11"), fp_index("3.7")]] - CENTRES[0]
+    (ts, up, up_rows), (ts_low, low, _rows) = seen_margins(rest - CENTRES[0], triangles, R_EYE, corners)
+    np.testing.assert_array_equal(ts, ts_low)
+    x = corners[0, 0] + ts * (corners[1, 0] - corners[0, 0])
+    s = _opening_shape(lid_profile(x, -CORNER, 0.0, CORNER), True)
+    np.testing.assert_allclose(up, UP0 * s, atol=0.02)
+    np.testing.assert_allclose(low, LOW0 * s, atol=0.02)
+    assert up[0] == low[0] == up[-1] == low[-1] == 0.0
+    np.testing.assert_array_equal(up_rows, -1)  # no vertex picked: the margins are where the skin ends
+    wide = neutral[[fp_index("3.11"), fp_index("3.7")]] - CENTRES[0]
+    wide[:, 0] *= 1.5  # corners at 16.5 mm: past the 12 mm eyeball on either side, nothing is open
+    ts, up, _rows = seen_margins(rest - CENTRES[0], triangles, R_EYE, wide)[0]
+    x = wide[0, 0] + ts * (wide[1, 0] - wide[0, 0])
+    assert np.all(up[np.abs(x) >= R_EYE] == 0.0) and np.all(up[np.abs(x) < 0.9 * CORNER] > 0.0)
