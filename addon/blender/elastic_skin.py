@@ -40,13 +40,16 @@ class _Skin:
 
 
 _skins: dict[int, _Skin] = {}  # by the face's session_uid
+_at_rest: set[int] = set()  # faces without a state whose mesh was given its rest back (`restore`)
 
 
 def forget(face=None) -> None:
     if face is None:
         _skins.clear()
+        _at_rest.clear()
     else:
         _skins.pop(face.session_uid, None)
+        _at_rest.discard(face.session_uid)
 
 
 def _skin(face, groups: list[str]) -> _Skin:
@@ -89,14 +92,20 @@ def apply(face, groups: list[str], transforms: np.ndarray) -> None:
     written = done.rest.astype(np.float32)
     positions[done.vertices] = written
     rest_shape.write_positions(face.data, positions)
+    _at_rest.discard(face.session_uid)
     skin.written, skin.vertices = (written, done.vertices) if len(done.vertices) else (None, None)
 
 
 def restore(face) -> None:
-    """The rest shape back where the last frame had changed it (Unfold Skin turned off)."""
+    """The rest shape back where a frame may have changed it (Unfold Skin turned off): once, then nothing until a
+    frame writes again. Without a state (a file just opened) the mesh may hold a saved frame's corrections."""
     skin = _skins.get(face.session_uid)
-    if skin is not None and skin.vertices is not None:
-        rest_shape.write_positions(face.data, skin.mesh.rest)
+    if (skin is not None and skin.vertices is None) or (skin is None and face.session_uid in _at_rest):
+        return
+    rest_shape.restore_rest(face.data)
+    if skin is None:
+        _at_rest.add(face.session_uid)
+    else:
         skin.written = skin.vertices = None
 
 

@@ -97,3 +97,16 @@ def test_a_mild_pose_writes_nothing_into_the_mesh():
     _move(head, offsets)
     np.testing.assert_array_equal(positions(head.data), rest)
     assert np.linalg.norm(evaluated_positions(head) - rest, axis=1).max() > 1e-3
+
+
+def test_unfold_skin_turned_off_after_reopening_gives_the_rest_back():
+    # a file saved on a corrected frame holds that frame's corrections in its mesh; opened again (no state yet),
+    # turning Unfold Skin off gives the rest shape back all the same
+    offsets = _open_jaw(1.5)
+    head = _elastic_head()
+    rest = positions(head.data).copy()
+    _move(head, offsets)
+    assert np.any(positions(head.data) != rest)
+    live.forget()  # what loading a file does (`live.on_load_post`)
+    head.mpeg4_face.unfold_skin = False
+    np.testing.assert_array_equal(positions(head.data), rest)
