@@ -653,23 +653,22 @@ def export_glb(face, path: Path) -> None:
         ob.select_set(ob in chosen)
     bpy.context.view_layer.objects.active = face
     # a skin carries the skinning alone: Unfold Skin's per-frame corrections under the Armature modifier
-    # (addon/blender/elastic_skin.py) stay out of the exported rest mesh and its frames
+    # (addon/blender/elastic_skin.py) stay out of the exported rest mesh and its frames (a failed export ends the
+    # conversion, whose file is never saved)
     settings = face.mpeg4_face
     unfold_skin, settings.unfold_skin = settings.unfold_skin, False
-    try:
-        bpy.ops.export_scene.gltf(
-            filepath=str(path),
-            export_format="GLB",
-            use_selection=True,
-            export_apply=False,
-            export_skins=True,
-            export_morph=False,
-            export_animations=True,
-            export_frame_range=True,
-            export_animation_mode="ACTIVE_ACTIONS",
-        )
-    finally:
-        settings.unfold_skin = unfold_skin
+    bpy.ops.export_scene.gltf(
+        filepath=str(path),
+        export_format="GLB",
+        use_selection=True,
+        export_apply=False,
+        export_skins=True,
+        export_morph=False,
+        export_animations=True,
+        export_frame_range=True,
+        export_animation_mode="ACTIVE_ACTIONS",
+    )
+    settings.unfold_skin = unfold_skin
     if not path.exists():
         raise ConvertError("glTF export wrote nothing")
 

@@ -79,12 +79,18 @@ def test_the_open_jaw_plays_fold_free_and_off_gives_the_rest_back():
     np.testing.assert_array_equal(positions(head.data), rest)
 
 
-def test_remove_after_a_corrected_frame_leaves_the_mesh_as_it_was():
+def _corrected_head():
+    """The Elastic Bones sample at the sculpted open jaw x1.5, its mesh holding Unfold Skin's corrections; its rest."""
     offsets = _open_jaw(1.5)
     head = _elastic_head()
     rest = positions(head.data).copy()
     _move(head, offsets)
     assert np.any(positions(head.data) != rest)
+    return head, rest
+
+
+def test_remove_after_a_corrected_frame_leaves_the_mesh_as_it_was():
+    head, rest = _corrected_head()
     assert bpy.ops.mpeg4.remove_face() == {"FINISHED"}
     np.testing.assert_array_equal(positions(head.data), rest)
     assert not head.modifiers and head.data.shape_keys is None
@@ -102,11 +108,7 @@ def test_a_mild_pose_writes_nothing_into_the_mesh():
 def test_unfold_skin_turned_off_after_reopening_gives_the_rest_back():
     # a file saved on a corrected frame holds that frame's corrections in its mesh; opened again (no state yet),
     # turning Unfold Skin off gives the rest shape back all the same
-    offsets = _open_jaw(1.5)
-    head = _elastic_head()
-    rest = positions(head.data).copy()
-    _move(head, offsets)
-    assert np.any(positions(head.data) != rest)
+    head, rest = _corrected_head()
     live.forget()  # what loading a file does (`live.on_load_post`)
     head.mpeg4_face.unfold_skin = False
     np.testing.assert_array_equal(positions(head.data), rest)
