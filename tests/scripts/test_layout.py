@@ -54,3 +54,20 @@ def test_every_script_runs_as_a_module(module):
         [sys.executable, "-m", module, "--help"], capture_output=True, text=True, cwd=ROOT, timeout=120
     )
     assert result.returncode == 0 and "usage:" in result.stdout, result.stdout + result.stderr
+
+
+def test_no_tracked_text_file_keeps_merge_conflict_markers():
+    """A merge once left `<<<<<<< HEAD` … `>>>>>>> branch` in the README; every tracked text file is read for them."""
+    names = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True).stdout.split()
+    marked = []
+    for name in names:
+        path = ROOT / name
+        if not path.is_file() or path.suffix in {".png", ".blend", ".glb", ".whl", ".zip", ".wav", ".npz", ".npy"}:
+            continue
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            continue
+        if re.search(r"^(<{7} |>{7} )", text, re.MULTILINE):
+            marked.append(name)
+    assert marked == []
