@@ -21,10 +21,9 @@ import bmesh
 import numpy as np
 
 from ..deform import unfold
-from ..deform.folds import fan_triangles
 from ..elastic.membrane import skin_unfolded
 from ..elastic.skinning import blended_matrices
-from . import face_data, rest_shape
+from . import face_data, rest_shape, skin_view
 
 ALONE = 1e-4  # the Armature modifier leaves a vertex whose weights sum to no more than this where it is
 
@@ -73,9 +72,8 @@ def _skin(face, groups: list[str]) -> _Skin:
     weights[alone] = 0.0
     weights[alone, -1] = 1.0
     weights[~alone] /= total[~alone, None]
-    sizes, corners = face_data.mesh_corners(mesh)
-    rest64 = rest.astype(np.float64)
-    skin = _Skin(made_from, unfold.prepare(rest64, fan_triangles(sizes, corners)[0]), sparse.csr_matrix(weights))
+    view = skin_view.skin_mesh(face, rest.astype(np.float64))[0]  # the same view as after Planar Bones, if made
+    skin = _Skin(made_from, view, sparse.csr_matrix(weights))
     _skins[face.session_uid] = skin
     return skin
 

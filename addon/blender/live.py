@@ -23,7 +23,6 @@ import bpy
 import numpy as np
 
 from ..deform import fused, unfold
-from ..deform.folds import fan_triangles
 from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides
 from ..deform.loose_parts import DRIVERS, RigidParts, move_parts
 from ..deform.neck import turn_back
@@ -41,6 +40,7 @@ from . import (
     head_motion,
     inner_parts,
     rest_shape,
+    skin_view,
 )
 
 log = logging.getLogger(__name__)
@@ -72,6 +72,7 @@ class _State:
     lip_skin_groups: np.ndarray | None = None  # the playback's groups of what the lip guard may move
     fps: np.ndarray | None = None  # (84, 3) the last read FPs in FP_IDS order (`_fp_array`)
     skin: unfold.SkinMesh | None = None  # Unfold Skin's view of the face, once per state (`_skin_mesh`)
+    skin_slot: list | None = None  # the look kept beside `skin` by `skin_view`
     look_made: tuple | None = None  # (playback, skin, `unfold.Look`) at the playback's groups (`_look`)
     parts: RigidParts | None = None  # the eyeballs, teeth and tongue inside the face object, moved rigidly
     part_rows: np.ndarray | None = None  # the rows of `fps` that drive them
@@ -89,11 +90,6 @@ class _State:
 
 
 _states: dict[int, _State] = {}
-# Unfold Skin's view of each face (by session_uid): (rest, polygon sizes, corners, the `unfold.SkinMesh`, [its look
-# at the last playback layout's groups]). Made once (0.06 s at 68k vertices) and kept while those hold, across a
-# rebind, an undo and a bake (which start a new state), so that a bake's memory does not grow by it; dropped when
-# another file loads.
-_skins: dict[int, tuple] = {}
 _editing: set[int] = set()  # faces paused in Edit Mode, by session_uid
 _busy = False
 
@@ -193,25 +189,10 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
 
 
 def _skin_mesh(face, state: _State) -> unfold.SkinMesh:
-    """Unfold Skin's view of the face's rest shape and faces: made once for a state, and kept for the next state
-    (a setting's rebind) while the rest shape and the polygons' corners are the same."""
-    if state.skin is not None:
-        return state.skin
-    sizes, corners = face_data.mesh_corners(face.data)
-    rest = state.binding.rest_vertices
-    made = _skins.get(face.session_uid)
-    if made is None or not binding_store.same_inputs(made[:3], (rest, sizes, corners)):
-        alive = {ob.session_uid for ob in bpy.data.objects if ob.type == "MESH"}
-        for gone in [uid for uid in _skins if uid not in alive]:  # faces deleted, or replaced by an undo
-            del _skins[gone]
-        made = _skins[face.session_uid] = (
-            rest,
-            sizes,
-            corners,
-            unfold.prepare(rest, fan_triangles(sizes, corners)[0]),
-            [None],
-        )
-    state.skin = made[3]
+    """Unfold Skin's view of the face's rest shape and faces: taken once for a state from `skin_view`, which keeps
+    it for the next state (a setting's rebind) while the rest shape and the polygons' corners are the same."""
+    if state.skin is None:
+        state.skin, state.skin_slot = skin_view.skin_mesh(face, state.binding.rest_vertices)
     return state.skin
 
 
@@ -220,7 +201,7 @@ def _look(face, state: _State, skin: unfold.SkinMesh) -> unfold.Look:
     made, playback = state.look_made, state.playback
     if made is None or made[0] is not playback or made[1] is not skin:
         layout = playback.layout
-        slot = _skins[face.session_uid][4]  # `_skin_mesh` made or kept this face's entry, with `skin`
+        slot = state.skin_slot  # kept by `skin_view` with `skin`
         look = slot[0]  # the look at the last layout's groups, kept while the grouping is the same
         if (
             look is None
@@ -633,7 +614,7 @@ def on_depsgraph_update(scene, depsgraph):
 @bpy.app.handlers.persistent
 def on_load_post(*_args):
     forget()
-    _skins.clear()
+    skin_view.forget()
     eyelid_rig.forget()  # another file: nothing of the last one's rigs is wanted again
     keep_paper_cover()
 

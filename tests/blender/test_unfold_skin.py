@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from addon.blender import face_data, live, rest_shape
+from addon.blender import elastic_skin, face_data, live, rest_shape, skin_view
 from addon.deform.folds import count_inverted, inverted_faces
 
 from .helpers import positions
@@ -171,17 +171,17 @@ def test_a_fold_the_lids_make_on_skin_the_deformer_left_at_rest_is_found(monkeyp
 def test_the_skins_kept_for_unfolding_are_those_of_faces_still_in_the_file():
     head, empties, rest = _set_up()
     _pose(empties, rest, SMILE)
-    assert set(live._skins) == {head.session_uid}
+    assert set(skin_view._views) == {head.session_uid}
     copy = head.copy()
     copy.data = head.data.copy()
     bpy.context.scene.collection.objects.link(copy)
-    live._skins[copy.session_uid] = live._skins[head.session_uid]  # as if the copy had played too
+    skin_view._views[copy.session_uid] = skin_view._views[head.session_uid]  # as if the copy had played too
     bpy.data.objects.remove(copy)
     live.forget(head)
-    kept = live._skins[head.session_uid]
-    live._skins[head.session_uid] = (kept[0] + 1.0, *kept[1:])  # made for another rest shape: made again
+    kept = skin_view._views[head.session_uid]
+    skin_view._views[head.session_uid] = (kept[0] + 1.0, *kept[1:])  # made for another rest shape: made again
     live.apply_face(head, force=True)
-    assert set(live._skins) == {head.session_uid} and live._skins[head.session_uid][3] is not None
+    assert set(skin_view._views) == {head.session_uid} and skin_view._views[head.session_uid][3] is not None
 
 
 def test_the_corners_read_from_the_attribute_are_those_of_the_loops():
@@ -194,3 +194,12 @@ def test_the_corners_read_from_the_attribute_are_those_of_the_loops():
     mesh.polygons.foreach_get("loop_total", totals)
     assert mesh.attributes.get(face_data.CORNER_VERT) is not None  # Blender 4.x and 5.x keep it
     assert np.array_equal(corners, loops) and np.array_equal(sizes, totals)
+
+
+def test_both_engines_share_one_view_of_the_skin():
+    """Planar Bones' membrane and Elastic Bones' take the same `unfold.SkinMesh` for the same rest shape."""
+    head, empties, rest = _set_up()
+    _pose(empties, rest, SMILE)
+    view = skin_view._views[head.session_uid][3]
+    made = elastic_skin._skin(head, [])
+    assert made.mesh is view
