@@ -20,6 +20,7 @@ an imported stream into keys on the skeleton, so the animation plays (and export
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import bpy
 import numpy as np
@@ -324,9 +325,17 @@ def require_skeleton(face) -> bpy.types.Object:
     return arm
 
 
-def apply_pose(face, force: bool = False) -> np.ndarray | None:
-    """Pose the skeleton from the FP empties as they are now; the (B, 4, 4) bone transforms it wrote (skeleton
-    order, `skinned_groups`), or None when nothing was written (they did not move)."""
+class Posed(NamedTuple):
+    """What `apply_pose` wrote: each bone's (4, 4) transform relative to rest, in skeleton order, and the vertex
+    group each bone skins, in the same order."""
+
+    transforms: np.ndarray  # (B, 4, 4)
+    groups: list[str]
+
+
+def apply_pose(face, force: bool = False) -> Posed | None:
+    """Pose the skeleton from the FP empties as they are now; what it wrote, or None when nothing was written
+    (they did not move)."""
     arm = require_skeleton(face)
     state = _state(face, arm)
     moved = state.reader.read(face)
@@ -335,12 +344,7 @@ def apply_pose(face, force: bool = False) -> np.ndarray | None:
     location, rotation, transforms = _channels(state, moved)
     _write_pose(arm, state, location, rotation)
     state.last = moved
-    return transforms
-
-
-def skinned_groups(face) -> list[str]:
-    """The vertex group name of each bone of the face's skeleton, in the order of `apply_pose`'s transforms."""
-    return [BONE_PREFIX + name for name in _states[face.session_uid].skeleton.names]
+    return Posed(transforms, [BONE_PREFIX + name for name in state.skeleton.names])
 
 
 def _write_pose(arm, state: _State, location: np.ndarray, rotation: np.ndarray) -> None:

@@ -450,11 +450,11 @@ def _apply_elastic(face, force: bool) -> bool:
         elif face.session_uid in _editing:  # back from Edit Mode: this frame's folds again
             _editing.discard(face.session_uid)
             force = True
-        transforms = elastic_rig.apply_pose(face, force)
+        posed = elastic_rig.apply_pose(face, force)
         if not face.mpeg4_face.unfold_skin:
             elastic_skin.restore(face)
-        elif transforms is not None and not editing:
-            elastic_skin.apply(face, elastic_rig.skinned_groups(face), transforms)
+        elif posed is not None and not editing:
+            elastic_skin.apply(face, posed.groups, posed.transforms)
     except (LookupError, Mpeg4Error) as exc:
         disable(face, f"Deformation turned off: {exc}")
         return False
