@@ -164,6 +164,10 @@ def test_a_bad_table_is_refused_naming_the_entry(tmp_path):
         "out of range": lambda d: d["shapes"][0]["faps"].update(open_jaw=99999),
         "unknown part": lambda d: d["shapes"][0].update(part="warp"),
         "unknown deformation": lambda d: d["shapes"][0].update(deformation="warp"),
+        "over an unknown shape": lambda d: d["shapes"][18].update(over="jawOpn"),
+        "over a later shape": lambda d: d["shapes"][0].update(over="jawOpen"),
+        "over itself": lambda d: d["shapes"][17].update(over="jawOpen"),
+        "over a shape made over another": lambda d: d["shapes"][19].update(over="mouthClose"),
     }
     for case, edit in cases.items():
         changed = json.loads(json.dumps(doc))
@@ -172,6 +176,20 @@ def test_a_bad_table_is_refused_naming_the_entry(tmp_path):
         path.write_text(json.dumps(changed))
         with pytest.raises(ArkitError, match=path.name):
             load_recipes(path)
+
+
+def test_mouth_close_closes_what_jaw_open_opens_and_is_made_over_it():
+    # ARKit's mouthClose is the lips' "closure independent of jaw position", used with jawOpen: at 1 it closes
+    # the lips jawOpen at 1 parted (open_jaw carries the lower lip's mid-point 2.3 all the way), its key made on
+    # top of jawOpen's pose. Before: 300 + 500 MNS against open_jaw 1220, and the key made on the face at rest
+    table = load_recipes()
+    close, jaw = table.recipe("mouthClose"), table.recipe("jawOpen")
+    # all of the lower lip's points, which the jaw carries all the way; the upper lip, which it leaves, stays
+    for name in ("raise_b_midlip", "raise_b_lip_lm", "raise_b_lip_rm"):
+        for suffix in ("", "_o"):
+            assert close[fap(name + suffix).number - 1] == jaw[fap("open_jaw").number - 1], name + suffix
+    assert not any(close[fap(name).number - 1] for name in ("lower_t_midlip", "lower_t_midlip_o", "lower_t_lip_lm"))
+    assert dict(table.over) == {"mouthClose": "jawOpen"}
 
 
 def test_weights_add_their_recipes():

@@ -92,6 +92,24 @@ def test_the_skin_between_the_hinge_and_the_chin_turns_about_the_hinge():
     assert abs(straight_down) > 0.7  # what the engine alone gives: along the radius by cos 45 degrees
 
 
+def test_a_lip_raised_over_the_open_jaw_rides_the_mandible_as_far_as_the_jaw_alone_carries_it():
+    # mouthClose over jawOpen: the engine's shape with the lip raised on top of the jaw's drop; its share of the
+    # jaw is the jaw's alone (`carried`), so it turns all the way and keeps the raise (measured on the raised
+    # shape, its share was 1 - raise / drop: it turned a quarter less and dropped back by that share)
+    neutral = _face()
+    drop, raise_ = 0.02, 0.005
+    straight = neutral.copy()
+    straight[fp_index("2.1"), 1] -= drop
+    rest = np.array([[0.0, -0.05, 0.05]])
+    jaw_only = rest - [0.0, drop, 0.0]
+    raised = jaw_only + [0.0, raise_, 0.0]
+    angle = hinge_angle(neutral[fp_index("2.1")], np.zeros(3), np.array([1.0, 0.0, 0.0]), drop)
+    moved = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME, carried=jaw_only)
+    np.testing.assert_allclose(moved[0], _turned(rest[0], angle) + [0.0, raise_, 0.0], atol=1e-12)
+    alone = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME)
+    assert np.linalg.norm(alone[0] - moved[0]) > 0.001
+
+
 def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():
     # Beyron's condyle 13 mm in front of the tragus 10.3/10.4 toward the outer eye corners, and the turn's centre
     # 32.4 mm below it (Mehl et al. 2025); the ears themselves were the axis before
