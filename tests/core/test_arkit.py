@@ -35,7 +35,7 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "tongueOut": "tongue_forward",
         **{
             f"mouth{shape}{side}": "corner_slide"
-            for shape in ("Smile", "Dimple", "Stretch", "Press", "")
+            for shape in ("Smile", "Dimple", "Stretch", "")
             for side in "Left Right".split()
         },
         "mouthShrugLower": "mid_lip_push",
@@ -62,6 +62,9 @@ def test_the_press_is_the_lower_lips_upward_press():
         for suffix in ("", "_o"):
             assert recipe[fap(f"raise_b_lip_{side}m{suffix}").number - 1] == 200.0, name
             assert recipe[fap(f"lower_t_lip_{side}m{suffix}").number - 1] == 0.0, name
+            # AU 24 presses the lips without widening the mouth: the corner stays (40 MW out before)
+            assert recipe[fap(f"stretch_{side}_cornerlip{suffix}").number - 1] == 0.0, name
+        assert name not in table.deformations and name not in table.cannot
 
 
 def test_the_shrugs_push_their_lip_out_as_far_as_the_pucker():
