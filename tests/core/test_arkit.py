@@ -195,6 +195,17 @@ def test_mouth_close_closes_what_jaw_open_opens_and_is_made_over_it():
     assert dict(table.over) == {"mouthClose": "jawOpen"}
 
 
+def test_the_jaw_shapes_at_1_are_the_jaws_maximal_shift_and_protrusion():
+    # ARKit's 1 is the "maximum movement": the mandible's maximal laterotrusion, about 10.4 mm (9.4-11.8 mm
+    # measured), and protrusion, about 8.5 mm (8.2-8.8), on the sample head's FAPU (5.9 and 5.3 mm before)
+    table = load_recipes()
+    for name, sign in (("jawLeft", -1.0), ("jawRight", 1.0)):
+        shift = table.recipe(name)[fap("shift_jaw").number - 1] * FAPU.MW0 / 1024
+        assert 0.0102 <= sign * shift <= 0.0106, name
+    thrust = table.recipe("jawForward")[fap("thrust_jaw").number - 1] * FAPU.MNS0 / 1024
+    assert 0.0082 <= thrust <= 0.0088
+
+
 def test_weights_add_their_recipes():
     table = load_recipes()
     weights = np.zeros((2, 52))
