@@ -35,9 +35,11 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "tongueOut": "tongue_forward",
         **{
             f"mouth{shape}{side}": "corner_slide"
-            for shape in ("Smile", "Dimple", "Stretch", "")
+            for shape in ("Smile", "Dimple", "Stretch")
             for side in "Left Right".split()
         },
+        "mouthLeft": "whole_lip_shift",
+        "mouthRight": "whole_lip_shift",
         "mouthShrugLower": "mid_lip_push",
         "mouthShrugUpper": "mid_lip_push",
     }

@@ -3,12 +3,14 @@
 import numpy as np
 
 from addon.arkit.deformations import (
+    corner_slide,
     deform_points,
     hinge_angle,
     hinge_axis,
     jaw_hinge,
     nostril_lift,
     whole_lip_push,
+    whole_lip_shift,
 )
 from addon.arkit.recipes import load_recipes
 from addon.mpeg4.decode import JAW_RIDERS
@@ -245,3 +247,20 @@ def test_a_recipe_without_a_point_deformation_keeps_its_points():
     np.testing.assert_array_equal(deform_points(None, neutral, pushed), pushed)
     np.testing.assert_array_equal(deform_points("tongue_forward", neutral, pushed), pushed)
     np.testing.assert_array_equal(deform_points("jaw_hinge", neutral, pushed), pushed)  # it turns the skin
+
+
+def test_the_lips_slide_sideways_as_far_as_both_corners_go_together():
+    # mouthLeft: both corners 7 mm toward the face's left (+x); no FAP moves the rest of the lips sideways, and
+    # 'whole_lip_shift' carries every other lip point as far (before: they stayed, the lips stretched between)
+    neutral = _face()
+    lips = ("2.2", "2.3", "8.1", "8.2", "2.6", "2.7", "2.8", "2.9", "8.5", "8.6", "8.7", "8.8", "8.9", "8.10")
+    for left, right, shift in ((0.007, 0.007, 0.007), (0.006, 0.0, 0.003)):  # both corners; one corner alone
+        points = neutral.copy()
+        for corner, out in (("2.4", left), ("8.3", left), ("2.5", right), ("8.4", right)):
+            points[fp_index(corner), 0] += out
+        moved = whole_lip_shift(neutral, points, FACE_FRAME)
+        slid = corner_slide(neutral, points, FACE_FRAME)
+        for fp in lips:
+            np.testing.assert_allclose(moved[fp_index(fp)] - slid[fp_index(fp)], [shift, 0.0, 0.0], atol=1e-12)
+        others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in lips}]
+        np.testing.assert_array_equal(moved[others], slid[others])  # the corners as corner_slide put them
