@@ -23,14 +23,19 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   middle): the lip's outer edge 8.2 / 8.1 comes out as far as push_b_lip / push_t_lip moved its inner mid-point
   2.3 / 2.2 (ARKit: "outward movement of the lower lip", the lip, not its inner edge); its sides and the corners
   stay, as mentalis lifts the lip from below its middle.
-- `corner_slide` (every recipe that moves a lip corner sideways: the smiles, dimples, stretches, presses,
-  mouthLeft / Right, and within `whole_lip_push`): stretch_cornerlip moves a corner straight sideways (the
+- `corner_slide` (every recipe that moves a lip corner sideways: the smiles, dimples, stretches, and within
+  `whole_lip_push` and `whole_lip_shift`): stretch_cornerlip moves a corner straight sideways (the
   standard's horizontal displacement), but the corner lies on the curved front of the teeth, between the lip
   and the cheek, and slides on it: out and back (buccinator's dimple, AU 14; ARKit: "backward movement of the
   left corner of the mouth"), in and forward (the pursed lips' corners, AU 18). Seen from above, the corner
   stays on the line of the face's surface at the corner, from its lip beside it (the mean of 2.6 and 2.8 for
   2.4) to the cheek's centre (5.1, "at the height of 8.3"), as far sideways as the FAPs moved it. No size of
   its own: the sideways distance is the recipe's, the slope the face's.
+- `whole_lip_shift` (mouthLeft / Right: "movement of both lips to the left"): the lips slide sideways as a whole,
+  but only the corners have a sideways FAP (stretch_cornerlip; no FAP moves 2.2, 2.3, 8.1, 8.2 or the lips' sides
+  sideways). After `corner_slide`, every other point of both lips moves sideways as far as the two corners did
+  together (their mean): both corners going the same way by the recipe's size, the lips go with them; no size of
+  its own.
 - `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
   lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
@@ -78,7 +83,7 @@ CORNER_SLIDES = {
 # each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
 # outer point beside them that the same muscle lifts
 NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
-FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "nostril_lift")
+FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "whole_lip_shift", "nostril_lift")
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
@@ -162,6 +167,7 @@ def jaw_hinge(
     rest: np.ndarray,
     straight: np.ndarray,
     axes: np.ndarray = BLENDER_FACE_AXES,
+    carried: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N, 3) points (mesh coordinates) of a face whose jaw open_jaw dropped straight, turned as the jaw turns
     (`hinge_axis`).
@@ -174,7 +180,9 @@ def jaw_hinge(
     straight drop is taken back and the point turns instead by that share of the angle that lowers the chin
     as far as open_jaw did (`jaw_turn`): a vertex riding on the jaw swings about the hinge, perpendicular to
     its radius, instead of sliding down, and what other FAPs added to it stays. Without the ear points, or
-    without a drop, the points stay as the engine put them.
+    without a drop, the points stay as the engine put them. `carried`: the points as the engine moved them from
+    the jaw's FAPs alone, when `straight` has other FAPs on top (mouthClose over jawOpen): each point's share of
+    the jaw is measured there, so a lip another FAP raised still rides the mandible as far as the jaw carries it.
     """
     moved = np.array(straight, dtype=np.float64)
     turn = jaw_turn(neutral, points, axes)
@@ -187,7 +195,9 @@ def jaw_hinge(
     rest = np.asarray(rest, dtype=np.float64)
     known = np.all(np.isfinite(rest), axis=1) & np.all(np.isfinite(moved), axis=1)
     share = np.zeros(len(rest))
-    share[known] = np.clip(((rest[known] - moved[known]) @ up) / drop, 0.0, 1.0)
+    jaw_only = moved if carried is None else np.asarray(carried, dtype=np.float64)
+    known &= np.all(np.isfinite(jaw_only), axis=1)
+    share[known] = np.clip(((rest[known] - jaw_only[known]) @ up) / drop, 0.0, 1.0)
     turned = rotate_about(rest[known], origin, axis, share[known] * angle)
     moved[known] += turned - rest[known] + (share[known] * drop)[:, None] * up
     return moved
@@ -241,6 +251,20 @@ def corner_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLE
     return moved @ axes
 
 
+def whole_lip_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) after `corner_slide`, with every lip point that is not a corner moved
+    sideways (face x) as far as the inner corners 2.4 and 2.5 moved together (the mean of their sideways motion)."""
+    axes = np.asarray(axes, dtype=np.float64)
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    moved = corner_slide(neutral, points, axes) @ axes.T
+    corners = [fp_index(fp) for fp in ("2.4", "2.5")]
+    shift = np.mean(moved[corners, 0] - face_neutral[corners, 0])
+    if np.isfinite(shift):
+        lips = [fp_index(fp) for mid, follow in LIP_FOLLOWERS.items() for fp in (mid, *follow)]
+        moved[lips, 0] += shift
+    return moved @ axes
+
+
 def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with each side's nostril points raised as far as the upper lip's
     outer point beside them rose (not lowered when it came down)."""
@@ -264,4 +288,6 @@ def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axe
         return mid_lip_push(neutral, points, axes)
     if name == "corner_slide":
         return corner_slide(neutral, points, axes)
+    if name == "whole_lip_shift":
+        return whole_lip_shift(neutral, points, axes)
     return np.array(points, dtype=np.float64)

@@ -2,7 +2,9 @@
 
 The loader checks the whole file before it returns: all 52 names exactly once each (as ARKit spells them),
 a 'why' for each, known low-level FAPs with finite values within the standard's range, an optional
-'cannot' (what FAPs cannot express) and an optional dedicated deformation (deformations.py) by its name.
+'cannot' (what FAPs cannot express), an optional dedicated deformation (deformations.py) by its name, and an
+optional 'over': a shape earlier in ARKit's order (itself not made over another) whose weight-1 pose this one's key
+is made on top of.
 """
 
 from __future__ import annotations
@@ -52,6 +54,9 @@ class RecipeTable:
     why: tuple[str, ...]
     cannot: MappingProxyType  # name -> what FAPs cannot express of it
     deformations: MappingProxyType  # name -> the dedicated deformation it names
+    # name -> the shape its key is made over: the key is the change its FAPs make on that shape's pose at weight 1
+    # (mouthClose over jawOpen: ARKit's lips closing "independent of jaw position", added to an open jaw)
+    over: MappingProxyType
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -85,10 +90,10 @@ def _table(path) -> RecipeTable:
     entries = READ.list_of(doc["shapes"], f"{source}: shapes")
     targets = np.zeros((N_SHAPES, N_FAPS))
     why = [""] * N_SHAPES
-    cannot, deformations = {}, {}
+    cannot, deformations, over = {}, {}, {}
     for k, entry in enumerate(entries):
         where = f"{source}: shapes entry {k + 1}"
-        entry = READ.object_with(entry, {"name", "why", "faps"}, {"cannot", "deformation"}, where)
+        entry = READ.object_with(entry, {"name", "why", "faps"}, {"cannot", "deformation", "over"}, where)
         name = entry["name"]
         if name not in ARKIT_INDEX:
             raise ArkitError(f"{where}: {name!r} is not one of ARKit's 52 blendshape names")
@@ -104,13 +109,23 @@ def _table(path) -> RecipeTable:
             if named not in DEDICATED_DEFORMATIONS:
                 raise ArkitError(f"{where}: deformation {named!r} is not one of {', '.join(DEDICATED_DEFORMATIONS)}")
             deformations[name] = named
+        if "over" in entry:
+            base = entry["over"]
+            if ARKIT_INDEX.get(base, N_SHAPES) >= i:  # made before it, so its pose is there when this key is made
+                raise ArkitError(f"{where}: 'over' {base!r} is not one of ARKit's names listed before {name}")
+            over[name] = base
         for number, value in READ.fap_values(entry["faps"], where).items():
             targets[i, number - 1] = value
     missing = [name for name, text in zip(ARKIT_NAMES, why, strict=True) if not text]
     if missing:
         raise ArkitError(f"{source}: {len(missing)} ARKit shape(s) missing: {', '.join(missing)}")
+    chained = sorted(name for name, base in over.items() if base in over)
+    if chained:
+        raise ArkitError(f"{source}: {', '.join(chained)}: 'over' names a shape that is itself made over another")
     targets.flags.writeable = False
-    return RecipeTable(targets, tuple(why), MappingProxyType(cannot), MappingProxyType(deformations))
+    return RecipeTable(
+        targets, tuple(why), MappingProxyType(cannot), MappingProxyType(deformations), MappingProxyType(over)
+    )
 
 
 def load_recipes(path: Path | str | None = None) -> RecipeTable:

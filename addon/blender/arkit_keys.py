@@ -208,6 +208,12 @@ def _jaw_turn(face, points: np.ndarray, neutral: np.ndarray) -> Matrix | None:
     return Matrix.Translation(pivot) @ Matrix.Rotation(angle, 4, axis) @ Matrix.Translation(-pivot)
 
 
+def _recipe(table, name: str) -> np.ndarray:
+    """The FAP values a shape's key is made from: its recipe, on top of the base's a recipe made 'over' one names."""
+    base = table.over.get(name)
+    return table.recipe(name) if base is None else table.recipe(base) + table.recipe(name)
+
+
 def make_keys(context, face) -> list[str]:
     """Make (or make again) the 52 ARKit shape keys on `face` and its following parts; returns report lines."""
     empties = fap_io.require_setup(face)
@@ -218,7 +224,7 @@ def make_keys(context, face) -> list[str]:
     for ob in [face, *parts.values()]:
         _check_names(ob)
     # all checked first
-    points = [_face_points(face, empties, table.recipe(name), table.deformations.get(name)) for name in ARKIT_NAMES]
+    points = [_face_points(face, empties, _recipe(table, name), table.deformations.get(name)) for name in ARKIT_NAMES]
 
     scene = context.scene
     frame = (scene.frame_current, scene.frame_subframe)
@@ -243,13 +249,25 @@ def make_keys(context, face) -> list[str]:
         _pose(empties, _face_points(face, empties, np.zeros(N_FAPS)))
         rest = _deformed(face)
         part_rest = _part_matrices(parts)
+        straight = {}  # each base an 'over' recipe names (made before it): the engine's shape, and its key's
         with progress(context, len(ARKIT_NAMES)) as step:
             for i, name in enumerate(ARKIT_NAMES):
                 _pose(empties, points[i])
                 deformation = table.deformations.get(name)
                 shape = _deformed(face)
+                base = table.over.get(name)
+                if base is not None:  # the change its FAPs make on the base's pose; the parts ride the base
+                    engine, made_base = straight[base]
+                    if table.deformations.get(base) == "jaw_hinge":  # shares of the jaw as the base's alone
+                        shape = jaw_hinge(neutral, points[i], rest, shape, face_data.face_axes(face), engine)
+                    _add_key(face, name, basis + shape - made_base, made)
+                    step(i)
+                    continue
+                engine = shape
                 if deformation == "jaw_hinge":  # the skin turns with the jaw, each vertex by its share
                     shape = jaw_hinge(neutral, points[i], rest, shape, face_data.face_axes(face))
+                if name in table.over.values():
+                    straight[name] = engine, shape
                 _add_key(face, name, basis + shape - rest, made)
                 posed = _part_matrices(parts)
                 mandible = _jaw_turn(face, points[i], neutral) if deformation == "jaw_hinge" else None

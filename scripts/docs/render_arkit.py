@@ -4,7 +4,9 @@ close-ups of the face, one per shape at weight 1, captioned with its ARKit name.
     .venv/bin/python -m scripts.docs.render_arkit [--out docs/arkit_shapes.png] [--tile 200]
 
 The keys are made by Make ARKit Shape Keys (Planar Bones with lids, lips and Unfold Skin, as played) and shown the
-way a capture plays them: keyed one shape per frame onto the face and its parts (`arkit_keys.key_capture`).
+way a capture plays them: keyed one shape per frame onto the face and its parts (`arkit_keys.key_capture`). A shape
+whose key is made over another (mouthClose over jawOpen, the recipe's 'over') is shown with that one at 1 too, as
+ARKit uses it, and captioned so.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ import bpy
 import numpy as np
 
 from addon.arkit.captures import Capture
-from addon.arkit.recipes import ARKIT_NAMES, N_SHAPES
+from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, N_SHAPES, load_recipes
 from addon.blender import arkit_keys
 from scripts import convert
 from scripts.docs.render_speech import FACE, aim, grid, open_head, tiles
@@ -30,13 +32,17 @@ def render(path: Path, tile: int) -> None:
     scene, face = open_head()
     assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
     assert bpy.ops.mpeg4.make_arkit_shape_keys() == {"FINISHED"}
-    one_each = Capture("shapes", 25.0, np.arange(N_SHAPES), np.eye(N_SHAPES))
+    weights, captions = np.eye(N_SHAPES), list(ARKIT_NAMES)
+    for name, base in load_recipes().over.items():
+        weights[ARKIT_INDEX[name], ARKIT_INDEX[base]] = 1.0
+        captions[ARKIT_INDEX[name]] = f"{name} + {base}"
+    one_each = Capture("shapes", 25.0, np.arange(N_SHAPES), weights)
     arkit_keys.key_capture(bpy.context, face, one_each, np.arange(N_SHAPES, dtype=np.float64))
     convert.frame_face(scene, face, tile)
     convert.set_engine(scene, "WORKBENCH")
     convert._image_settings(scene, video=False)
     aim(scene, FACE)
-    convert.save_png(grid(tiles(scene, range(N_SHAPES), list(ARKIT_NAMES), tile), COLUMNS), path)
+    convert.save_png(grid(tiles(scene, range(N_SHAPES), captions, tile), COLUMNS), path)
 
 
 def main(argv=None) -> int:

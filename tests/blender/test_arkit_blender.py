@@ -76,6 +76,17 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     change = np.abs(np.linalg.norm(np.cross(after, axis), axis=1) - np.linalg.norm(np.cross(before, axis), axis=1))
     assert carried.sum() > 100 and change.max() < 0.001  # 0.6 mm of the 22 they move (the engine's slack); 4 mm
     # when only the FPs turned and the skin between them was interpolated
+    # mouthClose is made over jawOpen (ARKit's lips closing "independent of jaw position"): the lower lip the jaw
+    # took down comes back up over the open jaw, the upper lip and the chin stay (before: made on the face at
+    # rest, where the lips meet at once, so over jawOpen the lips stayed as far apart; the upper lip came down).
+    # Not all the way: the lips' soft limit (fap_groups, 500 MNS) eases the lip's 1220 MNS
+    close = offsets["mouthClose"]
+    assert close[near["2.3"], 2] > 0.006 and close[near["8.2"], 2] > 0.006
+    assert abs(close[near["2.2"], 2]) < 0.0005 and abs(close[near["8.1"], 2]) < 0.0005
+    assert np.linalg.norm(close[near["2.1"]]) < 0.0005
+    # mouthLeft: "movement of both lips to the left" (+X): the lips' middle goes with the corners (0 before)
+    for fp_id in ("2.2", "2.3", "8.1", "8.2"):
+        assert offsets["mouthLeft"][near[fp_id], 0] > 0.004 and offsets["mouthRight"][near[fp_id], 0] < -0.004, fp_id
     # the sneer lifts its own side's nostril with the upper lip beside it (no FAP raises 9.1 / 9.2)
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002

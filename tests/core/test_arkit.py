@@ -35,9 +35,11 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "tongueOut": "tongue_forward",
         **{
             f"mouth{shape}{side}": "corner_slide"
-            for shape in ("Smile", "Dimple", "Stretch", "Press", "")
+            for shape in ("Smile", "Dimple", "Stretch")
             for side in "Left Right".split()
         },
+        "mouthLeft": "whole_lip_shift",
+        "mouthRight": "whole_lip_shift",
         "mouthShrugLower": "mid_lip_push",
         "mouthShrugUpper": "mid_lip_push",
     }
@@ -62,6 +64,9 @@ def test_the_press_is_the_lower_lips_upward_press():
         for suffix in ("", "_o"):
             assert recipe[fap(f"raise_b_lip_{side}m{suffix}").number - 1] == 200.0, name
             assert recipe[fap(f"lower_t_lip_{side}m{suffix}").number - 1] == 0.0, name
+            # AU 24 presses the lips without widening the mouth: the corner stays (40 MW out before)
+            assert recipe[fap(f"stretch_{side}_cornerlip{suffix}").number - 1] == 0.0, name
+        assert name not in table.deformations and name not in table.cannot
 
 
 def test_the_shrugs_push_their_lip_out_as_far_as_the_pucker():
@@ -164,6 +169,10 @@ def test_a_bad_table_is_refused_naming_the_entry(tmp_path):
         "out of range": lambda d: d["shapes"][0]["faps"].update(open_jaw=99999),
         "unknown part": lambda d: d["shapes"][0].update(part="warp"),
         "unknown deformation": lambda d: d["shapes"][0].update(deformation="warp"),
+        "over an unknown shape": lambda d: d["shapes"][18].update(over="jawOpn"),
+        "over a later shape": lambda d: d["shapes"][0].update(over="jawOpen"),
+        "over itself": lambda d: d["shapes"][17].update(over="jawOpen"),
+        "over a shape made over another": lambda d: d["shapes"][19].update(over="mouthClose"),
     }
     for case, edit in cases.items():
         changed = json.loads(json.dumps(doc))
@@ -172,6 +181,31 @@ def test_a_bad_table_is_refused_naming_the_entry(tmp_path):
         path.write_text(json.dumps(changed))
         with pytest.raises(ArkitError, match=path.name):
             load_recipes(path)
+
+
+def test_mouth_close_closes_what_jaw_open_opens_and_is_made_over_it():
+    # ARKit's mouthClose is the lips' "closure independent of jaw position", used with jawOpen: at 1 it closes
+    # the lips jawOpen at 1 parted (open_jaw carries the lower lip's mid-point 2.3 all the way), its key made on
+    # top of jawOpen's pose. Before: 300 + 500 MNS against open_jaw 1220, and the key made on the face at rest
+    table = load_recipes()
+    close, jaw = table.recipe("mouthClose"), table.recipe("jawOpen")
+    # all of the lower lip's points, which the jaw carries all the way; the upper lip, which it leaves, stays
+    for name in ("raise_b_midlip", "raise_b_lip_lm", "raise_b_lip_rm"):
+        for suffix in ("", "_o"):
+            assert close[fap(name + suffix).number - 1] == jaw[fap("open_jaw").number - 1], name + suffix
+    assert not any(close[fap(name).number - 1] for name in ("lower_t_midlip", "lower_t_midlip_o", "lower_t_lip_lm"))
+    assert dict(table.over) == {"mouthClose": "jawOpen"}
+
+
+def test_the_jaw_shapes_at_1_are_the_jaws_maximal_shift_and_protrusion():
+    # ARKit's 1 is the "maximum movement": the mandible's maximal laterotrusion, about 10.4 mm (9.4-11.8 mm
+    # measured), and protrusion, about 8.5 mm (8.2-8.8), on the sample head's FAPU (5.9 and 5.3 mm before)
+    table = load_recipes()
+    for name, sign in (("jawLeft", -1.0), ("jawRight", 1.0)):
+        shift = table.recipe(name)[fap("shift_jaw").number - 1] * FAPU.MW0 / 1024
+        assert 0.0102 <= sign * shift <= 0.0106, name
+    thrust = table.recipe("jawForward")[fap("thrust_jaw").number - 1] * FAPU.MNS0 / 1024
+    assert 0.0082 <= thrust <= 0.0088
 
 
 def test_weights_add_their_recipes():

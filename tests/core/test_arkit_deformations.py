@@ -3,12 +3,14 @@
 import numpy as np
 
 from addon.arkit.deformations import (
+    corner_slide,
     deform_points,
     hinge_angle,
     hinge_axis,
     jaw_hinge,
     nostril_lift,
     whole_lip_push,
+    whole_lip_shift,
 )
 from addon.arkit.recipes import load_recipes
 from addon.mpeg4.decode import JAW_RIDERS
@@ -90,6 +92,24 @@ def test_the_skin_between_the_hinge_and_the_chin_turns_about_the_hinge():
     np.testing.assert_array_equal(moved[3], rest[3])  # off the jaw: stays
     straight_down = (engine - rest)[0] @ radius[0] / (drop * np.linalg.norm(radius[0]))
     assert abs(straight_down) > 0.7  # what the engine alone gives: along the radius by cos 45 degrees
+
+
+def test_a_lip_raised_over_the_open_jaw_rides_the_mandible_as_far_as_the_jaw_alone_carries_it():
+    # mouthClose over jawOpen: the engine's shape with the lip raised on top of the jaw's drop; its share of the
+    # jaw is the jaw's alone (`carried`), so it turns all the way and keeps the raise (measured on the raised
+    # shape, its share was 1 - raise / drop: it turned a quarter less and dropped back by that share)
+    neutral = _face()
+    drop, raise_ = 0.02, 0.005
+    straight = neutral.copy()
+    straight[fp_index("2.1"), 1] -= drop
+    rest = np.array([[0.0, -0.05, 0.05]])
+    jaw_only = rest - [0.0, drop, 0.0]
+    raised = jaw_only + [0.0, raise_, 0.0]
+    angle = hinge_angle(neutral[fp_index("2.1")], np.zeros(3), np.array([1.0, 0.0, 0.0]), drop)
+    moved = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME, carried=jaw_only)
+    np.testing.assert_allclose(moved[0], _turned(rest[0], angle) + [0.0, raise_, 0.0], atol=1e-12)
+    alone = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME)
+    assert np.linalg.norm(alone[0] - moved[0]) > 0.001
 
 
 def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():
@@ -227,3 +247,20 @@ def test_a_recipe_without_a_point_deformation_keeps_its_points():
     np.testing.assert_array_equal(deform_points(None, neutral, pushed), pushed)
     np.testing.assert_array_equal(deform_points("tongue_forward", neutral, pushed), pushed)
     np.testing.assert_array_equal(deform_points("jaw_hinge", neutral, pushed), pushed)  # it turns the skin
+
+
+def test_the_lips_slide_sideways_as_far_as_both_corners_go_together():
+    # mouthLeft: both corners 7 mm toward the face's left (+x); no FAP moves the rest of the lips sideways, and
+    # 'whole_lip_shift' carries every other lip point as far (before: they stayed, the lips stretched between)
+    neutral = _face()
+    lips = ("2.2", "2.3", "8.1", "8.2", "2.6", "2.7", "2.8", "2.9", "8.5", "8.6", "8.7", "8.8", "8.9", "8.10")
+    for left, right, shift in ((0.007, 0.007, 0.007), (0.006, 0.0, 0.003)):  # both corners; one corner alone
+        points = neutral.copy()
+        for corner, out in (("2.4", left), ("8.3", left), ("2.5", right), ("8.4", right)):
+            points[fp_index(corner), 0] += out
+        moved = whole_lip_shift(neutral, points, FACE_FRAME)
+        slid = corner_slide(neutral, points, FACE_FRAME)
+        for fp in lips:
+            np.testing.assert_allclose(moved[fp_index(fp)] - slid[fp_index(fp)], [shift, 0.0, 0.0], atol=1e-12)
+        others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in lips}]
+        np.testing.assert_array_equal(moved[others], slid[others])  # the corners as corner_slide put them
