@@ -176,3 +176,11 @@ def skull_points(
         if len(ends):
             points[fp_index(end)] = ends[np.argmax(ends @ forward)]
     return points
+
+
+def read_skull(vertices, triangles, points, left, up_hint, template_points, template_axes) -> np.ndarray:
+    """`points` (84, 3) with 11.1-11.6 read off the mesh (`skull_points`) in the head's frame (`head_frame`,
+    from its mid-plane normal `left` and `up_hint`), with the template's rays (`template_points` in its
+    `template_axes`). Placement reads the user's mesh with it; `evaluate_placement` the truth's."""
+    axes = head_frame(points, left, up_hint, template_points, template_axes)
+    return skull_points(vertices, triangles, points, axes, ray_angles(template_points, template_axes))
