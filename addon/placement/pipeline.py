@@ -273,7 +273,7 @@ def _symmetric(template, placed, surface):
     loops = boundary_loops(len(surface.vertices), surface.triangles)
     if loops:
         skin, _normals = area_samples(surface.vertices, surface.triangles, FEATURE_SAMPLES)
-        refine_openings(placed, surface.vertices, loops, TEMPLATE_AXES, skin)
+        refine_openings(placed, surface.vertices, surface.triangles, loops, TEMPLATE_AXES, skin)
     reference = (template.fp_positions, TEMPLATE_AXES)
     placed = read_skull(surface.vertices, surface.triangles, placed, plane.normal, TEMPLATE_AXES[1], *reference)
     return placed, plane

@@ -100,3 +100,48 @@ def test_placement_puts_the_skull_points_where_the_rules_say_on_a_taller_skull()
     placed = place_feature_points(vertices, t.triangles).positions
     errors = np.linalg.norm(placed[SKULL] - truth[SKULL], axis=1)
     assert errors.max() < 0.0015  # 5.7 mm (11.1) when the registration carried them
+
+
+# --- the rigid fit's other facing, and a sealed mouth's meeting line (the same session's changes) ---
+
+
+def test_a_fit_turned_about_up_faces_the_other_way_about_the_same_centre():
+    from addon.placement.rigid import Similarity, _turned_about_up
+
+    rotation = _pitch(20.0)
+    fit = Similarity(rotation, 2.0, np.array([1.0, 2.0, 3.0]))
+    centre = np.array([0.01, -0.02, 0.1])
+    turned = _turned_about_up(fit, centre)
+    assert np.allclose(turned.apply(centre[None]), fit.apply(centre[None]))
+    axes = TEMPLATE_AXES @ turned.rotation.T  # rows: the turned face's left, up, forward in the world
+    before = TEMPLATE_AXES @ rotation.T
+    assert np.allclose(axes[1], before[1]) and np.allclose(axes[2], -before[2]) and np.allclose(axes[0], -before[0])
+    assert np.isclose(np.linalg.det(turned.rotation), 1.0) and turned.scale == 2.0
+
+
+def test_a_plane_cuts_a_triangle_in_one_segment():
+    from addon.placement.openings import _cuts
+
+    vertices = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 2.0, 0.0], [3.0, 0.0, 0.0]])
+    triangles = np.array([[0, 1, 2], [1, 3, 2]])  # the second lies wholly on the plane's far side
+    cuts = _cuts(vertices, triangles, np.array([1.0, 0.0, 0.0]), 0.5)
+    assert cuts.shape == (1, 2, 3)
+    assert np.allclose(sorted(cuts[0].tolist()), [[0.5, 0.0, 0.0], [0.5, 1.5, 0.0]])
+
+
+def test_the_notch_between_lips_that_meet_is_the_bottom_of_their_groove():
+    from addon.placement.openings import _notch
+
+    # a section across closed lips (metres; up = y, forward = z): the upper lip's front comes down and
+    # back to where the lips touch at (y 0.0005, z 0.006), the lower lip's goes from there down and out;
+    # behind the touching point the two lips' inner sides run back to the mouth's opening
+    upper = [(0.008, 0.010), (0.004, 0.012), (0.002, 0.009), (0.0005, 0.006), (0.001, 0.003), (0.004, 0.0)]
+    lower = [(0.0005, 0.006), (-0.002, 0.010), (-0.006, 0.011), (-0.010, 0.009)]
+    inner = [(0.0, 0.006), (-0.0005, 0.003), (-0.004, 0.0)]
+    segments = []
+    for line in (upper, lower, inner):
+        points = [np.array([0.0, y, z]) for y, z in line]
+        segments += [np.stack([a, b]) for a, b in zip(points[:-1], points[1:], strict=False)]
+    axes = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    notch = _notch(np.array(segments), np.array([0.0, 0.0, -0.001]), axes, 0.012)
+    assert np.allclose(notch, [0.0, 0.0005, 0.006], atol=0.0003)
