@@ -48,7 +48,7 @@ def boundary_loops(n_vertices: int, triangles: np.ndarray) -> list[np.ndarray]:
     return [boundary[labels == label] for label in np.unique(labels)]
 
 
-def _crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level: float) -> np.ndarray:
+def plane_crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level: float) -> np.ndarray:
     """Points (C, 3) where the loop's edges cross the plane axis . x = level."""
     a = vertices[edges[:, 0]] @ axis - level
     b = vertices[edges[:, 1]] @ axis - level
@@ -85,7 +85,7 @@ def refine_openings(
         sealed = None if seen or not _hidden(ring, skin, axes) else _Sealed(vertices, triangles, loop, width)
         for upper, lower, share in middles:
             level = middle + share * (corners[0] @ left - middle)
-            crossing = _crossings(vertices, loop, left, level)
+            crossing = plane_crossings(vertices, loop, left, level)
             if len(crossing) < 2:
                 continue
             height = crossing @ up

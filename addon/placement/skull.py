@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
+from .openings import plane_crossings
 
 ANGLE_STEP = np.radians(0.5)  # the outline's resolution, seen from its centre
 WINDOW = np.radians(3.0)  # a crossing is on the outline when no crossing within this angle lies further out
@@ -65,22 +66,12 @@ def head_frame(points: np.ndarray, left: np.ndarray, up_hint: np.ndarray, templa
     return np.array([frame[0], up, forward])
 
 
-def _section(vertices: np.ndarray, edges: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:
-    """Points where the mesh's edges cross the plane normal . x = offset."""
-    a = vertices[edges[:, 0]] @ normal - offset
-    b = vertices[edges[:, 1]] @ normal - offset
-    crossing = (a * b <= 0) & (a != b)
-    t = a[crossing] / (a[crossing] - b[crossing])
-    start, end = vertices[edges[crossing, 0]], vertices[edges[crossing, 1]]
-    return start + t[:, None] * (end - start)
-
-
 def outline(vertices: np.ndarray, edges: np.ndarray, axes: np.ndarray, centre: np.ndarray) -> np.ndarray:
     """The outline (K, 3) of the mesh's section by the plane through `centre` normal to `axes[0]`, seen
     from `centre`: per ANGLE_STEP of direction (in the plane of `axes[1]` up and `axes[2]` forward) the
     outermost crossing, kept only where nothing within WINDOW lies much further out (a direction the
     section's edges happen to miss would otherwise show an inner piece). Ordered by angle."""
-    points = _section(vertices, edges, axes[0], float(centre @ axes[0]))
+    points = plane_crossings(vertices, edges, axes[0], float(centre @ axes[0]))
     if not len(points):
         return points
     relative = points - centre
