@@ -21,6 +21,9 @@ from .surface import loose_parts
 REACH = 0.5  # an opening's centre lies within this share of the carried corners' distance of their midpoint
 SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares of that distance
 SEALED_BAND = 0.25  # a sealed mouth's lips are looked for this share of its width above and below its opening
+# lips joined over the skin by a path at most this share of the mouth's width (its opening's corners) longer
+# than the straight line are fused: Set Up Face's own rule (`deform.face_checks.FUSED`)
+FUSED_SHARE = 0.5
 NOTCH_BANDS = 40  # the section seen from in front of the lips in bands of this share of the lips' height
 NOTCH_SAMPLES = 64  # at most this many samples along each triangle's cut
 VISIBLE_SHARE = 0.05  # the neighbourhood, against the opening's width, in which skin in front hides its loop
@@ -82,7 +85,8 @@ def refine_openings(
         placed[fp_index(first)], placed[fp_index(second)] = corners
         moved += [first, second]
         middle = 0.5 * (corners[0] + corners[1]) @ left
-        sealed = None if seen or not _hidden(ring, skin, axes) else _Sealed(vertices, triangles, loop, width)
+        span = float(np.linalg.norm(corners[0] - corners[1]))
+        sealed = None if seen or not _hidden(ring, skin, axes) else _Sealed(vertices, triangles, loop, width, span)
         for upper, lower, share in middles:
             level = middle + share * (corners[0] @ left - middle)
             crossing = plane_crossings(vertices, loop, left, level)
@@ -150,9 +154,12 @@ class _Sealed:
     mouth's crease: the section's point nearest that middle among those in front of it); each lip's point
     is its own section point nearest the notch, a point belonging to the lip it is nearer to over the skin
     (shortest paths along the edges from the opening's upper and lower edge: the lips join only round the
-    mouth's corners, behind the notch they do not)."""
+    mouth's corners, behind the notch they do not). Where the lips are one surface at the notch (a path over
+    the skin joins the two points by a path less than half the opening's width longer than the straight
+    line, the rule Set Up Face checks openings by), they part only at the opening
+    behind them, so the points stay on its edge."""
 
-    def __init__(self, vertices: np.ndarray, triangles: np.ndarray, loop: np.ndarray, width: float):
+    def __init__(self, vertices: np.ndarray, triangles: np.ndarray, loop: np.ndarray, width: float, span: float):
         self.vertices, self.triangles = vertices, triangles
         edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
         self.edges = np.unique(edges, axis=0)
@@ -161,6 +168,7 @@ class _Sealed:
         self.graph = csr_matrix((length, (self.edges[:, 0], self.edges[:, 1])), shape=(n, n))
         self.loop_vertices = np.unique(loop)
         self.reach = width
+        self.span = span  # the distance between the opening's corners
 
     def meeting(self, top: np.ndarray, bottom: np.ndarray, level: float, axes: np.ndarray):
         """The upper and lower lip's points where the lips meet in the plane left . x = `level`, from the
@@ -182,10 +190,18 @@ class _Sealed:
         section = section[near]
         found = []
         for lip in (0, 1):
-            own = section[lips == lip]
+            own = np.flatnonzero(lips == lip)
             if not len(own):
                 return top, bottom
-            found.append(own[np.argmin(np.linalg.norm(own - notch, axis=1))])
+            found.append(section[own[np.argmin(np.linalg.norm(section[own] - notch, axis=1))]])
+        # lips that are one surface where they meet (sealed in front) part only at the opening behind them:
+        # their points stay on its edge, where Set Up Face can open the mouth; judged as Set Up Face judges
+        # it, from the vertices nearest the two points
+        vertices = [int(np.argmin(np.linalg.norm(self.vertices - point, axis=1))) for point in found]
+        straight = np.linalg.norm(self.vertices[vertices[0]] - self.vertices[vertices[1]])
+        path = dijkstra(self.graph, directed=False, indices=vertices[0], limit=straight + FUSED_SHARE * self.span)
+        if np.isfinite(path[vertices[1]]):
+            return top, bottom
         return found[0], found[1]
 
     def _nearer_lip(self, ends: np.ndarray, t: np.ndarray, top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
