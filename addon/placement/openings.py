@@ -15,11 +15,17 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
-from .scipy_modules import cKDTree
+from .scipy_modules import cKDTree, csr_matrix, dijkstra
 from .surface import loose_parts
 
 REACH = 0.5  # an opening's centre lies within this share of the carried corners' distance of their midpoint
 SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares of that distance
+SEALED_BAND = 0.25  # a sealed mouth's lips are looked for this share of its width above and below its opening
+# lips joined over the skin by a path at most this share of the mouth's width (its opening's corners) longer
+# than the straight line are fused: Set Up Face's own rule (`deform.face_checks.FUSED`)
+FUSED_SHARE = 0.5
+NOTCH_BANDS = 40  # the section seen from in front of the lips in bands of this share of the lips' height
+NOTCH_SAMPLES = 64  # at most this many samples along each triangle's cut
 VISIBLE_SHARE = 0.05  # the neighbourhood, against the opening's width, in which skin in front hides its loop
 
 # (outer or left corner, inner or right corner, [(upper FP, lower FP, share of the way from the middle to
@@ -45,7 +51,7 @@ def boundary_loops(n_vertices: int, triangles: np.ndarray) -> list[np.ndarray]:
     return [boundary[labels == label] for label in np.unique(labels)]
 
 
-def _crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level: float) -> np.ndarray:
+def plane_crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level: float) -> np.ndarray:
     """Points (C, 3) where the loop's edges cross the plane axis . x = level."""
     a = vertices[edges[:, 0]] @ axis - level
     b = vertices[edges[:, 1]] @ axis - level
@@ -56,7 +62,12 @@ def _crossings(vertices: np.ndarray, edges: np.ndarray, axis: np.ndarray, level:
 
 
 def refine_openings(
-    placed: np.ndarray, vertices: np.ndarray, loops: list[np.ndarray], axes: np.ndarray, skin: np.ndarray
+    placed: np.ndarray,
+    vertices: np.ndarray,
+    triangles: np.ndarray,
+    loops: list[np.ndarray],
+    axes: np.ndarray,
+    skin: np.ndarray,
 ) -> list[str]:
     """Move the eye and inner lip points of `placed` (84, 3; changed in place) onto the openings found near
     them (`axes`: rows left, up, forward; `skin`: area samples of the skin). Returns the FP ids moved."""
@@ -74,16 +85,133 @@ def refine_openings(
         placed[fp_index(first)], placed[fp_index(second)] = corners
         moved += [first, second]
         middle = 0.5 * (corners[0] + corners[1]) @ left
+        span = float(np.linalg.norm(corners[0] - corners[1]))
+        sealed = None if seen or not _hidden(ring, skin, axes) else _Sealed(vertices, triangles, loop, width, span)
         for upper, lower, share in middles:
             level = middle + share * (corners[0] @ left - middle)
-            crossing = _crossings(vertices, loop, left, level)
+            crossing = plane_crossings(vertices, loop, left, level)
             if len(crossing) < 2:
                 continue
             height = crossing @ up
-            placed[fp_index(upper)] = crossing[np.argmax(height)]
-            placed[fp_index(lower)] = crossing[np.argmin(height)]
+            top, bottom = crossing[np.argmax(height)], crossing[np.argmin(height)]
+            if sealed is not None:
+                top, bottom = sealed.meeting(top, bottom, level, axes)
+            placed[fp_index(upper)], placed[fp_index(lower)] = top, bottom
             moved += [upper, lower]
     return moved
+
+
+def _notch(segments: np.ndarray, centre: np.ndarray, axes: np.ndarray, band: float) -> np.ndarray | None:
+    """Where lips that meet begin to touch, seen from the front: the section's `segments` (S, 2, 3: each
+    triangle's cut by the plane) sampled along their length, the most forward sample per NOTCH_BANDS-th of
+    `band` of height (what a viewer in front sees), and of those between the most forward one above
+    `centre` (the upper lip's front) and the most forward one below it (the lower lip's) the one furthest
+    back: the bottom of the groove between the lips. None when either lip has no front."""
+    step = band / NOTCH_BANDS
+    rise = np.abs((segments[:, 1] - segments[:, 0]) @ axes[1])
+    count = int(np.clip(np.ceil(rise.max(initial=0.0) / step) + 2, 2, NOTCH_SAMPLES))  # each band is reached
+    t = np.linspace(0.0, 1.0, count)[None, :, None]
+    samples = (segments[:, :1] + t * (segments[:, 1:] - segments[:, :1])).reshape(-1, 3)
+    height = (samples - centre) @ axes[1]
+    depth = (samples - centre) @ axes[2]
+    keep = (np.abs(height) < band) & (depth > 0)
+    samples, height, depth = samples[keep], height[keep], depth[keep]
+    bins = np.floor(height / step).astype(np.int64)
+    order = np.lexsort((-depth, bins))
+    front = order[np.r_[True, bins[order][1:] != bins[order][:-1]]]  # by height, the most forward of each
+    above, below = front[height[front] > 0], front[height[front] <= 0]
+    if not len(above) or not len(below):
+        return None
+    low = height[below[np.argmax(depth[below])]]
+    high = height[above[np.argmax(depth[above])]]
+    between = front[(height[front] >= low) & (height[front] <= high)]
+    return samples[between[np.argmin(depth[between])]]
+
+
+def _cuts(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarray, level: float) -> np.ndarray:
+    """The segments (S, 2, 3) in which the plane normal . x = level cuts the triangles that cross it."""
+    side = vertices @ normal - level
+    d = side[triangles]
+    crossed = (d.min(axis=1) < 0) & (d.max(axis=1) > 0)
+    triangles, d = triangles[crossed], d[crossed]
+    ends = []
+    for i, j in ((0, 1), (1, 2), (2, 0)):
+        a, b = d[:, i], d[:, j]
+        t = np.where(a != b, a / np.where(a != b, a - b, 1.0), 0.0)
+        cut = (a * b <= 0) & (a != b)
+        point = vertices[triangles[:, i]] + t[:, None] * (vertices[triangles[:, j]] - vertices[triangles[:, i]])
+        ends.append((cut, point))
+    first = np.where(ends[0][0][:, None], ends[0][1], ends[1][1])
+    second = np.where(ends[2][0][:, None], ends[2][1], ends[1][1])
+    return np.stack([first, second], axis=1)
+
+
+class _Sealed:
+    """A mouth whose opening is hidden behind lips that meet in front of it (a face modelled with its lips
+    closed, the mouth's inside cut away or never made): the inner lip points are where the lips meet, seen
+    from the front, not the opening's edge behind them. In each plane across the face the skin's section,
+    seen from inside the mouth (the middle of the opening there), has a notch where the lips meet (the
+    mouth's crease: the section's point nearest that middle among those in front of it); each lip's point
+    is its own section point nearest the notch, a point belonging to the lip it is nearer to over the skin
+    (shortest paths along the edges from the opening's upper and lower edge: the lips join only round the
+    mouth's corners, behind the notch they do not). Where the lips are one surface at the notch (a path over
+    the skin joins the two points by a path less than half the opening's width longer than the straight
+    line, the rule Set Up Face checks openings by), they part only at the opening
+    behind them, so the points stay on its edge."""
+
+    def __init__(self, vertices: np.ndarray, triangles: np.ndarray, loop: np.ndarray, width: float, span: float):
+        self.vertices, self.triangles = vertices, triangles
+        edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
+        self.edges = np.unique(edges, axis=0)
+        length = np.linalg.norm(vertices[self.edges[:, 0]] - vertices[self.edges[:, 1]], axis=1)
+        n = len(vertices)
+        self.graph = csr_matrix((length, (self.edges[:, 0], self.edges[:, 1])), shape=(n, n))
+        self.loop_vertices = np.unique(loop)
+        self.reach = width
+        self.span = span  # the distance between the opening's corners
+
+    def meeting(self, top: np.ndarray, bottom: np.ndarray, level: float, axes: np.ndarray):
+        """The upper and lower lip's points where the lips meet in the plane left . x = `level`, from the
+        opening's upper and lower edge there (`top`, `bottom`); those unchanged when no notch is found."""
+        left, up, forward = axes
+        a = self.vertices[self.edges[:, 0]] @ left - level
+        b = self.vertices[self.edges[:, 1]] @ left - level
+        crossing = (a * b <= 0) & (a != b)
+        t = (a[crossing] / (a[crossing] - b[crossing]))[:, None]
+        ends = self.edges[crossing]
+        section = self.vertices[ends[:, 0]] + t * (self.vertices[ends[:, 1]] - self.vertices[ends[:, 0]])
+        centre = 0.5 * (top + bottom)
+        band = SEALED_BAND * self.reach
+        near = ((section - centre) @ forward > 0) & (np.abs((section - centre) @ up) < band)
+        notch = _notch(_cuts(self.vertices, self.triangles, left, level), centre, axes, band)
+        if notch is None or not near.any():
+            return top, bottom
+        lips = self._nearer_lip(ends[near], t[near, 0], top, bottom)
+        section = section[near]
+        found = []
+        for lip in (0, 1):
+            own = np.flatnonzero(lips == lip)
+            if not len(own):
+                return top, bottom
+            found.append(section[own[np.argmin(np.linalg.norm(section[own] - notch, axis=1))]])
+        # lips that are one surface where they meet (sealed in front) part only at the opening behind them:
+        # their points stay on its edge, where Set Up Face can open the mouth; judged as Set Up Face judges
+        # it, from the vertices nearest the two points
+        vertices = [int(np.argmin(np.linalg.norm(self.vertices - point, axis=1))) for point in found]
+        straight = np.linalg.norm(self.vertices[vertices[0]] - self.vertices[vertices[1]])
+        path = dijkstra(self.graph, directed=False, indices=vertices[0], limit=straight + FUSED_SHARE * self.span)
+        if np.isfinite(path[vertices[1]]):
+            return top, bottom
+        return found[0], found[1]
+
+    def _nearer_lip(self, ends: np.ndarray, t: np.ndarray, top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
+        """0 for the section points (edges `ends` at `t`) nearer the opening's upper edge over the skin, 1
+        for those nearer its lower edge."""
+        ring = self.vertices[self.loop_vertices]
+        sources = [self.loop_vertices[np.argmin(np.linalg.norm(ring - p, axis=1))] for p in (top, bottom)]
+        paths = dijkstra(self.graph, directed=False, indices=sources, limit=3.0 * self.reach)
+        nearest = np.where(t < 0.5, ends[:, 0], ends[:, 1])
+        return np.argmin(paths[:, nearest], axis=0)
 
 
 def _hidden(ring: np.ndarray, skin: np.ndarray, axes: np.ndarray) -> bool:

@@ -174,7 +174,20 @@ def align(
     tried.sort(key=lambda fit_score: fit_score[1])
     tree = cKDTree(points)
     refined = []
-    for fit, _score in tried[:REFINED]:
+    starts = [fit for fit, _score in tried[:REFINED]]
+    starts += [_turned_about_up(fit, template.mean(axis=0)) for fit in starts]
+    for fit in starts:
         refined.append(icp(template, template_normals, points, normals, tree, fit, FINE_STEPS))
-        yield (len(frames) + len(refined)) / (len(frames) + REFINED)
+        yield (len(frames) + len(refined)) / (len(frames) + len(starts))
     return min(refined, key=lambda fit_score: fit_score[1])
+
+
+def _turned_about_up(fit: Similarity, centre: np.ndarray) -> Similarity:
+    """`fit` turned half round about the template's up axis through its `centre` (template coordinates):
+    the same head facing the other way. Seen from above, a head's back and front have much the same
+    outline, so a coarse fit can face backwards (a face whose eye sockets are open holes, with its mouth's
+    cavity drawing the fit); refining the turned fit as well lets the better facing win."""
+    up = TEMPLATE_AXES[1]
+    half_turn = 2.0 * np.outer(up, up) - np.eye(3)  # rotation by 180 degrees about `up`
+    rotation = fit.rotation @ half_turn
+    return Similarity(rotation, fit.scale, fit.apply(centre) - fit.scale * rotation @ centre)

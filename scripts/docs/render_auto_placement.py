@@ -1,7 +1,7 @@
 """Place the feature points automatically on the two third-party heads and render them (docs/auto_placement_*.png).
 
     .venv/bin/python -m scripts.docs.render_auto_placement [--heads ../shared/heads] [--out docs/]
-        [--development HEAD.blend]
+        [--development HEAD.blend] [--extra HEAD.obj ...] [--only-extra]
 
 The scan (`leeperrysmith_scan.obj`, imported Y-up as Blender's OBJ importer leaves it) and the full-body
 character (`valid_rocketbox_male.glb`: its body mesh, with its eyeballs and teeth selected as parts) each
@@ -9,7 +9,9 @@ get Place Feature Points Automatically; Workbench renders front and three-quarte
 every FP, green when the placement is confident, red when it lists the point as low-confidence. The heads
 are read from their folder, never copied into the repository. A head refused by the operator is reported
 and not rendered. `--development` also renders a development head of `scripts.bench.placement_heads` (its
-truth FP empties deleted first) as `auto_placement_development_*.png`.
+truth FP empties deleted first) as `auto_placement_development_*.png`; `--extra` renders other heads (an
+OBJ's only mesh, e.g. ICT FaceKit's head with or without its sockets) as `auto_placement_<file name>_*.png`,
+and `--only-extra` leaves the two third-party heads out.
 """
 
 from __future__ import annotations
@@ -129,10 +131,18 @@ def main() -> int:
     parser.add_argument("--heads", type=Path, default=ROOT.parent / "shared" / "heads")
     parser.add_argument("--out", type=Path, default=ROOT / "docs")
     parser.add_argument("--development", type=Path, help="a development head (.blend with a mesh named Head)")
+    parser.add_argument(
+        "--extra", type=Path, nargs="*", default=[], help="other heads (.obj, one mesh), rendered by file name"
+    )
+    parser.add_argument("--only-extra", action="store_true", help="render only the --development and --extra heads")
     args = parser.parse_args()
     heads = {name: (args.heads / file, face, parts) for name, (file, face, parts) in HEADS.items()}
+    if args.only_extra:
+        heads = {}
     if args.development:
         heads["development"] = (args.development, "Head", ())
+    for path in args.extra:
+        heads[path.stem] = (path, None, ())
     addon.register()
     try:
         for name, (path, face_name, parts) in heads.items():

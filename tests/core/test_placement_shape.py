@@ -67,7 +67,10 @@ def test_points_on_a_skin_made_of_principal_shapes_are_placed_where_the_shapes_c
     t, moved = _shaped()
     truth = carry_on_surface(t.fp_positions, Surface(t.coarse_vertices, t.coarse_triangles), moved)
     placement = place_feature_points(moved, t.coarse_triangles)
-    skin = [row for row in np.flatnonzero(t.fp_vertices >= 0) if row != fp_index("7.1")]
+    # 7.1 and the skull points 11.x are read by their definitions (`landmarks.spine_top`, `skull`), which the
+    # carried vertices need not satisfy (tests/core/test_placement_skull.py)
+    ruled = {fp_index("7.1"), *(fp_index(f"11.{k}") for k in range(1, 7))}
+    skin = [row for row in np.flatnonzero(t.fp_vertices >= 0) if row not in ruled]
     errors = np.linalg.norm(placement.positions[skin] - truth[skin], axis=1) * 1000.0
     # with the prior 0.47 mm mean, 0.82 p95; the registration alone slides: 0.74 mean, 1.90 p95
     assert errors.mean() < 0.6 and np.percentile(errors, 95) < 1.2, errors
