@@ -28,6 +28,7 @@ from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
 from .shape import fit_shape
 from .skull import read_skull
+from .subnasale import subnasale
 from .surface import Surface, area_samples, loose_parts, triangle_areas
 from .symmetry import MidPlane, surface_mid_plane, symmetrise
 from .template import load_template
@@ -275,6 +276,7 @@ def _symmetric(template, placed, surface):
         skin, _normals = area_samples(surface.vertices, surface.triangles, FEATURE_SAMPLES)
         refine_openings(placed, surface.vertices, surface.triangles, loops, TEMPLATE_AXES, skin)
     reference = (template.fp_positions, TEMPLATE_AXES)
+    placed = subnasale(surface.vertices, surface.triangles, placed, plane.normal)
     placed = read_skull(surface.vertices, surface.triangles, placed, plane.normal, TEMPLATE_AXES[1], *reference)
     return placed, plane
 
