@@ -22,7 +22,9 @@ def mid_line_chain(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarr
     triangles from the crossing nearest `start` to the one nearest `end` (shortest path); empty when the
     plane misses the mesh or the two are not joined."""
     sides = np.stack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]], axis=1)  # (T, 3, 2)
-    keys, side_edge = np.unique(np.sort(sides.reshape(-1, 2), axis=1), axis=0, return_inverse=True)
+    ends = np.sort(sides.reshape(-1, 2), axis=1)
+    codes, side_edge = np.unique(ends[:, 0] * len(vertices) + ends[:, 1], return_inverse=True)
+    keys = np.stack([codes // len(vertices), codes % len(vertices)], axis=1)
     side_edge = side_edge.reshape(-1, 3)
     a = vertices[keys[:, 0]] @ normal - offset
     b = vertices[keys[:, 1]] @ normal - offset
