@@ -50,6 +50,17 @@ def test_surfaces_that_touch_at_rest_do_not_cross_when_turned_rigidly(dtype):
     assert len(crossing_pairs(_turned(points, 2.0, dtype), tris)) >= 1
 
 
+@pytest.mark.parametrize("scale", [1e-5, 1.0, 1e3])
+def test_a_crossing_is_seen_at_any_scale(scale):
+    """The sheets of `_sheet` in metres x `scale`: the same pairs cross (the test's bound on the determinant was
+    absolute, 1e-12, so on a face 0.01 of a metre-sized one, `scaled_x0.01`, no crossing was ever seen)."""
+    points, tris = _sheet(0.1)
+    points[6, 2] = -0.5
+    expected = crossing_pairs(points, tris)
+    assert len(expected) >= 1
+    np.testing.assert_array_equal(crossing_pairs(points * scale, tris), expected)
+
+
 def test_pairs_that_cross_at_rest_are_not_charged_to_the_motion():
     """A surface that crosses itself before anything moves (a scan's closed eyes: 241 pairs on the Lee Perry-Smith
     head) counts only the pairs the motion makes: here the upper sheet pierces the lower at rest (2 pairs), and a
