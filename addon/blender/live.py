@@ -409,6 +409,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
                 look,
                 max_steps=unfold.frame_steps(skin.n_vertices),
                 guarded=None if state.lip_guard is None else state.lip_guard.skin,
+                work=unfold.FRAME_WORK,
             )
             if len(moved) and state.playback is not None:
                 state.playback.changed(state.playback.groups_of(moved))  # the next frame writes them afresh

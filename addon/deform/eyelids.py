@@ -242,8 +242,10 @@ def bind_eyelids(
     (`_turn_range`). The share of the turn along the eye follows the opening traced on the mesh through the lid
     weights (`opening_profile`), or with `trace_opening` False (lid weights made from the FPs, which know no
     more of the margins than the FPs do: margins traced through them bend where the weights do) the opening the
-    eye's centre sees on the skin of `triangles` (`seen_margins`) over the mid-lid FPs' own opening; a sine arch
-    between the corners (`lid_profile`) where neither finds an opening.
+    eye's centre sees on the skin of `triangles` (`seen_margins`) over the mid-lid FPs' own opening, and no turn
+    toward closure where it sees none (the skin shut across the eye at rest, as a scan of closed eyes: the sine
+    arch turned the Lee Perry-Smith scan's upper lids through the lower, up to 150 crossing pairs at the demo's
+    blink); a sine arch between the corners (`lid_profile`) where the weights trace no opening.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -285,6 +287,10 @@ def bind_eyelids(
             margins = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
             closure = rest_angles[e, 0] - rest_angles[e, 1]
             profile = meeting_curve(margins, t, mid, closure) if margins is not None and closure > 0.0 else None
+            if margins is None:  # no opening on the skin: the lids meet at rest already (a scan's shut eye)
+                up_weight[on] = low_weight[on] = 0.0
+                meets[e] = (np.zeros_like, inner_x, outer_x)
+                continue
         else:
             profile = None
         if profile is not None:

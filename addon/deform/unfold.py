@@ -401,6 +401,57 @@ def open_folds(
     return Unfolded(*done)
 
 
+class FrameBudget:
+    """A frame's Unfold Skin budget shared by its calls: `max_steps` Jacobi steps (`frame_steps`, each costed at the
+    whole mesh), and with `work` (vertex-steps, `FRAME_WORK`) more, each costed at the vertices the membrane has
+    moved this frame (a step costs what its region does, and its region is the fold's, which grows from them).
+    `frame_steps` alone left a small fold on a larger mesh turned over: the Lee Perry-Smith scan with its shoulders
+    (8,838 vertices, 452 steps) at the sealed lip line in demo.fap's jaw opening, 3 faces for 18 frames, where the
+    membrane needed 580 steps at 2,585 vertices (1.5 of the 4 million vertex-steps the budget means), and a face
+    at frames 16 and 33 where the first opening took 440 steps and left 12 to the lip guard's rounds."""
+
+    def __init__(self, n_vertices: int, max_steps: int, work: int | None = None):
+        self.n_vertices, self.max_steps, self.work = n_vertices, max_steps, work
+        self.steps = self.spent = 0
+        self.moved = np.zeros(0, np.int32)
+
+    def allowed(self) -> int:
+        """The steps the next call may take."""
+        steps = self.max_steps - self.steps
+        if self.work is not None and len(self.moved):
+            steps = max(steps, (self.work - self.spent) // len(self.moved))
+        return int(min(steps, MAX_STEPS - self.steps))
+
+    def used(self, done: Unfolded) -> None:
+        cost = len(done.moved) or len(self.moved) or self.n_vertices
+        self.steps, self.spent = self.steps + done.steps, self.spent + done.steps * cost
+        self.moved = np.union1d(self.moved, done.moved).astype(np.int32)
+
+
+def open_folds_within(
+    mesh: SkinMesh,
+    positions: np.ndarray,
+    look: Look | None,
+    budget: FrameBudget,
+    start: np.ndarray | None = None,
+) -> Unfolded:
+    """`open_folds` within a frame's `budget`: where triangles are left turned over and the call moved skin, more
+    calls from the vertices moved so far, while the budget allows a batch (`CHECK_EVERY` steps); a call that opened
+    nothing ends it (its steps are lost with its positions). The steps are the calls' together, the triangles left
+    the last call's."""
+    done = open_folds(mesh, positions, look, max_steps=max(budget.allowed(), 0), start=start)
+    budget.used(done)
+    total, moved = done.steps, done.moved
+    while done.left and len(done.moved):
+        steps = budget.allowed()
+        if steps < CHECK_EVERY:
+            break
+        done = open_folds(mesh, positions, None, max_steps=steps, start=budget.moved)
+        budget.used(done)
+        total, moved = total + done.steps, np.union1d(moved, done.moved).astype(np.int32)
+    return Unfolded(moved, total, done.left, done.share)
+
+
 def open_folds_guarded(
     mesh: SkinMesh,
     positions: np.ndarray,
@@ -408,22 +459,23 @@ def open_folds_guarded(
     look: Look | None = None,
     max_steps: int = MAX_STEPS,
     guarded: np.ndarray | None = None,
+    work: int | None = None,
 ) -> np.ndarray:
     """`open_folds`, then, where it moved skin, `guard` (a constraint on `positions` in place, such as the lip guard,
     saying whether it moved any) and the membrane take turns until a round leaves both content, at most
     GUARD_ROUNDS: the membrane may carry lip skin back across the other lip, the guard may turn a face over. The
-    rounds share the `max_steps` budget (a frame's, `frame_steps`: each round with a budget of its own made the
-    2 mm remesh's slowest frames 5x its median). `guarded`: the vertices the guard can move, where a round's unfold
-    starts (a round follows one that left no triangle turned over, so only the guard's can be; each round looked
-    at every triangle, 1.5 ms at 53k vertices, 7 rounds a third of the 2 mm remesh's slowest frames). The vertices
-    the membrane moved."""
-    done = open_folds(mesh, positions, look, max_steps=max_steps)
-    moved, left = done.moved, max_steps - done.steps
+    rounds share one `FrameBudget` (`max_steps`, a frame's `frame_steps`, and `work`: each round with a budget of
+    its own made the 2 mm remesh's slowest frames 5x its median). `guarded`: the vertices the guard can move, where a
+    round's unfold starts (a round follows one that left no triangle turned over, so only the guard's can be; each
+    round looked at every triangle, 1.5 ms at 53k vertices, 7 rounds a third of the 2 mm remesh's slowest frames).
+    The vertices the membrane moved."""
+    budget = FrameBudget(mesh.n_vertices, max_steps, work)
+    moved = open_folds_within(mesh, positions, look, budget).moved
     for _ in range(GUARD_ROUNDS if len(moved) else 0):
-        if left <= 0 or not guard():
+        if budget.allowed() <= 0 or not guard():
             break
-        done = open_folds(mesh, positions, None, max_steps=left, start=guarded)
+        done = open_folds_within(mesh, positions, None, budget, start=guarded)
         if not len(done.moved):
             break
-        moved, left = np.union1d(moved, done.moved), left - done.steps
+        moved = np.union1d(moved, done.moved)
     return moved

@@ -377,3 +377,29 @@ def test_the_seen_margins_are_the_shells_margins_by_hand():
     ts, up, _rows = seen_margins(rest - CENTRES[0], triangles, R_EYE, wide)[0]
     x = wide[0, 0] + ts * (wide[1, 0] - wide[0, 0])
     assert np.all(up[np.abs(x) >= R_EYE] == 0.0) and np.all(up[np.abs(x) < 0.9 * CORNER] > 0.0)
+
+
+def test_an_eye_shut_in_the_skin_does_not_turn_its_lids_through_each_other():
+    """Lid masks made from the FPs on an eye whose skin is shut across it at rest (a strip of faces joining the two
+    margins, as a scan of closed eyes has it) with the lid FPs placed apart: the eye's centre sees no opening
+    (`seen_margins` None), so the lids have nowhere to close to and a full blink leaves the skin where it is. Before,
+    the sine arch turned the upper lid down through the shut skin (the Lee Perry-Smith scan: up to 150 crossing
+    pairs at the demo's blink)."""
+    rest, upper, lower, neutral, margins = _eye()
+    triangles = _shell_triangles(len(rest), len(XS))
+    strip = []
+    for eye in (0, 1):
+        up, low = margins[(eye, 0)], margins[(eye, 1)]
+        strip += [t for j in range(len(XS) - 1) for t in ((up[j], low[j + 1], up[j + 1]), (up[j], low[j], low[j + 1]))]
+    triangles = np.concatenate([triangles, strip])
+    assert (
+        seen_margins(rest - CENTRES[0], triangles, R_EYE, neutral[[fp_index("3.11"), fp_index("3.7")]] - CENTRES[0])
+        is None
+    )
+    rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, np.array([R_EYE, R_EYE]), AXES, triangles, False)
+    fps = neutral.copy()
+    for e, up in enumerate(("3.1", "3.2")):
+        _turned_fp(fps, up, e, LOW0 - UP0)
+    out = rest.copy()
+    apply_eyelids(rig, out, fps)
+    np.testing.assert_array_equal(out, rest)

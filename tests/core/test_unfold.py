@@ -415,3 +415,34 @@ def test_a_budget_that_ends_with_no_fewer_folds_leaves_the_frame_as_it_came(seed
     got = fused.unfold(plain, compiled, None, 50, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, 16, 1e-6)
     if got is not None:
         assert len(got[0]) == 0 and got[1:3] == (50, found) and np.array_equal(compiled, folded.astype(np.float32))
+
+
+def test_a_frames_budget_is_work_so_a_small_fold_on_a_large_mesh_opens():
+    """`frame_steps` costs a step at the whole mesh, so on a larger mesh a small fold got too few steps and stayed
+    turned over (the Lee Perry-Smith scan's lip line in the demo: 3 faces for 18 frames); with the frame's work
+    (`FRAME_WORK` vertex-steps) the steps go on at what the vertices they moved cost, and the fold opens. A call
+    that opened nothing (no vertices to cost the steps at) ends there, as before."""
+    rest, triangles = grid(31)
+    mesh = unfold.prepare(rest, triangles)
+    folded = rest.astype(np.float32)
+    block = (15 + np.arange(-4, 5))[:, None] * 31 + 15 + np.arange(-4, 5)[None]
+    folded[block.ravel(), 0] += 10e-3  # a 9 x 9 block pushed 10 spacings sideways, over its neighbours
+    full = unfold.open_folds(mesh, folded.copy())
+    assert full.left == 0 and full.steps > 10
+    few = full.steps - 10  # what a mesh of many more vertices would give the frame
+    positions = folded.copy()
+    short = unfold.open_folds(mesh, positions, max_steps=few)
+    assert short.left > 0 and len(short.moved)  # the step count alone leaves some of it
+    positions = folded.copy()
+    done = unfold.open_folds_within(mesh, positions, None, unfold.FrameBudget(len(rest), few, unfold.FRAME_WORK))
+    assert done.left == 0 and not inverted_faces(rest, positions, triangles).any()
+    assert done.steps <= full.steps + few and done.steps * len(done.moved) <= unfold.FRAME_WORK
+    # the same through the guarded rounds, and a work budget too small for one more batch keeps the old bound
+    positions = folded.copy()
+    unfold.open_folds_guarded(mesh, positions, lambda: False, max_steps=few, work=unfold.FRAME_WORK)
+    assert not inverted_faces(rest, positions, triangles).any()
+    positions = folded.copy()
+    small = unfold.open_folds_within(
+        mesh, positions, None, unfold.FrameBudget(len(rest), few, (few + 4) * len(short.moved))
+    )
+    assert small.steps == few and small.left == short.left
