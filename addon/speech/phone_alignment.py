@@ -1,22 +1,22 @@
 """A voice recording (+ its transcript) -> phones with times, by PocketSphinx (no bpy).
 
-With a transcript, forced alignment: `Decoder(samprate=16000, lm=None, bestpath=False)` (bestpath would
-truncate the alignment), `set_align_text(words)`, one decoding pass for the words, `set_alignment()`, a second
-pass for the phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. Each word
-is pronounced as espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the model's
-phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's
-visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
-by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
-(`MIN_SCORE_PER_FRAME`). The aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved,
-within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
-gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript, the
-words that PocketSphinx's general US-English language model hears are aligned as a transcript would be, and the
-lip closures of phone recognition laid over them (`recognition_steps`; where no word is heard or the words do
-not align, phone recognition alone). Phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
-phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, a quiet murmur
-within any other sonorant split off as an /m/, a /k/, /t/ or /th/ with a labial burst taken for a /p/, and
-an /f/ or /v/ without frication for a /p/ or /b/ closure (`bilabials.bilabials_from_acoustics`). CMU phones
-are written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
+With a transcript, forced alignment: `Decoder(samprate=16000, lm=None, bestpath=False)` (bestpath would truncate the
+alignment), `set_align_text(words)`, one decoding pass for the words, `set_alignment()`, a second pass for the
+phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. Each word is pronounced as
+espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the model's phones by
+`data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's visemes; if that
+fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced by espeak-ng) and the
+phones keep their CMU names. A transcript whose alignment scores too low is refused (`MIN_SCORE_PER_FRAME`). The
+aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved, within one frame, to the strongest
+spectral change (`boundaries.refine_boundaries`), and sound the aligner gave to a silence goes to the phone next to
+it (`boundaries.sound_into_silence`). Without a transcript, the words that PocketSphinx's general US-English
+language model hears are aligned as a transcript would be, and the lip closures of phone recognition laid over them
+(`recognition_steps`; where no word is heard, the words do not align or the word language model is not installed,
+phone recognition alone). Phone recognition: the `allphone` search with the phone language model that ships with the
+model, giving CMU phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, a
+quiet murmur within any other sonorant split off as an /m/, a /k/, /t/ or /th/ with a labial burst taken for a /p/,
+and an /f/ or /v/ without frication for a /p/ or /b/ closure (`bilabials.bilabials_from_acoustics`). CMU phones are
+written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -93,6 +93,7 @@ OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from th
 # The model's phones whose sound starts or stops abruptly (stops, affricates, fricatives, nasals, silence):
 # their boundaries are acoustic events that `boundaries.refine_boundaries` can place finer than a frame.
 ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
+WORD_LANGUAGE_MODEL = "en-us.lm.bin"
 _BILABIALS = frozenset("p b m".split())  # CMU names of the phone loop's lip closures
 _MEAN_WORD = "a"  # in the dictionary of every decoder: the cheapest grammar to end a features-only utterance
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
@@ -265,8 +266,7 @@ def _new_decoder(task: str, accuracy: str):
     options = {"frate": FRAME_RATES[task], "bestpath": task == "words"}
     if beam is not None:
         options.update(beam=beam, wbeam=beam, pbeam=beam)
-    if task != "words":  # words: the general US-English language model and dictionary the wheel ships
-        options["lm"] = None
+    options["lm"] = word_language_model() if task == "words" else None
     if task == "recognise":
         # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
         # search keeps only a few long phones
@@ -276,6 +276,13 @@ def _new_decoder(task: str, accuracy: str):
         return _pocketsphinx().Decoder(samprate=RATE, loglevel="FATAL", **options)
     except (RuntimeError, ValueError) as exc:
         raise SpeechError(f"PocketSphinx could not start: {exc}") from None
+
+
+def word_language_model() -> str:
+    """The general US-English word language model of PocketSphinx's wheel (with its CMU dictionary, the
+    decoder's default). The extension's zip leaves it out (27 MB, scripts/slim_wheels.py): there recognition
+    without a transcript is the phone loop's alone."""
+    return os.path.join(_pocketsphinx().get_model_path(), "en-us", WORD_LANGUAGE_MODEL)
 
 
 _idle_decoders: dict[tuple[str, str], list] = {}
@@ -539,9 +546,11 @@ def recognition_steps(
     word's phones in order, its bilabials where the word has them). The phone loop (`phone_loop_steps`) runs
     too; its lip closures, found by the recogniser and the acoustic cues of `bilabials`, are laid over the
     aligned phones (`with_closures`): a word the recogniser got wrong does not open lips that the acoustics
-    heard close. Where no word is recognised, or the words cannot be aligned, the phone loop's phones are
-    used as they are."""
+    heard close. Where no word is recognised, the words cannot be aligned, or the word language model is not
+    installed (`word_language_model`), the phone loop's phones are used as they are."""
     ranges, _ = pieces(recording.samples, vad_mode)
+    if not os.path.isfile(word_language_model()):
+        return (yield from _phone_loop(recording, ranges, accuracy))
     heard = yield from _scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
     words = yield from _scaled(_word_steps(recording, ranges, accuracy), 0.3, 0.6)
     if not words:

@@ -261,6 +261,11 @@ def test_without_recognised_words_or_their_alignment_the_phone_loop_is_used(monk
 
     monkeypatch.setattr(phone_alignment, "alignment_steps", refused)
     assert phone_alignment.phones_from_recording(take, None) == loop
+    monkeypatch.undo()
+
+    # the extension's zip leaves the word language model out (scripts/slim_wheels.py)
+    monkeypatch.setattr(phone_alignment, "WORD_LANGUAGE_MODEL", "not-installed.lm.bin")
+    assert phone_alignment.phones_from_recording(take, None) == loop
 
 
 def test_closures_laid_over_phones_cut_them_and_keep_the_rest():
