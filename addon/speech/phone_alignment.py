@@ -46,6 +46,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..progress import scaled
 from . import SpeechError, espeak
 from .bilabials import bilabials_from_acoustics
 from .boundaries import log_band_energies, refine_boundaries, sound_into_silence
@@ -551,31 +552,18 @@ def recognition_steps(
     ranges, _ = pieces(recording.samples, vad_mode)
     if not os.path.isfile(word_language_model()):
         return (yield from _phone_loop(recording, ranges, accuracy))
-    heard = yield from _scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
-    words = yield from _scaled(_word_steps(recording, ranges, accuracy), 0.3, 0.6)
+    heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
+    words = yield from scaled(_word_steps(recording, ranges, accuracy), 0.3, 0.6)
     if not words:
         return heard
     try:
-        aligned = yield from _scaled(
+        aligned = yield from scaled(
             alignment_steps(recording, " ".join(words), vad_mode=vad_mode, accuracy=accuracy), 0.6, 1.0
         )
     except AlignmentError:
         return heard
     aligned = [p._replace(where="recognised " + p.where) for p in aligned]
     return with_closures(aligned, [p for p in heard if p.label in _BILABIALS])
-
-
-def _scaled(steps: ProgressSteps, low: float, high: float) -> ProgressSteps:
-    """The progress of `steps` mapped into [low, high]; returns what they return."""
-    try:
-        while True:
-            try:
-                fraction = next(steps)
-            except StopIteration as stop:
-                return stop.value
-            yield low + (high - low) * fraction
-    finally:
-        steps.close()  # Esc: the inner steps drop their decoder at once
 
 
 def phone_loop_steps(
@@ -588,37 +576,41 @@ def phone_loop_steps(
 
 
 def _phone_loop(recording: Recording, ranges, accuracy: str) -> ProgressSteps:
-    total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
-    done = 0.0
-    results = []
-    with _decoder("recognise", accuracy) as decoder:
-        for first, end in ranges:
-            pcm = _pcm(recording.samples[first:end])
-            mean = _piece_mean(decoder, pcm)
-            decoder.activate_search()  # the phone loop the decoder was made with
-            yield from _decode_pass(decoder, pcm, mean, done, total)
-            done += len(pcm) / 2
-            entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
-            results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))
+    def phones(decoder, first: int) -> list[TimedLabel]:
+        entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
+        return _phones_of(entries, first / RATE, FRAME_RATES["recognise"])
+
+    results = yield from _search_pieces(recording, ranges, "recognise", accuracy, phones)
     return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
 
 
 def _word_steps(recording: Recording, ranges, accuracy: str) -> Generator[float, None, list[str]]:
     """The words the general language model hears in each piece, in order (fillers and silences left out)."""
+
+    def words(decoder, first: int) -> list[str]:
+        hypothesis = decoder.hyp()
+        heard = hypothesis.hypstr.split() if hypothesis is not None else []
+        return [w for w in heard if not w.startswith(("<", "[", "+"))]
+
+    results = yield from _search_pieces(recording, ranges, "words", accuracy, words)
+    return [word for piece in results for word in piece]
+
+
+def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read: Callable) -> Generator:
+    """One pass of the search `task` was made with over each piece, from the piece's own cepstral mean: yields
+    progress, returns `read(decoder, first sample)` of each piece."""
     total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
     done = 0.0
-    words: list[str] = []
-    with _decoder("words", accuracy) as decoder:
+    results = []
+    with _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
             mean = _piece_mean(decoder, pcm)
-            decoder.activate_search()  # the language model the decoder was made with
+            decoder.activate_search()  # the phone loop or language model the decoder was made with
             yield from _decode_pass(decoder, pcm, mean, done, total)
             done += len(pcm) / 2
-            hypothesis = decoder.hyp()
-            if hypothesis is not None:
-                words += [w for w in hypothesis.hypstr.split() if not w.startswith(("<", "[", "+"))]
-    return words
+            results.append(read(decoder, first))
+    return results
 
 
 def with_closures(phones: list[TimedLabel], closures: list[TimedLabel]) -> list[TimedLabel]:
