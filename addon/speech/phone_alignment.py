@@ -9,14 +9,15 @@ fails, the CMU dictionary's pronunciations are aligned (a word missing from it p
 phones keep their CMU names. A transcript whose alignment scores too low is refused (`MIN_SCORE_PER_FRAME`). The
 aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved, within one frame, to the strongest
 spectral change (`boundaries.refine_boundaries`), and sound the aligner gave to a silence goes to the phone next to
-it (`boundaries.sound_into_silence`). Without a transcript, the words that PocketSphinx's general US-English
-language model hears are aligned as a transcript would be, and the lip closures of phone recognition laid over them
-(`recognition_steps`; where no word is heard, the words do not align or the word language model is not installed,
-phone recognition alone). Phone recognition: the `allphone` search with the phone language model that ships with the
-model, giving CMU phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, a
-quiet murmur within any other sonorant split off as an /m/, a /k/, /t/ or /th/ with a labial burst taken for a /p/,
-and an /f/ or /v/ without frication for a /p/ or /b/ closure (`bilabials.bilabials_from_acoustics`). CMU phones are
-written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
+it (`boundaries.sound_into_silence`). Without a transcript, phone recognition; or, on request (`words`), the words
+that PocketSphinx's general US-English language model hears are aligned as a transcript would be, and the lip
+closures of phone recognition laid over them (`recognition_steps`; where no word is heard, the words do not align or
+the word language model is not installed, phone recognition alone). Phone recognition: the `allphone` search with
+the phone language model that ships with the model, giving CMU phones, where a /w/, /uw/, /uh/ or /l/ that sounds
+like a nasal murmur is taken for an /m/, a quiet murmur within any other sonorant split off as an /m/, a /k/, /t/ or
+/th/ with a labial burst taken for a /p/, and an /f/ or /v/ without frication for a /p/ or /b/ closure
+(`bilabials.bilabials_from_acoustics`). CMU phones are written in lower case (`data/phones_cmu.json` maps them to
+visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -538,27 +539,27 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
 
 
 def recognition_steps(
-    recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
+    recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD", words: bool = False
 ) -> ProgressSteps:
     """Recognition without a transcript (less accurate): yields progress, returns the timed phones.
 
-    Words first: PocketSphinx's general US-English language model and dictionary decode the words, which are
-    then force-aligned like a transcript (`alignment_steps`), so the phones keep a lexicon's constraints (a
-    word's phones in order, its bilabials where the word has them). The phone loop (`phone_loop_steps`) runs
-    too; its lip closures, found by the recogniser and the acoustic cues of `bilabials`, are laid over the
-    aligned phones (`with_closures`): a word the recogniser got wrong does not open lips that the acoustics
-    heard close. Where no word is recognised, the words cannot be aligned, or the word language model is not
-    installed (`word_language_model`), the phone loop's phones are used as they are."""
+    The phone loop (`phone_loop_steps`) by default. With `words`: PocketSphinx's general US-English language model
+    and dictionary decode the words, which are then force-aligned like a transcript (`alignment_steps`), so the
+    phones keep a lexicon's constraints (a word's phones in order, its bilabials where the word has them). The
+    phone loop (`phone_loop_steps`) runs too; its lip closures, found by the recogniser and the acoustic cues of
+    `bilabials`, are laid over the aligned phones (`with_closures`): a word the recogniser got wrong does not
+    open lips that the acoustics heard close. Where no word is recognised, the words cannot be aligned, or the
+    word language model is not installed (`word_language_model`), the phone loop's phones are used as they are."""
     ranges, _ = pieces(recording.samples, vad_mode)
-    if not os.path.isfile(word_language_model()):
+    if not words or not os.path.isfile(word_language_model()):
         return (yield from _phone_loop(recording, ranges, accuracy))
     heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
-    words = yield from scaled(_word_steps(recording, ranges, accuracy), 0.3, 0.6)
-    if not words:
+    said = yield from scaled(_word_steps(recording, ranges, accuracy), 0.3, 0.6)
+    if not said:
         return heard
     try:
         aligned = yield from scaled(
-            alignment_steps(recording, " ".join(words), vad_mode=vad_mode, accuracy=accuracy), 0.6, 1.0
+            alignment_steps(recording, " ".join(said), vad_mode=vad_mode, accuracy=accuracy), 0.6, 1.0
         )
     except AlignmentError:
         return heard
@@ -650,11 +651,13 @@ def phones_from_recording(
     vad_mode: int = DEFAULT_VAD_MODE,
     accuracy: str = "STANDARD",
     progress: Callable[[float], None] | None = None,
+    words: bool = False,
 ) -> list[TimedLabel]:
-    """The recording's timed phones: aligned with `transcript` when given (not blank), else recognised."""
+    """The recording's timed phones: aligned with `transcript` when given (not blank), else recognised (with
+    `words`: the recognised words aligned, see `recognition_steps`)."""
     if transcript is not None and transcript.strip():
         return run(alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy), progress)
-    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy), progress)
+    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words), progress)
 
 
 def read_transcript_file(path) -> str:

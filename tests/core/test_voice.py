@@ -233,9 +233,11 @@ def test_recognised_words_are_aligned_and_the_phone_loops_closures_laid_over_the
     ranges, _ = phone_alignment.pieces(take.samples)
     words = phone_alignment.run(phone_alignment._word_steps(take, ranges, "STANDARD"))
     assert words and all(w == w.lower() and not w.startswith("<") for w in words)
-    phones = phone_alignment.phones_from_recording(take, None)
+    phones = phone_alignment.phones_from_recording(take, None, words=True)
     loop = phone_alignment.run(phone_alignment.phone_loop_steps(take))
+    assert phone_alignment.phones_from_recording(take, None) == loop  # the default: the phone loop alone
     aligned = [p for p in phones if p.where.startswith("recognised word ")]
+    assert aligned and any(p.label == "m" for p in aligned)  # "Maybe", "map": heard as words with an /m/
     assert {p.where.split("'")[1] for p in aligned} <= set(words)
     closures = [p for p in loop if p.label in ("p", "b", "m")]
     assert closures and all(c in phones for c in closures)  # every closure of the phone loop kept, as it was
@@ -252,7 +254,7 @@ def test_without_recognised_words_or_their_alignment_the_phone_loop_is_used(monk
         yield
 
     monkeypatch.setattr(phone_alignment, "_word_steps", no_words)
-    assert phone_alignment.phones_from_recording(take, None) == loop
+    assert phone_alignment.phones_from_recording(take, None, words=True) == loop
     monkeypatch.undo()
 
     def refused(*args, **kwargs):
@@ -260,12 +262,12 @@ def test_without_recognised_words_or_their_alignment_the_phone_loop_is_used(monk
         yield
 
     monkeypatch.setattr(phone_alignment, "alignment_steps", refused)
-    assert phone_alignment.phones_from_recording(take, None) == loop
+    assert phone_alignment.phones_from_recording(take, None, words=True) == loop
     monkeypatch.undo()
 
     # the extension's zip leaves the word language model out (scripts/slim_wheels.py)
     monkeypatch.setattr(phone_alignment, "WORD_LANGUAGE_MODEL", "not-installed.lm.bin")
-    assert phone_alignment.phones_from_recording(take, None) == loop
+    assert phone_alignment.phones_from_recording(take, None, words=True) == loop
 
 
 def test_closures_laid_over_phones_cut_them_and_keep_the_rest():
