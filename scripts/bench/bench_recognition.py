@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     chosen = sentences[: bench.N_SENTENCES] if args.set == "dev" else sentences[-bench.N_SENTENCES :]
     ways = {
         "phone loop": lambda take: phone_alignment.run(phone_alignment.phone_loop_steps(take)),
-        "words + closures": lambda take: phone_alignment.phones_from_recording(take, None),
+        "words + closures": lambda take: phone_alignment.phones_from_recording(take, None, words=True),
     }
     scores = {name: [] for name in ways}
     cpu = dict.fromkeys(ways, 0.0)
