@@ -3,7 +3,7 @@
     python -m scripts.say "TEXT" --face FACE.blend -o OUTDIR [--name NAME] [--voice en] [--rate 175]
                           [--expression joy:0.6] [--fps 25] [--resolution 480] [--visemes] [--no-video]
     python -m scripts.say --audio VOICE.wav [--text "TRANSCRIPT" | --transcript FILE.txt] --face FACE.blend
-                          -o OUTDIR [--accuracy standard|high] [the options above but --voice and --rate]
+                          -o OUTDIR [--accuracy standard|high] [--words] [the options above but --voice and --rate]
 
 From text, writes, named after the text (or --name):
     NAME.fap            the co-articulated low-level FAPs at --fps (with --visemes, FAP 1 in every frame too)
@@ -88,6 +88,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     parser.add_argument(
         "--accuracy", choices=("standard", "high"), default="standard", help="PocketSphinx's search (high: slower)"
     )
+    parser.add_argument(
+        "--words",
+        action="store_true",
+        help="without a transcript: recognise words and align them (needs PocketSphinx's word model; slower)",
+    )
     parser.add_argument("--face", type=Path, required=True, help="the face .blend")
     parser.add_argument("-o", "--out", type=Path, required=True, help="output folder")
     parser.add_argument("--name", type=_name, help="output file stem (default: from the text)")
@@ -166,7 +171,7 @@ def lipsync(args, name: str, transcript: str | None):
                 print(f"say.py: {'aligning' if transcript else 'recognising'} {fraction:.0%}", flush=True)
 
         phones = phone_alignment.phones_from_recording(
-            take, transcript, accuracy=args.accuracy.upper(), progress=progress
+            take, transcript, accuracy=args.accuracy.upper(), progress=progress, words=args.words
         )
         segments = phone_alignment.phone_segments(phones, str(args.audio))
         stream = _stream(args, name, segments, take.duration)

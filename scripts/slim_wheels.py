@@ -1,18 +1,18 @@
 """Wheels without the files the add-on never loads, so that each platform's zip stays small.
 
 `scripts.build_extension` bundles scipy, PocketSphinx and espeak-ng's loader as PyPI ships them, and those wheels
-carry much the add-on never touches: scipy's test suites, the subpackages it does not import (statistics,
-signal processing, file formats ...: 12 of its 20) and its files for building against it (C headers, Cython
-sources, type stubs), and PocketSphinx's 27 MB word language model (the add-on
-aligns with the dictionary and recognises with the phone language model, `lm=None` always:
-addon/speech/phone_alignment.py). `slim(wheel)` writes a copy without those files, its RECORD listing exactly
+carry much the add-on never touches: scipy's test suites, the subpackages it does not import (statistics, signal
+processing, file formats ...: 12 of its 20) and its files for building against it (C headers, Cython sources, type
+stubs), and PocketSphinx's 27 MB word language model (the add-on aligns with the dictionary and recognises with the
+phone language model; it decodes words without a transcript only where the word model is installed and does without
+it: addon/speech/phone_alignment.py). `slim(wheel)` writes a copy without those files, its RECORD listing exactly
 what is left (their hashes are unchanged: the kept files are copied byte for byte), under the same name with the
 build tag BUILD_TAG (`scipy-1.15.3-1slim-cp311-...whl`: a wheel name's optional build tag, which pip and Blender
-read as a tie-breaker only), so the trimmed wheel is never taken for PyPI's. Every other file, the licences and
-the METADATA included, is kept. Wheels of projects TRIMS does not name are used as they are.
+read as a tie-breaker only), so the trimmed wheel is never taken for PyPI's. Every other file, the licences and the
+METADATA included, is kept. Wheels of projects TRIMS does not name are used as they are.
 
 What is dropped is checked by tests/scripts/test_slim_wheels.py: every scipy module the add-on's source imports,
-and what those load, is outside DROPPED_SCIPY, and nothing in the add-on names the dropped language model.
+and what those load, is outside DROPPED_SCIPY, and only the recogniser names the dropped language model.
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ class Trim:
 
 TRIMS = {
     "scipy": Trim(_scipy_unused, "its test suites and the 12 subpackages the add-on does not load"),
-    "pocketsphinx": Trim(lambda name: name == UNUSED_LANGUAGE_MODEL, "the word language model (lm=None always)"),
+    "pocketsphinx": Trim(lambda name: name == UNUSED_LANGUAGE_MODEL, "the word language model (optional)"),
 }
 
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mpeg4.feature_points import FEATURE_POINTS, fp_index
+from ..progress import scaled
 from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
@@ -102,7 +103,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
     yield 0.02
 
     points, normals = area_samples(vertices, skin_triangles, SAMPLES)
-    similarity, score = yield from _scaled(
+    similarity, score = yield from scaled(
         align(template.coarse_vertices, template.coarse_normals, points, normals), 0.02, 0.3
     )
 
@@ -127,7 +128,7 @@ def placement_steps(vertices: np.ndarray, triangles: np.ndarray):
         border_vertices(template.coarse_triangles, len(template.coarse_vertices)),
     )
     yield 0.4
-    coarse, _affine = yield from _scaled(
+    coarse, _affine = yield from scaled(
         register(shaped, template.coarse_triangles, surface, features=features), 0.4, 0.9
     )
 
@@ -231,16 +232,6 @@ def _features(template, local: np.ndarray, kept: np.ndarray):
     samples, normals = area_samples(local, kept, count, seed=1)
     heights = local_height(samples, normals, samples, FEATURE_RADIUS)
     return template_heights, FeatureMatcher(samples, normals, heights, FEATURE_WEIGHT)
-
-
-def _scaled(steps, start: float, end: float):
-    """Run a stage's generator, its fractions mapped onto [start, end] of the whole; returns its result."""
-    while True:
-        try:
-            fraction = next(steps)
-        except StopIteration as done:
-            return done.value
-        yield start + (end - start) * fraction
 
 
 def _transfer(template, shaped, coefficients, coarse, surface):

@@ -1,20 +1,23 @@
 """A voice recording (+ its transcript) -> phones with times, by PocketSphinx (no bpy).
 
-With a transcript, forced alignment: `Decoder(samprate=16000, lm=None, bestpath=False)` (bestpath would
-truncate the alignment), `set_align_text(words)`, one decoding pass for the words, `set_alignment()`, a second
-pass for the phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. Each word
-is pronounced as espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the model's
-phones by `data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's
-visemes; if that fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced
-by espeak-ng) and the phones keep their CMU names. A transcript whose alignment scores too low is refused
-(`MIN_SCORE_PER_FRAME`). The aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved,
-within one frame, to the strongest spectral change (`boundaries.refine_boundaries`), and sound the aligner
-gave to a silence goes to the phone next to it (`boundaries.sound_into_silence`). Without a transcript,
-phone recognition: the `allphone` search with the phone language model that ships with the model, giving CMU
-phones, where a /w/, /uw/, /uh/ or /l/ that sounds like a nasal murmur is taken for an /m/, a quiet murmur
-within any other sonorant split off as an /m/, a /k/, /t/ or /th/ with a labial burst taken for a /p/, and
-an /f/ or /v/ without frication for a /p/ or /b/ closure (`bilabials.bilabials_from_acoustics`). CMU phones
-are written in lower case (`data/phones_cmu.json` maps them to visemes, and the timed-label reader knows them).
+With a transcript, forced alignment: `Decoder(samprate=16000, lm=None, bestpath=False)` (bestpath would truncate the
+alignment), `set_align_text(words)`, one decoding pass for the words, `set_alignment()`, a second pass for the
+phones, then `get_alignment().phones()`: each phone's start and length in 10 ms frames. Each word is pronounced as
+espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the model's phones by
+`data/espeak_to_cmu.json`), so the aligned phones carry espeak-ng's names and the text path's visemes; if that
+fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced by espeak-ng) and the
+phones keep their CMU names. A transcript whose alignment scores too low is refused (`MIN_SCORE_PER_FRAME`). The
+aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved, within one frame, to the strongest
+spectral change (`boundaries.refine_boundaries`), and sound the aligner gave to a silence goes to the phone next to
+it (`boundaries.sound_into_silence`). Without a transcript, phone recognition; or, on request (`words`), the words
+that PocketSphinx's general US-English language model hears are aligned as a transcript would be, and the lip
+closures of phone recognition laid over them (`recognition_steps`; where no word is heard, the words do not align or
+the word language model is not installed, phone recognition alone). Phone recognition: the `allphone` search with
+the phone language model that ships with the model, giving CMU phones, where a /w/, /uw/, /uh/ or /l/ that sounds
+like a nasal murmur is taken for an /m/, a quiet murmur within any other sonorant split off as an /m/, a /k/, /t/ or
+/th/ with a labial burst taken for a /p/, and an /f/ or /v/ without frication for a /p/ or /b/ closure
+(`bilabials.bilabials_from_acoustics`). CMU phones are written in lower case (`data/phones_cmu.json` maps them to
+visemes, and the timed-label reader knows them).
 
 Recordings longer than `PIECE_SECONDS` are cut at pauses (PocketSphinx's voice-activity detector) into pieces
 decoded one after the other, so memory stays bounded and time linear. With a transcript each piece gets the
@@ -44,6 +47,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..progress import scaled
 from . import SpeechError, espeak
 from .bilabials import bilabials_from_acoustics
 from .boundaries import log_band_energies, refine_boundaries, sound_into_silence
@@ -57,7 +61,7 @@ from .tables import DATA, READ, cmu_phones
 # (bilabial closures found in clean dev takes: 53 % at 10 ms, 72 % at 5 ms). Alignment keeps 10 ms: 5 ms gave
 # it under 2 points of frame agreement for twice the time, and its score cut (`MIN_SCORE_PER_FRAME`) is
 # measured at 10 ms (docs/voice.md).
-FRAME_RATES = {"align": 100, "recognise": 200}
+FRAME_RATES = {"align": 100, "recognise": 200, "words": 100}
 WINDOW_SAMPLES = 410  # PocketSphinx's analysis window at 16 kHz (0.025625 s)
 PAD_SECONDS = 0.3
 PIECE_SECONDS = 30.0  # longer recordings are cut at pauses into pieces of about this length
@@ -75,6 +79,8 @@ BEAMS = {
     ("align", "HIGH"): 1e-300,
     ("recognise", "STANDARD"): 1e-20,
     ("recognise", "HIGH"): 1e-50,
+    ("words", "STANDARD"): None,  # PocketSphinx's defaults (beam, pbeam 1e-48; wbeam 7e-29)
+    ("words", "HIGH"): 1e-60,
 }
 ACCURACY = ("STANDARD", "HIGH")
 # With beams this wide most transcripts "align"; whether it is what is said shows in the alignment's acoustic
@@ -89,6 +95,8 @@ OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from th
 # The model's phones whose sound starts or stops abruptly (stops, affricates, fricatives, nasals, silence):
 # their boundaries are acoustic events that `boundaries.refine_boundaries` can place finer than a frame.
 ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
+WORD_LANGUAGE_MODEL = "en-us.lm.bin"
+_BILABIALS = frozenset("p b m".split())  # CMU names of the phone loop's lip closures
 _MEAN_WORD = "a"  # in the dictionary of every decoder: the cheapest grammar to end a features-only utterance
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
@@ -257,16 +265,26 @@ def _new_decoder(task: str, accuracy: str):
     if accuracy not in ACCURACY:
         raise SpeechError(f"accuracy {accuracy!r} is not one of {', '.join(ACCURACY)}")
     beam = BEAMS[task, accuracy]
-    options = {"lm": None, "beam": beam, "wbeam": beam, "pbeam": beam, "frate": FRAME_RATES[task]}
+    options = {"frate": FRAME_RATES[task], "bestpath": task == "words"}
+    if beam is not None:
+        options.update(beam=beam, wbeam=beam, pbeam=beam)
+    options["lm"] = word_language_model() if task == "words" else None
     if task == "recognise":
         # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
         # search keeps only a few long phones
         model = _pocketsphinx().get_model_path()
         options.update(allphone=os.path.join(model, "en-us", "en-us-phone.lm.bin"), lw=2.0, pip=0.3)
     try:
-        return _pocketsphinx().Decoder(samprate=RATE, bestpath=False, loglevel="FATAL", **options)
+        return _pocketsphinx().Decoder(samprate=RATE, loglevel="FATAL", **options)
     except (RuntimeError, ValueError) as exc:
         raise SpeechError(f"PocketSphinx could not start: {exc}") from None
+
+
+def word_language_model() -> str:
+    """The general US-English word language model of PocketSphinx's wheel (with its CMU dictionary, the
+    decoder's default). The extension's zip leaves it out (27 MB, scripts/slim_wheels.py): there recognition
+    without a transcript is the phone loop's alone."""
+    return os.path.join(_pocketsphinx().get_model_path(), "en-us", WORD_LANGUAGE_MODEL)
 
 
 _idle_decoders: dict[tuple[str, str], list] = {}
@@ -521,23 +539,98 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
 
 
 def recognition_steps(
+    recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD", words: bool = False
+) -> ProgressSteps:
+    """Recognition without a transcript (less accurate): yields progress, returns the timed phones.
+
+    The phone loop (`phone_loop_steps`) by default. With `words`: PocketSphinx's general US-English language model
+    and dictionary decode the words, which are then force-aligned like a transcript (`alignment_steps`), so the
+    phones keep a lexicon's constraints (a word's phones in order, its bilabials where the word has them). The
+    phone loop (`phone_loop_steps`) runs too; its lip closures, found by the recogniser and the acoustic cues of
+    `bilabials`, are laid over the aligned phones (`with_closures`): a word the recogniser got wrong does not
+    open lips that the acoustics heard close. Where no word is recognised, the words cannot be aligned, or the
+    word language model is not installed (`word_language_model`), the phone loop's phones are used as they are."""
+    ranges, _ = pieces(recording.samples, vad_mode)
+    if not words or not os.path.isfile(word_language_model()):
+        return (yield from _phone_loop(recording, ranges, accuracy))
+    heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
+    said = yield from scaled(_word_steps(recording, ranges, accuracy), 0.3, 0.6)
+    if not said:
+        return heard
+    try:
+        aligned = yield from scaled(
+            alignment_steps(recording, " ".join(said), vad_mode=vad_mode, accuracy=accuracy), 0.6, 1.0
+        )
+    except AlignmentError:
+        return heard
+    aligned = [p._replace(where="recognised " + p.where) for p in aligned]
+    return with_closures(aligned, [p for p in heard if p.label in _BILABIALS])
+
+
+def phone_loop_steps(
     recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
 ) -> ProgressSteps:
-    """Phone recognition without a transcript (less accurate): yields progress, returns the timed phones."""
+    """Phone recognition alone (the `allphone` search), with the bilabial cues: yields progress, returns the
+    timed phones (CMU names)."""
     ranges, _ = pieces(recording.samples, vad_mode)
+    return (yield from _phone_loop(recording, ranges, accuracy))
+
+
+def _phone_loop(recording: Recording, ranges, accuracy: str) -> ProgressSteps:
+    def phones(decoder, first: int) -> list[TimedLabel]:
+        entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
+        return _phones_of(entries, first / RATE, FRAME_RATES["recognise"])
+
+    results = yield from _search_pieces(recording, ranges, "recognise", accuracy, phones)
+    return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
+
+
+def _word_steps(recording: Recording, ranges, accuracy: str) -> Generator[float, None, list[str]]:
+    """The words the general language model hears in each piece, in order (fillers and silences left out)."""
+
+    def words(decoder, first: int) -> list[str]:
+        hypothesis = decoder.hyp()
+        heard = hypothesis.hypstr.split() if hypothesis is not None else []
+        return [w for w in heard if not w.startswith(("<", "[", "+"))]
+
+    results = yield from _search_pieces(recording, ranges, "words", accuracy, words)
+    return [word for piece in results for word in piece]
+
+
+def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read: Callable) -> Generator:
+    """One pass of the search `task` was made with over each piece, from the piece's own cepstral mean: yields
+    progress, returns `read(decoder, first sample)` of each piece."""
     total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
     done = 0.0
     results = []
-    with _decoder("recognise", accuracy) as decoder:
+    with _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
             mean = _piece_mean(decoder, pcm)
-            decoder.activate_search()  # the phone loop the decoder was made with
+            decoder.activate_search()  # the phone loop or language model the decoder was made with
             yield from _decode_pass(decoder, pcm, mean, done, total)
             done += len(pcm) / 2
-            entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
-            results.append(_phones_of(entries, first / RATE, FRAME_RATES["recognise"]))
-    return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
+            results.append(read(decoder, first))
+    return results
+
+
+def with_closures(phones: list[TimedLabel], closures: list[TimedLabel]) -> list[TimedLabel]:
+    """`phones` (sorted, not overlapping) with each of `closures` laid over them: the parts of phones that a
+    closure covers give way to it."""
+    out: list[TimedLabel] = []
+    for phone in phones:
+        parts = [(phone.start, phone.end)]
+        for closure in closures[bisect.bisect_left([c.end for c in closures], phone.start) :]:
+            if closure.start >= phone.end:
+                break
+            parts = [
+                span
+                for a, b in parts
+                for span in ((a, min(b, closure.start)), (max(a, closure.end), b))
+                if span[1] > span[0]
+            ]
+        out += [phone._replace(start=a, end=b) for a, b in parts]
+    return sorted([*out, *closures], key=lambda p: p.start)
 
 
 def run(steps: ProgressSteps, progress: Callable[[float], None] | None = None) -> list[TimedLabel]:
@@ -558,11 +651,13 @@ def phones_from_recording(
     vad_mode: int = DEFAULT_VAD_MODE,
     accuracy: str = "STANDARD",
     progress: Callable[[float], None] | None = None,
+    words: bool = False,
 ) -> list[TimedLabel]:
-    """The recording's timed phones: aligned with `transcript` when given (not blank), else recognised."""
+    """The recording's timed phones: aligned with `transcript` when given (not blank), else recognised (with
+    `words`: the recognised words aligned, see `recognition_steps`)."""
     if transcript is not None and transcript.strip():
         return run(alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy), progress)
-    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy), progress)
+    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words), progress)
 
 
 def read_transcript_file(path) -> str:

@@ -1,6 +1,6 @@
 """Lip-sync from a recording against the text path (docs/voice.md's figures).
 
-    .venv/bin/python -m scripts.bench.bench_lipsync [--json OUT.json] [--quick]
+    .venv/bin/python -m scripts.bench.bench_lipsync [--json OUT.json] [--quick] [--words]
 
 Test recordings are made with espeak-ng, whose synthesis reports each phoneme's time in the same output as its
 audio: the text path's visemes of that synthesis (`espeak.speech_segments`, what Speak Text keys) are the truth.
@@ -189,6 +189,9 @@ def with_noise(samples: np.ndarray, snr_db: float, seed: int) -> np.ndarray:
     return np.clip(x + noise, -1.0, 1.0)
 
 
+WORDS = {"on": False}  # --words: without a transcript, the recognised words aligned (phone_alignment.recognition_steps)
+
+
 def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcript: bool) -> dict:
     speech = espeak.synthesize(text, voice, rate=rate)
     samples = with_noise(speech.samples, SNR_DB, seed) if noisy else speech.samples
@@ -196,7 +199,7 @@ def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcrip
     take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
     refused = False
     try:
-        phones = phone_alignment.phones_from_recording(take, text if transcript else None)
+        phones = phone_alignment.phones_from_recording(take, text if transcript else None, words=WORDS["on"])
     except phone_alignment.AlignmentError:  # refused: scored as a mouth that never moves
         phones, refused = [TimedLabel(0.0, speech.duration, "sil")], True
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
@@ -301,7 +304,7 @@ def recognised_against_aligned(wav: Path, text: str) -> dict:
     take = recording.read_recording(wav)
     aligned = phone_alignment.phone_segments(phone_alignment.phones_from_recording(take, text))
     began, cpu = time.perf_counter(), time.process_time()
-    phones = phone_alignment.phones_from_recording(take, None)
+    phones = phone_alignment.phones_from_recording(take, None, words=WORDS["on"])
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
     result = score(aligned, phone_alignment.phone_segments(phones), take.duration)
     return {**result, "duration": take.duration, "seconds": seconds, "cpu": cpu}
@@ -368,7 +371,9 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", type=Path, help="write the figures here")
     parser.add_argument("--quick", action="store_true", help="3 sentences a set (a smoke run)")
+    parser.add_argument("--words", action="store_true", help="without a transcript: recognised words, aligned")
     args = parser.parse_args(argv)
+    WORDS["on"] = args.words
     sentences = read_sentences()
     count = 3 if args.quick else N_SENTENCES
     dev, held_out = sentences[:count], sentences[-count:]

@@ -215,7 +215,7 @@ def test_words_missing_from_the_dictionary_are_pronounced_by_espeak():
 def test_recognition_without_transcript_finds_most_phones_and_the_closures():
     take, speech = _take("Maybe Bob bought a map.")
     phones = phone_alignment.phones_from_recording(take, None)
-    assert all(p.where.startswith("recognised phone") for p in phones[1:])
+    assert all(p.where.startswith("recognised ") for p in phones[1:])
     assert phones[0].start == 0 and phones[-1].end <= take.duration
     assert all(a.end <= b.start + 1e-9 for a, b in zip(phones, phones[1:], strict=False))
     spoken = [p for p in phones if tables.cmu_phones().lookup(p.label) not in ((), (Viseme.NONE,))]
@@ -224,6 +224,67 @@ def test_recognition_without_transcript_finds_most_phones_and_the_closures():
     found = [p.start for p in phones if p.label in ("p", "b", "m")]
     hits = sum(any(abs(f - t) < 0.08 for f in found) for t in bilabials)
     assert hits >= len(bilabials) // 2
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_recognised_words_are_aligned_and_the_phone_loops_closures_laid_over_them():
+    take, _ = _take("Maybe Bob bought a map.")
+    ranges, _ = phone_alignment.pieces(take.samples)
+    words = phone_alignment.run(phone_alignment._word_steps(take, ranges, "STANDARD"))
+    assert words and all(w == w.lower() and not w.startswith("<") for w in words)
+    phones = phone_alignment.phones_from_recording(take, None, words=True)
+    loop = phone_alignment.run(phone_alignment.phone_loop_steps(take))
+    assert phone_alignment.phones_from_recording(take, None) == loop  # the default: the phone loop alone
+    aligned = [p for p in phones if p.where.startswith("recognised word ")]
+    assert aligned and any(p.label == "m" for p in aligned)  # "Maybe", "map": heard as words with an /m/
+    assert {p.where.split("'")[1] for p in aligned} <= set(words)
+    closures = [p for p in loop if p.label in ("p", "b", "m")]
+    assert closures and all(c in phones for c in closures)  # every closure of the phone loop kept, as it was
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_without_recognised_words_or_their_alignment_the_phone_loop_is_used(monkeypatch):
+    take, _ = _take("Maybe Bob bought a map.")
+    loop = phone_alignment.run(phone_alignment.phone_loop_steps(take))
+
+    def no_words(recording, ranges, accuracy):
+        return []
+        yield
+
+    monkeypatch.setattr(phone_alignment, "_word_steps", no_words)
+    assert phone_alignment.phones_from_recording(take, None, words=True) == loop
+    monkeypatch.undo()
+
+    def refused(*args, **kwargs):
+        raise phone_alignment.AlignmentError("the transcript could not be aligned")
+        yield
+
+    monkeypatch.setattr(phone_alignment, "alignment_steps", refused)
+    assert phone_alignment.phones_from_recording(take, None, words=True) == loop
+    monkeypatch.undo()
+
+    # the extension's zip leaves the word language model out (scripts/slim_wheels.py)
+    monkeypatch.setattr(phone_alignment, "WORD_LANGUAGE_MODEL", "not-installed.lm.bin")
+    assert phone_alignment.phones_from_recording(take, None, words=True) == loop
+
+
+def test_closures_laid_over_phones_cut_them_and_keep_the_rest():
+    label = phone_alignment.TimedLabel
+    phones = [label(0.0, 0.1, "sil"), label(0.1, 0.3, "a"), label(0.3, 0.5, "n"), label(0.5, 0.6, "sil")]
+    closures = [label(0.05, 0.15, "m"), label(0.2, 0.25, "b"), label(0.45, 0.7, "p")]
+    out = phone_alignment.with_closures(phones, closures)
+    assert [(p.start, p.end, p.label) for p in out] == [
+        (0.0, 0.05, "sil"),
+        (0.05, 0.15, "m"),
+        (0.15, 0.2, "a"),
+        (0.2, 0.25, "b"),
+        (0.25, 0.3, "a"),
+        (0.3, 0.45, "n"),
+        (0.45, 0.7, "p"),
+    ]
+    assert phone_alignment.with_closures(phones, []) == phones
 
 
 def test_frames_become_seconds_at_each_tasks_frame_rate():
@@ -247,7 +308,7 @@ def test_recognition_resolves_phones_shorter_than_three_10_ms_frames(monkeypatch
     # The recogniser's own phones: the bilabial cues split murmurs off on a finer grid
     monkeypatch.setattr(phone_alignment, "bilabials_from_acoustics", lambda phones, samples: phones)
     take, _ = _take("Maybe Bob bought a map. Please pass me the apple pie. My mother made a bowl of plum jam.")
-    phones = phone_alignment.phones_from_recording(take, None)
+    phones = phone_alignment.run(phone_alignment.phone_loop_steps(take))
     inside = [p for p in phones[1:] if p.end < take.duration]  # the last ones are clipped to the take
     durations = np.array([p.end - p.start for p in inside])
     assert durations.min() >= 0.015 - 1e-9
