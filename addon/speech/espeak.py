@@ -257,9 +257,55 @@ def synthesize(
     return Speech(text, voice.strip(), phonemes, samples, engine.sample_rate)
 
 
-def phoneme_labels(speech: Speech) -> list[TimedLabel]:
-    """The synthesis's phonemes as timed labels (save them with `cue_files.write_timed_labels`)."""
+def reported_labels(speech: Speech) -> list[TimedLabel]:
+    """The synthesis's phonemes as timed labels, at the times espeak-ng reports (a stop at its burst)."""
     return [TimedLabel(p.start, p.end, p.label, f"espeak-ng phoneme {k + 1}") for k, p in enumerate(speech.phonemes)]
+
+
+def phoneme_labels(speech: Speech) -> list[TimedLabel]:
+    """The synthesis's phonemes as timed labels, each stop from the onset of its closure (`stops_from_closure`):
+    what Speak Text keys (save them with `cue_files.write_timed_labels`)."""
+    return stops_from_closure(reported_labels(speech), speech.samples, speech.sample_rate)
+
+
+# espeak-ng's stops (its mnemonics, stress marks stripped): plosives and affricates, each made of a closure (the
+# articulators shut, silence) and a release (the burst)
+STOPS = frozenset({"p", "b", "t", "d", "k", "g", "t#", "t2", "d#", "t[", "d[", "tS", "dZ"})
+MAX_CLOSURE = 0.12  # s: the longest closure taken; a stop's closure lasts about 50-100 ms in running speech
+QUIET_DB = 40.0  # a closure's silence: this far below the take's loudest 5 ms
+ENVELOPE_SECONDS = 0.005
+
+
+def stops_from_closure(labels: list[TimedLabel], samples: np.ndarray, sample_rate: int) -> list[TimedLabel]:
+    """`labels` (in order, each ending where the next starts) with each stop starting at the onset of its closure.
+
+    espeak-ng reports a stop at its burst and counts the silent closure before it to the phoneme ahead, so a face
+    keyed from the reported times closes its lips only as the synthesised voice opens them (20-60 ms late). The
+    articulation of a stop begins with its closure (closure, hold, release); the lips are shut during the silence.
+    Reading chosen: a stop starts at the onset of the quiet run (`QUIET_DB` below the loudest 5 ms of the take)
+    that ends at its reported start, at most `MAX_CLOSURE` earlier and leaving the phoneme ahead at least 5 ms.
+    The first phoneme is left as reported (a take's opening silence says nothing of when the lips shut)."""
+    labels = list(labels)
+    x = np.asarray(samples, dtype=np.float64)
+    n = max(int(ENVELOPE_SECONDS * sample_rate), 1)
+    if len(x) < n or len(labels) < 2:
+        return labels
+    envelope = np.sqrt(np.mean(x[: len(x) // n * n].reshape(-1, n) ** 2, axis=1))
+    quiet = envelope < envelope.max() * 10 ** (-QUIET_DB / 20)
+    for i in range(1, len(labels)):
+        if labels[i].label.lstrip("',%=!") not in STOPS:
+            continue
+        k = min(int(round(labels[i].start / ENVELOPE_SECONDS)), len(quiet))
+        floor = max(
+            int(np.ceil(labels[i - 1].start / ENVELOPE_SECONDS)) + 1, k - int(round(MAX_CLOSURE / ENVELOPE_SECONDS))
+        )
+        j = k
+        while j - 1 >= floor and quiet[j - 1]:
+            j -= 1
+        if j < k:
+            labels[i - 1] = labels[i - 1]._replace(end=j * ENVELOPE_SECONDS)
+            labels[i] = labels[i]._replace(start=j * ENVELOPE_SECONDS)
+    return labels
 
 
 def speech_segments(speech: Speech, phonemes: PhonemeTable | None = None) -> list[Segment]:

@@ -39,18 +39,19 @@ def main(argv=None) -> int:
         samples = bench.with_noise(speech.samples, bench.SNR_DB, seed) if args.noisy else speech.samples
         take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
         duration += speech.duration
-        truths = bench.closure_truth(speech), espeak.speech_segments(speech)
+        truths = espeak.speech_segments(speech), bench.burst_truth(speech)
         for name, decode in ways.items():
             began = time.process_time()
             found = phone_alignment.phone_segments(decode(take))
             cpu[name] += time.process_time() - began
             scores[name].append([bench.score(truth, found, speech.duration) for truth in truths])
     for name in ways:
-        closure, issue = (bench.summary_of([s[k] for s in scores[name]]) for k in (0, 1))
+        text_path, burst = (bench.summary_of([s[k] for s in scores[name]]) for k in (0, 1))
         print(
-            f"{args.set} {'20 dB' if args.noisy else 'clean'} {name}: agreement {issue['agreement']:.1%} / "
-            f"{closure['agreement']:.1%} (issue's / closure truth), closure recall {closure['closure_recall']:.1%}, "
-            f"precision {closure['closure_precision']:.1%}, {duration / max(cpu[name], 1e-9):.1f}x real time "
+            f"{args.set} {'20 dB' if args.noisy else 'clean'} {name}: agreement {text_path['agreement']:.1%} / "
+            f"{burst['agreement']:.1%} (text path's / burst-timed truth), "
+            f"closure recall {text_path['closure_recall']:.1%}, "
+            f"precision {text_path['closure_precision']:.1%}, {duration / max(cpu[name], 1e-9):.1f}x real time "
             "in CPU time"
         )
     return 0

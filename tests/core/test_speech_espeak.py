@@ -8,6 +8,7 @@ from addon.mpeg4.faps import Viseme
 from addon.speech import SpeechError, espeak
 from addon.speech.coarticulation import fap_tracks
 from addon.speech.espeak import EspeakMissingError, check_text, speech_segments, synthesize
+from addon.speech.segments import TimedLabel
 
 
 @pytest.fixture(scope="module")
@@ -110,3 +111,46 @@ def test_a_missing_library_says_how_to_install_it(monkeypatch):
     assert "pip install espeakng-loader==0.2.4" in str(error.value)
     assert "apt-get install libespeak-ng1" in str(error.value)
     assert isinstance(error.value, SpeechError)
+
+
+def _take(pieces, rate=1000):
+    """(N,) int16 samples: `pieces` of (seconds, amplitude) one after another."""
+    return np.concatenate([np.full(int(round(s * rate)), a, dtype=np.int16) for s, a in pieces])
+
+
+def test_a_stop_starts_where_its_closure_goes_quiet():
+    # hand-worked: loud "a" to 0.30 s, 60 ms of silence (the closure), the /p/'s burst reported at 0.36 s
+    samples = _take([(0.30, 8000), (0.06, 0), (0.24, 8000)])
+    labels = [TimedLabel(0.0, 0.36, "a"), TimedLabel(0.36, 0.50, "p"), TimedLabel(0.50, 0.60, "a")]
+    moved = espeak.stops_from_closure(labels, samples, 1000)
+    assert [(round(x.start, 6), round(x.end, 6), x.label) for x in moved] == [
+        (0.0, 0.30, "a"),
+        (0.30, 0.50, "p"),
+        (0.50, 0.60, "a"),
+    ]
+
+
+def test_a_closure_is_taken_back_no_further_than_max_closure_nor_into_the_phoneme_ahead():
+    samples = _take([(0.10, 8000), (0.26, 0), (0.24, 8000)])  # 260 ms of silence before the burst at 0.36 s
+    labels = [TimedLabel(0.0, 0.36, "a"), TimedLabel(0.36, 0.50, "'b"), TimedLabel(0.50, 0.60, "a")]
+    moved = espeak.stops_from_closure(labels, samples, 1000)
+    assert moved[1].start == pytest.approx(0.36 - espeak.MAX_CLOSURE) and moved[0].end == moved[1].start
+    short = [TimedLabel(0.0, 0.05, "_"), TimedLabel(0.05, 0.36, "m"), TimedLabel(0.36, 0.5, "b")]
+    kept = espeak.stops_from_closure(short, _take([(0.36, 0), (0.24, 8000)]), 1000)
+    assert kept[0] == short[0] and kept[1].label == "m" and kept[1].start == 0.05  # no stop: as reported
+    late = [TimedLabel(0.0, 0.30, "a"), TimedLabel(0.30, 0.34, "@"), TimedLabel(0.34, 0.5, "t")]
+    taken = espeak.stops_from_closure(late, _take([(0.10, 8000), (0.40, 0)]), 1000)
+    assert taken[2].start == pytest.approx(0.305) and taken[1].start == 0.30  # the phoneme ahead keeps 5 ms
+
+
+def test_speak_text_closes_the_lips_before_the_burst_and_only_in_silence(engine):
+    # voiceless stops after a vowel: their closure is silent (a voiced one hums through it and stays as reported)
+    speech = synthesize("a map, a pip, a top", "en-us")
+    reported = espeak.reported_labels(speech)
+    keyed = espeak.phoneme_labels(speech)
+    stops = [k for k, label in enumerate(reported) if bare(label.label) in espeak.STOPS and k > 0]
+    assert len(stops) == 5
+    for k in stops:
+        assert keyed[k].start < reported[k].start - 0.01  # the closure's silence comes first
+        assert rms(speech, keyed[k].start, reported[k].start) < 0.02 * rms(speech, 0.0, speech.duration) + 1
+    assert [x.label for x in keyed] == [x.label for x in reported]
