@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
+from .nicp import edges_of
 from .openings import plane_crossings
 
 ANGLE_STEP = np.radians(0.5)  # the outline's resolution, seen from its centre
@@ -35,7 +36,7 @@ OUTER_SHARE = 0.95  # by more than this share of its distance from the centre
 ROWS = ("11.1", "11.2", "11.3", "11.4", "11.5", "11.6")
 
 
-def _ears(points: np.ndarray) -> np.ndarray:
+def ear_centre(points: np.ndarray) -> np.ndarray:
     """The mean of the ten ear points 10.1-10.10."""
     return points[[fp_index(f"10.{k}") for k in range(1, 11)]].mean(axis=0)
 
@@ -45,7 +46,7 @@ def frankfurt_axes(points: np.ndarray, left: np.ndarray, up_hint: np.ndarray) ->
     mid-plane's normal and `up_hint` any vector on the head's upper side (it picks the sign)."""
     left = left / np.linalg.norm(left)
     forward = 0.5 * (points[fp_index("3.9")] + points[fp_index("3.10")])
-    forward = forward - _ears(points)
+    forward = forward - ear_centre(points)
     forward = forward - (forward @ left) * left
     forward /= np.linalg.norm(forward)
     up = np.cross(forward, left)
@@ -98,15 +99,10 @@ def _level(path: np.ndarray, values: np.ndarray, level: float, gap: float = np.i
     return start + t[:, None] * (end - start)
 
 
-def mesh_edges(triangles: np.ndarray) -> np.ndarray:
-    edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-    return np.unique(edges, axis=0)
-
-
 def _centre(points: np.ndarray, axes: np.ndarray) -> np.ndarray:
     """The tragi's midpoint put on the mid-plane (through the mid-line points of the face)."""
     left = axes[0]
-    ears = _ears(points)
+    ears = ear_centre(points)
     mid = np.array([fp_index(i) for i in ("9.3", "9.15", "2.10", "2.1", "8.1", "8.2")])
     return ears - (ears @ left - float(np.mean(points[mid] @ left))) * left
 
@@ -128,7 +124,7 @@ def skull_points(
     was."""
     points = points.copy()
     left, up, forward = axes
-    edges = mesh_edges(triangles)
+    edges = edges_of(triangles)
     centre = _centre(points, axes)
     profile = outline(vertices, edges, axes, centre)
     if len(profile) < 3:

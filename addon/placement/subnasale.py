@@ -15,6 +15,7 @@ import numpy as np
 
 from ..mpeg4.feature_points import fp_index
 from .scipy_modules import coo_matrix, dijkstra
+from .skull import ear_centre
 
 
 def mid_line_chain(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarray, offset: float, start, end):
@@ -66,7 +67,7 @@ def subnasale(vertices: np.ndarray, triangles: np.ndarray, points: np.ndarray, l
     chord = chord - (chord @ left) * left
     chord /= np.linalg.norm(chord)
     inner = np.cross(left, chord)  # in the plane, square to the chord
-    ears = points[[fp_index(f"10.{k}") for k in range(1, 11)]].mean(axis=0)
+    ears = ear_centre(points)
     if (ears - lip) @ inner < 0:
         inner = -inner  # towards the back of the head
     depth = (chain[1:-1] - lip) @ inner

@@ -9,9 +9,10 @@ import pytest
 pytest.importorskip("scipy")
 
 from addon.mpeg4.feature_points import fp_index
+from addon.placement.nicp import edges_of
 from addon.placement.pipeline import place_feature_points
 from addon.placement.rigid import TEMPLATE_AXES
-from addon.placement.skull import _level, frankfurt_axes, mesh_edges, outline, read_skull
+from addon.placement.skull import _level, frankfurt_axes, outline, read_skull
 from addon.placement.template import load_template
 
 SKULL = [fp_index(f"11.{k}") for k in range(1, 7)]
@@ -73,7 +74,7 @@ def test_the_outline_is_the_outer_skin_not_what_lies_inside():
     t = load_template()
     centre = 0.5 * (t.fp_positions[fp_index("10.3")] + t.fp_positions[fp_index("10.4")])
     centre[0] = 0.0
-    profile = outline(t.vertices, mesh_edges(t.triangles), TEMPLATE_AXES, centre)
+    profile = outline(t.vertices, edges_of(t.triangles), TEMPLATE_AXES, centre)
     assert len(profile) > 50 and np.abs(profile[:, 0]).max() < 1e-12
     top = profile[np.argmax(profile @ TEMPLATE_AXES[1])] @ TEMPLATE_AXES[1]
     assert top == pytest.approx((t.vertices @ TEMPLATE_AXES[1]).max(), abs=0.003)
@@ -81,7 +82,7 @@ def test_the_outline_is_the_outer_skin_not_what_lies_inside():
     inner = centre + 0.5 * (t.vertices - centre)
     vertices = np.vstack([t.vertices, inner])
     triangles = np.vstack([t.triangles, t.triangles + len(t.vertices)])
-    assert np.array_equal(outline(vertices, mesh_edges(triangles), TEMPLATE_AXES, centre), profile)
+    assert np.array_equal(outline(vertices, edges_of(triangles), TEMPLATE_AXES, centre), profile)
 
 
 def test_placement_puts_the_skull_points_where_the_rules_say_on_a_taller_skull():
