@@ -618,9 +618,10 @@ def with_closures(phones: list[TimedLabel], closures: list[TimedLabel]) -> list[
     """`phones` (sorted, not overlapping) with each of `closures` laid over them: the parts of phones that a
     closure covers give way to it."""
     out: list[TimedLabel] = []
+    closure_ends = [c.end for c in closures]
     for phone in phones:
         parts = [(phone.start, phone.end)]
-        for closure in closures[bisect.bisect_left([c.end for c in closures], phone.start) :]:
+        for closure in closures[bisect.bisect_left(closure_ends, phone.start) :]:
             if closure.start >= phone.end:
                 break
             parts = [
