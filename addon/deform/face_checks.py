@@ -107,8 +107,14 @@ def fused_openings(rest: np.ndarray, edges: np.ndarray, positions: Mapping[str, 
             continue
         width = float(np.linalg.norm(np.asarray(positions[across[0]]) - positions[across[1]]))
         a, b = (int(np.argmin(np.linalg.norm(rest - positions[s[0]], axis=1))) for s in (side_a, side_b))
-        straight = float(np.linalg.norm(rest[a] - rest[b]))
-        along = dijkstra(graph, directed=False, indices=a, limit=straight + FUSED * width)[b]
-        if along <= straight + FUSED * width:
+        if joined_over_skin(graph, rest, a, b, width, dijkstra):
             fused.append(f"{name} ({_names((side_a[0], side_b[0]))})")
     return fused
+
+
+def joined_over_skin(graph, rest: np.ndarray, a: int, b: int, width: float, dijkstra) -> bool:
+    """Whether vertices `a` and `b` of an opening `width` wide are one surface between them: a path along the
+    edges (`graph`, scipy sparse, edge lengths) at most `FUSED` x `width` longer than the straight line joins
+    them. `dijkstra`: scipy's, passed in (scipy is imported where it is available)."""
+    limit = float(np.linalg.norm(rest[a] - rest[b])) + FUSED * width
+    return bool(dijkstra(graph, directed=False, indices=a, limit=limit)[b] <= limit)

@@ -14,16 +14,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..deform.face_checks import joined_over_skin
 from ..mpeg4.feature_points import fp_index
+from .nicp import edges_of
 from .scipy_modules import cKDTree, csr_matrix, dijkstra
 from .surface import loose_parts
 
 REACH = 0.5  # an opening's centre lies within this share of the carried corners' distance of their midpoint
 SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares of that distance
 SEALED_BAND = 0.25  # a sealed mouth's lips are looked for this share of its width above and below its opening
-# lips joined over the skin by a path at most this share of the mouth's width (its opening's corners) longer
-# than the straight line are fused: Set Up Face's own rule (`deform.face_checks.FUSED`)
-FUSED_SHARE = 0.5
 NOTCH_BANDS = 40  # the section seen from in front of the lips in bands of this share of the lips' height
 NOTCH_SAMPLES = 64  # at most this many samples along each triangle's cut
 VISIBLE_SHARE = 0.05  # the neighbourhood, against the opening's width, in which skin in front hides its loop
@@ -161,8 +160,7 @@ class _Sealed:
 
     def __init__(self, vertices: np.ndarray, triangles: np.ndarray, loop: np.ndarray, width: float, span: float):
         self.vertices, self.triangles = vertices, triangles
-        edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-        self.edges = np.unique(edges, axis=0)
+        self.edges = edges_of(triangles)
         length = np.linalg.norm(vertices[self.edges[:, 0]] - vertices[self.edges[:, 1]], axis=1)
         n = len(vertices)
         self.graph = csr_matrix((length, (self.edges[:, 0], self.edges[:, 1])), shape=(n, n))
@@ -197,10 +195,8 @@ class _Sealed:
         # lips that are one surface where they meet (sealed in front) part only at the opening behind them:
         # their points stay on its edge, where Set Up Face can open the mouth; judged as Set Up Face judges
         # it, from the vertices nearest the two points
-        vertices = [int(np.argmin(np.linalg.norm(self.vertices - point, axis=1))) for point in found]
-        straight = np.linalg.norm(self.vertices[vertices[0]] - self.vertices[vertices[1]])
-        path = dijkstra(self.graph, directed=False, indices=vertices[0], limit=straight + FUSED_SHARE * self.span)
-        if np.isfinite(path[vertices[1]]):
+        a, b = (int(np.argmin(np.linalg.norm(self.vertices - point, axis=1))) for point in found)
+        if joined_over_skin(self.graph, self.vertices, a, b, self.span, dijkstra):
             return top, bottom
         return found[0], found[1]
 
