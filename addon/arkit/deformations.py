@@ -167,7 +167,6 @@ def jaw_hinge(
     rest: np.ndarray,
     straight: np.ndarray,
     axes: np.ndarray = BLENDER_FACE_AXES,
-    carried: np.ndarray | None = None,
 ) -> np.ndarray:
     """(N, 3) points (mesh coordinates) of a face whose jaw open_jaw dropped straight, turned as the jaw turns
     (`hinge_axis`).
@@ -180,9 +179,11 @@ def jaw_hinge(
     straight drop is taken back and the point turns instead by that share of the angle that lowers the chin
     as far as open_jaw did (`jaw_turn`): a vertex riding on the jaw swings about the hinge, perpendicular to
     its radius, instead of sliding down, and what other FAPs added to it stays. Without the ear points, or
-    without a drop, the points stay as the engine put them. `carried`: the points as the engine moved them from
-    the jaw's FAPs alone, when `straight` has other FAPs on top (mouthClose over jawOpen): each point's share of
-    the jaw is measured there, so a lip another FAP raised still rides the mandible as far as the jaw carries it.
+    without a drop, the points stay as the engine put them. A point another FAP brought back up (mouthClose's lower
+    lip over jawOpen) is measured where it ended: a lip raised back to the upper lip is left down by nothing of the
+    jaw's drop, so it is turned by nothing of the jaw's angle and stays closed, as ARKit's "closure of the lips
+    independent of jaw position" has it (measured on the jaw's drop alone, it turned all the way down and back
+    with the mandible and kept only the raise on top, the lip left behind and below the upper one).
     """
     moved = np.array(straight, dtype=np.float64)
     turn = jaw_turn(neutral, points, axes)
@@ -195,9 +196,7 @@ def jaw_hinge(
     rest = np.asarray(rest, dtype=np.float64)
     known = np.all(np.isfinite(rest), axis=1) & np.all(np.isfinite(moved), axis=1)
     share = np.zeros(len(rest))
-    jaw_only = moved if carried is None else np.asarray(carried, dtype=np.float64)
-    known &= np.all(np.isfinite(jaw_only), axis=1)
-    share[known] = np.clip(((rest[known] - jaw_only[known]) @ up) / drop, 0.0, 1.0)
+    share[known] = np.clip(((rest[known] - moved[known]) @ up) / drop, 0.0, 1.0)
     turned = rotate_about(rest[known], origin, axis, share[known] * angle)
     moved[known] += turned - rest[known] + (share[known] * drop)[:, None] * up
     return moved

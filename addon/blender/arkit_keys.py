@@ -43,11 +43,19 @@ NEW_PREFIX = "MPEG-4 new "  # the name of a key being made, until the run succee
 STILL = 1e-9  # a part whose transform changes less than this (model units, radians) has no key
 
 
-def _face_points(face, empties, values: np.ndarray, deformation: str | None = None) -> np.ndarray:
+def _face_points(
+    face, empties, values: np.ndarray, deformation: str | None = None, over: np.ndarray | None = None
+) -> np.ndarray:
     """(84, 3) face-local FP positions for FAP values (68,), with the face's group gains and ranges, moved further
-    by the dedicated `deformation` a recipe names."""
+    by the dedicated `deformation` a recipe names. `over`: the FAP values of a recipe made over `values` (its
+    base's), added with the gains and without the ranges: they bring back what the base moved (mouthClose's lower
+    lip rising as far as jawOpen carried it down), and a soft limit is a limit on how far a point goes from rest
+    (fap_groups: "lips move about half an MNS0 past neutral"), which a point brought back toward rest does not
+    pass; eased as a lip's own 1220 MNS would be, to about 500, the lips stayed 19 mm apart."""
     settings = face.mpeg4_face
     shaped = shape_faps(values[None], fap_io.group_gains(face), limit=settings.use_soft_limits)
+    if over is not None:
+        shaped = shaped + shape_faps(over[None], fap_io.group_gains(face), limit=False)
     neutral = face_data.neutral_positions(empties)
     axes = face_data.face_axes(face)
     points = fap_to_fp(neutral, shaped, fap_io.face_fapu(face), axes=axes, eye_pivots=fap_io.eye_pivots(face))[0]
@@ -208,10 +216,14 @@ def _jaw_turn(face, points: np.ndarray, neutral: np.ndarray) -> Matrix | None:
     return Matrix.Translation(pivot) @ Matrix.Rotation(angle, 4, axis) @ Matrix.Translation(-pivot)
 
 
-def _recipe(table, name: str) -> np.ndarray:
-    """The FAP values a shape's key is made from: its recipe, on top of the base's a recipe made 'over' one names."""
+def _recipe_points(face, empties, table, name: str) -> np.ndarray:
+    """The FP positions a shape's key is made from: its recipe's, on top of the base's a recipe made 'over' one
+    names."""
     base = table.over.get(name)
-    return table.recipe(name) if base is None else table.recipe(base) + table.recipe(name)
+    deformation = table.deformations.get(name)
+    if base is None:
+        return _face_points(face, empties, table.recipe(name), deformation)
+    return _face_points(face, empties, table.recipe(base), deformation, over=table.recipe(name))
 
 
 def make_keys(context, face) -> list[str]:
@@ -224,7 +236,7 @@ def make_keys(context, face) -> list[str]:
     for ob in [face, *parts.values()]:
         _check_names(ob)
     # all checked first
-    points = [_face_points(face, empties, _recipe(table, name), table.deformations.get(name)) for name in ARKIT_NAMES]
+    points = [_recipe_points(face, empties, table, name) for name in ARKIT_NAMES]
 
     scene = context.scene
     frame = (scene.frame_current, scene.frame_subframe)
@@ -249,7 +261,7 @@ def make_keys(context, face) -> list[str]:
         _pose(empties, _face_points(face, empties, np.zeros(N_FAPS)))
         rest = _deformed(face)
         part_rest = _part_matrices(parts)
-        straight = {}  # each base an 'over' recipe names (made before it): the engine's shape, and its key's
+        made_bases = {}  # each base an 'over' recipe names (made before it): its key's shape
         with progress(context, len(ARKIT_NAMES)) as step:
             for i, name in enumerate(ARKIT_NAMES):
                 _pose(empties, points[i])
@@ -257,17 +269,16 @@ def make_keys(context, face) -> list[str]:
                 shape = _deformed(face)
                 base = table.over.get(name)
                 if base is not None:  # the change its FAPs make on the base's pose; the parts ride the base
-                    engine, made_base = straight[base]
-                    if table.deformations.get(base) == "jaw_hinge":  # shares of the jaw as the base's alone
-                        shape = jaw_hinge(neutral, points[i], rest, shape, face_data.face_axes(face), engine)
+                    made_base = made_bases[base]
+                    if table.deformations.get(base) == "jaw_hinge":  # each vertex by what it is left of the drop
+                        shape = jaw_hinge(neutral, points[i], rest, shape, face_data.face_axes(face))
                     _add_key(face, name, basis + shape - made_base, made)
                     step(i)
                     continue
-                engine = shape
                 if deformation == "jaw_hinge":  # the skin turns with the jaw, each vertex by its share
                     shape = jaw_hinge(neutral, points[i], rest, shape, face_data.face_axes(face))
                 if name in table.over.values():
-                    straight[name] = engine, shape
+                    made_bases[name] = shape
                 _add_key(face, name, basis + shape - rest, made)
                 posed = _part_matrices(parts)
                 mandible = _jaw_turn(face, points[i], neutral) if deformation == "jaw_hinge" else None

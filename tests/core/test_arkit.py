@@ -208,6 +208,19 @@ def test_the_jaw_shapes_at_1_are_the_jaws_maximal_shift_and_protrusion():
     assert 0.0082 <= thrust <= 0.0088
 
 
+def test_the_puffed_cheeks_push_the_lips_as_far_as_they_go_out():
+    # one air space behind the sealed lips and the cheeks, one pressure: the lips come forward as far as the cheeks
+    # go out on the sample head's FAPU (7.2 mm); before, 60 MNS (1.1 mm)
+    table = load_recipes()
+    puff = table.recipe("cheekPuff")
+    out = puff[fap("puff_l_cheek").number - 1] * FAPU.ES0 / 1024
+    assert puff[fap("puff_r_cheek").number - 1] == puff[fap("puff_l_cheek").number - 1]
+    for name in ("push_t_lip", "push_b_lip"):
+        forward = puff[fap(name).number - 1] * FAPU.MNS0 / 1024
+        assert abs(forward - out) < 0.05 * out, name
+    assert table.deformations["cheekPuff"] == "whole_lip_push"
+
+
 def test_weights_add_their_recipes():
     table = load_recipes()
     weights = np.zeros((2, 52))

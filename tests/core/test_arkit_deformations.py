@@ -94,22 +94,21 @@ def test_the_skin_between_the_hinge_and_the_chin_turns_about_the_hinge():
     assert abs(straight_down) > 0.7  # what the engine alone gives: along the radius by cos 45 degrees
 
 
-def test_a_lip_raised_over_the_open_jaw_rides_the_mandible_as_far_as_the_jaw_alone_carries_it():
-    # mouthClose over jawOpen: the engine's shape with the lip raised on top of the jaw's drop; its share of the
-    # jaw is the jaw's alone (`carried`), so it turns all the way and keeps the raise (measured on the raised
-    # shape, its share was 1 - raise / drop: it turned a quarter less and dropped back by that share)
+def test_a_lip_raised_back_over_the_open_jaw_turns_by_what_it_is_left_of_the_drop():
+    # mouthClose over jawOpen: the engine's shape with the lower lip raised on top of the jaw's drop. Raised all the
+    # way back, the lip is left none of the drop and stays where it closed (ARKit's lips closed "independent of
+    # jaw position"); before, its share was the jaw's alone, so it turned all the way down and back with the
+    # mandible and kept only the raise on top. Raised a quarter, it turns by three quarters of the angle.
     neutral = _face()
-    drop, raise_ = 0.02, 0.005
+    drop = 0.02
     straight = neutral.copy()
     straight[fp_index("2.1"), 1] -= drop
-    rest = np.array([[0.0, -0.05, 0.05]])
-    jaw_only = rest - [0.0, drop, 0.0]
-    raised = jaw_only + [0.0, raise_, 0.0]
+    rest = np.array([[0.0, -0.05, 0.05], [0.0, -0.05, 0.05]])
+    raised = rest - [[0.0, 0.0, 0.0], [0.0, 0.75 * drop, 0.0]]
     angle = hinge_angle(neutral[fp_index("2.1")], np.zeros(3), np.array([1.0, 0.0, 0.0]), drop)
-    moved = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME, carried=jaw_only)
-    np.testing.assert_allclose(moved[0], _turned(rest[0], angle) + [0.0, raise_, 0.0], atol=1e-12)
-    alone = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME)
-    assert np.linalg.norm(alone[0] - moved[0]) > 0.001
+    moved = jaw_hinge(neutral, straight, rest, raised, FACE_FRAME)
+    np.testing.assert_allclose(moved[0], rest[0], atol=1e-12)
+    np.testing.assert_allclose(moved[1], _turned(rest[1], 0.75 * angle), atol=1e-12)
 
 
 def test_the_jaw_turns_about_a_centre_below_the_condyle_in_the_faces_size():

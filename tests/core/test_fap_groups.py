@@ -101,5 +101,17 @@ def test_real_streams_stay_plausible(path):
         assert np.all(points[:, fp_index(upper), 2] >= points[:, fp_index(lower), 2] - 1e-12)
 
 
+def test_the_jaw_protrudes_its_measured_range_and_retracts_a_few_millimetres():
+    # a mandible protrudes about 8.5 mm at most (Hirsch et al. 2006: 8.2 +- 2.5 mm), thrust_jaw 480 MNS on the
+    # sample head (MNS0 18.1 mm), ARKit's jawForward at 1: it passes unchanged (the symmetric 250 eased it to 232);
+    # pulled back, the jaw still stops at a few millimetres, and the sideways shift keeps its limit
+    values = np.zeros((2, 68))
+    values[0, 13] = 480.0
+    values[1, [13, 14]] = (-480.0, 480.0)
+    out = shape_faps(values)
+    assert out[0, 13] == 480.0
+    assert -250.0 < out[1, 13] < -200.0 and 200.0 < out[1, 14] < 250.0
+
+
 def test_knee_leaves_a_full_blink_alone():
     assert 1024 <= KNEE * UPPER[18]
