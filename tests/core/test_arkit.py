@@ -221,6 +221,20 @@ def test_the_puffed_cheeks_push_the_lips_as_far_as_they_go_out():
     assert table.deformations["cheekPuff"] == "whole_lip_push"
 
 
+def test_the_upper_lip_rises_its_measured_maximum():
+    # ARKit's 1 is the maximum movement: the upper lip shortens about 30 % of its length (subnasale to stomion, what
+    # MNS0 measures) from rest to a maximal smile, so mouthUpperUp raises its side's point 0.3 MNS0 (250 MNS before,
+    # 0.24), the middle in the same proportion as before (0.4)
+    table = load_recipes()
+    for name, side in (("mouthUpperUpLeft", "lm"), ("mouthUpperUpRight", "rm")):
+        recipe = table.recipe(name)
+        for suffix in ("", "_o"):
+            lift = -recipe[fap(f"lower_t_lip_{side}{suffix}").number - 1] / 1024
+            assert 0.29 <= lift <= 0.31, (name, suffix)
+            middle = -recipe[fap(f"lower_t_midlip{suffix}").number - 1] / 1024
+            assert np.isclose(middle / lift, 0.4), (name, suffix)
+
+
 def test_weights_add_their_recipes():
     table = load_recipes()
     weights = np.zeros((2, 52))
