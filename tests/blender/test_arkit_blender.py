@@ -87,6 +87,9 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     for fp_id in ("2.3", "8.2"):
         closed = jaw[near[fp_id]] + close[near[fp_id]]
         assert np.linalg.norm(closed) < 0.002, (fp_id, closed)
+    for fp_id in ("2.4", "2.5"):  # and the corners, which the jaw carried half way (15 mm off when they stayed)
+        closed = jaw[near[fp_id]] + close[near[fp_id]]
+        assert np.linalg.norm(closed) < 0.002, (fp_id, closed)
     assert abs(close[near["2.2"], 2]) < 0.001 and abs(close[near["8.1"], 2]) < 0.001  # 0.7 mm: the lower lip meets it
     assert np.linalg.norm(close[near["2.1"]]) < 0.0005
     # mouthLeft: "movement of both lips to the left" (+X): the lips' middle goes with the corners (0 before)

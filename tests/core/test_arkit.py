@@ -9,6 +9,7 @@ from addon.arkit import ArkitError, captures
 from addon.arkit.captures import Capture, format_live_link_csv, live_link_header, read_capture
 from addon.arkit.mapping import capture_to_stream, faps_to_weights, fp_distances, round_trip, weights_to_faps
 from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, load_recipes, mirror_faps, mirror_name
+from addon.mpeg4.decode import JAW_RIDERS
 from addon.mpeg4.faps import fap
 from addon.mpeg4.fapu import AU, Fapu
 
@@ -194,6 +195,11 @@ def test_mouth_close_closes_what_jaw_open_opens_and_is_made_over_it():
         for suffix in ("", "_o"):
             assert close[fap(name + suffix).number - 1] == jaw[fap("open_jaw").number - 1], name + suffix
     assert not any(close[fap(name).number - 1] for name in ("lower_t_midlip", "lower_t_midlip_o", "lower_t_lip_lm"))
+    # the corners, which the jaw carries half way (decode.JAW_RIDERS), rise half (they stayed before, and the
+    # closed lips folded the skin beside them)
+    for name in ("raise_l_cornerlip", "raise_r_cornerlip", "raise_l_cornerlip_o", "raise_r_cornerlip_o"):
+        assert close[fap(name).number - 1] == 0.5 * jaw[fap("open_jaw").number - 1], name
+    assert JAW_RIDERS["2.4"] == JAW_RIDERS["2.5"] == JAW_RIDERS["8.3"] == JAW_RIDERS["8.4"] == 0.5
     assert dict(table.over) == {"mouthClose": "jawOpen"}
 
 
