@@ -1,8 +1,9 @@
 """ARKit's 52 shape keys on a set-up face, made by its own engine, and ARKit captures keyed onto them.
 
 Making the keys: for each recipe (arkit.recipes) the FP empties are put where the recipe's FAPs move them
-(the face's group gains and ranges applied, as a stream plays), the face's engine deforms the face as it
-plays (Planar Bones with its lids, lip guard and Unfold Skin, or Elastic Bones through its Armature
+(the face's group gains and ranges applied, as a stream plays; a recipe made 'over' another takes the ranges
+on its base's FAPs only, since its own bring the base's motion back toward rest), the face's engine deforms the
+face as it plays (Planar Bones with its lids, lip guard and Unfold Skin, or Elastic Bones through its Armature
 modifier), and the change from the face at rest becomes a shape key named as ARKit names the shape, relative
 to the reference key (so a shape-key stack the face already has is kept and adds on top). The parts that
 follow feature points (eyeballs, lower teeth, tongue) are read as their drivers or bones place them, and
