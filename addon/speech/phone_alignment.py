@@ -179,20 +179,38 @@ def _words_with_spans(text: str) -> list[tuple[str, tuple[int, int]]]:
     return out
 
 
-def _pronunciation(word: str) -> str:
-    """The model's phones for a word missing from the dictionary, from espeak-ng's phonemes of it."""
+def cmu_of_phonemes(labels: list[str]) -> list[tuple[str, ...]]:
+    """The model's phones of each of espeak-ng's phonemes (`labels`, stress marks allowed; a pause, `_...`, has
+    none), by `espeak_to_cmu`. An r-coloured vowel of espeak-ng's US English brings its r ("star": s t A@ ->
+    s t aa r, as the dictionary has it), except where the next phoneme, with no pause between, is an r of its
+    own ("story": s t o@ r i -> s t ao r iy, not ao r r). KeyError names a phoneme the table lacks."""
     table = espeak_to_cmu()
-    phones: list[str] = []
-    for phoneme in espeak.synthesize(word, OOV_VOICE).phonemes:
-        name = phoneme.label.lstrip("',%=!")
+    names = [label.lstrip("',%=!") for label in labels]
+    out = []
+    for k, name in enumerate(names):
         if name.startswith("_"):
+            out.append(())
             continue
         if name not in table:
-            raise AlignmentError(
-                f"the word {word!r} is not in the dictionary and espeak-ng's phoneme {name!r} has no CMU phone: "
-                "spell it as it sounds in the transcript"
-            )
-        phones.extend(table[name])
+            raise KeyError(name)
+        cmu = table[name]
+        after = table.get(names[k + 1], ()) if k + 1 < len(names) else ()
+        if len(cmu) > 1 and cmu[-1] == "r" and after[:1] == ("r",):
+            cmu = cmu[:-1]
+        out.append(cmu)
+    return out
+
+
+def _pronunciation(word: str) -> str:
+    """The model's phones for a word missing from the dictionary, from espeak-ng's phonemes of it."""
+    labels = [phoneme.label for phoneme in espeak.synthesize(word, OOV_VOICE).phonemes]
+    try:
+        phones = [phone for cmu in cmu_of_phonemes(labels) for phone in cmu]
+    except KeyError as exc:
+        raise AlignmentError(
+            f"the word {word!r} is not in the dictionary and espeak-ng's phoneme {exc.args[0]!r} has no CMU phone: "
+            "spell it as it sounds in the transcript"
+        ) from None
     if not phones:
         raise AlignmentError(f"the word {word!r} has no pronunciation: spell it as it sounds in the transcript")
     return " ".join(phones).upper()  # the model's phone names are upper case
@@ -218,17 +236,17 @@ def _espeak_words(decoder, text: str) -> list[_Word]:
     words = _words_with_spans(text)
     speech = espeak.synthesize(text, OOV_VOICE)
     starts = [span[0] for _, span in words]
-    table = espeak_to_cmu()
+    try:
+        cmu_phones = cmu_of_phonemes([phoneme.label for phoneme in speech.phonemes])
+    except KeyError as exc:
+        raise AlignmentError(f"espeak-ng's phoneme {exc.args[0]!r} in {text!r} has no CMU phone") from None
     parts: list[list[tuple[str, tuple[str, ...]]]] = [[] for _ in words]
-    for phoneme in speech.phonemes:
-        name = phoneme.label.lstrip("',%=!")
+    for phoneme, cmu in zip(speech.phonemes, cmu_phones, strict=True):
         position = phoneme.text_position - 1  # espeak-ng's is 1-based
         k = bisect.bisect_right(starts, position) - 1
-        if name.startswith("_") or k < 0 or position >= words[k][1][1]:
+        if not cmu or k < 0 or position >= words[k][1][1]:
             continue
-        if name not in table:
-            raise AlignmentError(f"espeak-ng's phoneme {name!r} in {words[k][0]!r} has no CMU phone")
-        parts[k].append((phoneme.label, table[name]))
+        parts[k].append((phoneme.label, cmu))
     out = []
     for (word, _), phonemes in zip(words, parts, strict=True):
         phones = tuple(p.upper() for _, cmu in phonemes for p in cmu)

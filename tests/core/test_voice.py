@@ -157,6 +157,24 @@ def test_every_english_espeak_phoneme_maps_to_dictionary_phones():
     assert all(p in tables.cmu_phones().visemes for phones in mapping.values() for p in phones)
 
 
+def test_r_coloured_vowels_of_us_english_bring_their_r_once():
+    # espeak-ng's US English writes the r of "star", "where", "warm", "floor", "fire" inside the vowel; the
+    # dictionary (what the acoustic model was trained on) writes it as a phone: S T AA R, W EH R, F AY ER
+    of = phone_alignment.cmu_of_phonemes
+    assert of(["s", "t", "'A@", "_:"]) == [("s",), ("t",), ("aa", "r"), ()]
+    assert of(["w", "'e@"]) == [("w",), ("eh", "r")]
+    assert of(["w", "'O@", "m"]) == [("w",), ("ao", "r"), ("m",)]
+    assert of(["f", "l", "'o@"]) == [("f",), ("l",), ("ao", "r")]
+    assert of(["f", "'aI3"]) == [("f",), ("ay", "er")]
+    # where espeak-ng writes an r of its own after the vowel, the r is that phoneme's (never r r)
+    assert of(["s", "t", "'o@", "r", "i"]) == [("s",), ("t",), ("ao",), ("r",), ("iy",)]
+    assert of(["f", "'A@", "r-", "a#"]) == [("f",), ("aa",), ("r",), ("ah",)]
+    # a pause between keeps both
+    assert of(["w", "'e@", "_", "r"]) == [("w",), ("eh", "r"), (), ("r",)]
+    with pytest.raises(KeyError):
+        of(["s", "no-such-phoneme"])
+
+
 def test_cue_files_read_cmu_phones():
     from addon.speech.segments import TimedLabel, segments_from_labels
 
