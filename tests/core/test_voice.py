@@ -175,6 +175,13 @@ def test_r_coloured_vowels_of_us_english_bring_their_r_once():
         of(["s", "no-such-phoneme"])
 
 
+@needs_espeak
+def test_a_missing_words_r_coloured_vowel_keeps_its_r():
+    # the dictionary path labels a missing word's phones with their CMU names: without its r, "blarn" had no RR
+    assert phone_alignment._pronunciation("blarnsworth").split()[:5] == ["B", "L", "AA", "R", "N"]
+    assert phone_alignment._pronunciation("quorpy").split()[:4] == ["K", "W", "AO", "R"]
+
+
 def test_cue_files_read_cmu_phones():
     from addon.speech.segments import TimedLabel, segments_from_labels
 
