@@ -1,6 +1,6 @@
 """Alignment with a transcript on development takes beyond the benchmark's dev set: other accents and rates.
 
-    .venv/bin/python -m scripts.bench.bench_align_sets {dev,accents,fast,middle,middle-fast} [...]
+    .venv/bin/python -m scripts.bench.bench_align_sets {dev,accents,fast,middle,middle-fast} [...] [--accent-given]
 
 The benchmark's held-out voices (en-us+f3, en-029) and sentences (the last 12) lose 6 points of frame agreement
 with a transcript against dev; to work on that without looking at them, these sets use voices and sentences the
@@ -46,7 +46,7 @@ def run_set(name: str) -> str:
                 take = recording.from_samples(speech.samples, speech.sample_rate, f"{voice} {rate}")
                 began = time.process_time()
                 try:
-                    phones = phone_alignment.phones_from_recording(take, text)
+                    phones = phone_alignment.phones_from_recording(take, text, accent=bench.accent_of(voice))
                 except phone_alignment.AlignmentError:  # refused: a mouth that never moves, as the benchmark
                     phones = [TimedLabel(0.0, speech.duration, "sil")]
                 cpu += time.process_time() - began
@@ -64,7 +64,9 @@ def run_set(name: str) -> str:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("sets", nargs="+", choices=tuple(SETS))
+    parser.add_argument("--accent-given", action="store_true", help="align each take in its voice's accent")
     args = parser.parse_args(argv)
+    bench.ACCENT["given"] = args.accent_given
     for name in args.sets:
         print(run_set(name), flush=True)
     return 0

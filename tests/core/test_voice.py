@@ -175,6 +175,27 @@ def test_r_coloured_vowels_of_us_english_bring_their_r_once():
         of(["s", "no-such-phoneme"])
 
 
+def test_vowels_that_are_not_r_coloured_bring_no_r():
+    of = phone_alignment.cmu_of_phonemes
+    assert of(["s", "t", "'A@"], rhotic=False) == [("s",), ("t",), ("aa",)]
+    assert of(["s", "t", "'A@", "r"], rhotic=False) == [("s",), ("t",), ("aa",), ("r",)]  # the Scottish voice's r
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_the_transcript_is_aligned_in_the_accent_given():
+    text = "Maybe Bob should show you the whole map."
+    take, speech = _take(text, voice="en")
+    said = [p.label for p in speech.phonemes if not p.label.startswith("_")]
+    assert "@" in said  # British "the": D @ (US English: D @2)
+    found = [p.label for p in phone_alignment.phones_from_recording(take, text, accent="en") if p.label != "sil"]
+    assert found == said
+    default = [p.label for p in phone_alignment.phones_from_recording(take, text) if p.label != "sil"]
+    assert default != said and "@2" in default
+    with pytest.raises(phone_alignment.AlignmentError, match="accent 'en-xx' is not one of en-us"):
+        phone_alignment.phones_from_recording(take, text, accent="en-xx")
+
+
 @needs_espeak
 def test_a_missing_words_r_coloured_vowel_keeps_its_r():
     # the dictionary path labels a missing word's phones with their CMU names: without its r, "blarn" had no RR
