@@ -3,7 +3,8 @@
     python -m scripts.say "TEXT" --face FACE.blend -o OUTDIR [--name NAME] [--voice en] [--rate 175]
                           [--expression joy:0.6] [--fps 25] [--resolution 480] [--visemes] [--no-video]
     python -m scripts.say --audio VOICE.wav [--text "TRANSCRIPT" | --transcript FILE.txt] --face FACE.blend
-                          -o OUTDIR [--accuracy standard|high] [--words] [the options above but --voice and --rate]
+                          -o OUTDIR [--accuracy standard|high] [--accent en-us] [--words]
+                          [the options above but --voice and --rate]
 
 From text, writes, named after the text (or --name):
     NAME.fap            the co-articulated low-level FAPs at --fps (with --visemes, FAP 1 in every frame too)
@@ -89,6 +90,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
         "--accuracy", choices=("standard", "high"), default="standard", help="PocketSphinx's search (high: slower)"
     )
     parser.add_argument(
+        "--accent",
+        choices=tuple(convert._addon("speech.phone_alignment").ACCENTS),
+        default=convert._addon("speech.phone_alignment").DEFAULT_ACCENT,
+        help="with a transcript: the speaker's accent, as one of espeak-ng's English voices (default: en-us)",
+    )
+    parser.add_argument(
         "--words",
         action="store_true",
         help="without a transcript: recognise words and align them (needs PocketSphinx's word model; slower)",
@@ -171,7 +178,7 @@ def lipsync(args, name: str, transcript: str | None):
                 print(f"say.py: {'aligning' if transcript else 'recognising'} {fraction:.0%}", flush=True)
 
         phones = phone_alignment.phones_from_recording(
-            take, transcript, accuracy=args.accuracy.upper(), progress=progress, words=args.words
+            take, transcript, accuracy=args.accuracy.upper(), progress=progress, words=args.words, accent=args.accent
         )
         segments = phone_alignment.phone_segments(phones, str(args.audio))
         stream = _stream(args, name, segments, take.duration)

@@ -55,6 +55,7 @@ class LipSyncJob:
         sound_file: Path | None,
         name: str,
         strip_name: str | None = None,
+        accent: str = phone_alignment.DEFAULT_ACCENT,
     ):
         self.face_name = face.name
         self.strip_name = strip_name  # the sound strip the take comes from, kept whatever Replace removes
@@ -67,7 +68,9 @@ class LipSyncJob:
         self.max_frames = frame_budget(context.scene, options.start_frame, options.set_frame_range)
         coarticulation.frame_count(take.duration, scene_fps(context.scene), self.max_frames)
         if transcript:
-            self.steps = phone_alignment.alignment_steps(take, transcript, vad_mode=vad, accuracy=accuracy)
+            self.steps = phone_alignment.alignment_steps(
+                take, transcript, vad_mode=vad, accuracy=accuracy, accent=accent
+            )
         else:
             self.steps = phone_alignment.recognition_steps(take, vad_mode=vad, accuracy=accuracy)
         self.fraction = 0.0
@@ -149,6 +152,16 @@ class _LipSyncOperator(ModalJob, _SpeechOptions, Mpeg4Operator):
         default="STANDARD",
     )
 
+    accent: EnumProperty(
+        name="Accent",
+        items=[
+            (key, name, f"Align the transcript as espeak-ng's voice {key} pronounces it")
+            for key, name in phone_alignment.ACCENTS.items()
+        ],
+        default=phone_alignment.DEFAULT_ACCENT,
+        description="The speaker's accent (with a transcript): the words are aligned as it pronounces them",
+    )
+
     def draw(self, _context):
         layout = self.layout
         layout.use_property_split = True
@@ -156,6 +169,7 @@ class _LipSyncOperator(ModalJob, _SpeechOptions, Mpeg4Operator):
         layout.prop(self, "use_transcript_file")
         if not self.transcript.strip():
             layout.label(text="Without a transcript the mouth is less exact", icon="INFO")
+        layout.prop(self, "accent")
         for name in ("start_frame", "expression", "intensity", "mode", "set_frame_range", "vad_mode", "accuracy"):
             layout.prop(self, name)
 
@@ -224,6 +238,7 @@ class MPEG4_OT_lipsync_audio(_LipSyncOperator, bpy.types.Operator, ImportHelper)
             self.accuracy,
             path,
             f"Lip-Sync: {path.stem}",
+            accent=self.accent,
         )
 
 
@@ -284,6 +299,7 @@ class MPEG4_OT_lipsync_strip(_LipSyncOperator, bpy.types.Operator):
             None,
             f"Lip-Sync: {strip.name}",
             strip.name,
+            accent=self.accent,
         )
 
 

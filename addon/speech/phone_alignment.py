@@ -92,6 +92,23 @@ ACCURACY = ("STANDARD", "HIGH")
 # right transcript; the other wrong ones pass.
 MIN_SCORE_PER_FRAME = -50.0
 OOV_VOICE = "en-us"  # the espeak-ng voice that pronounces words missing from the (US English) dictionary
+# The speaker's accent, as one of espeak-ng's English voices: the transcript is aligned as that voice pronounces
+# it, so the phones (and visemes) are the accent's. espeak-ng's own list of English voices, not a choice: which
+# accent a recording has, the user knows and the acoustic score does not tell (docs/voice.md).
+ACCENTS = {
+    "en-us": "American",
+    "en-us-nyc": "New York",
+    "en": "British",
+    "en-gb-x-rp": "Received Pronunciation",
+    "en-gb-scotland": "Scottish",
+    "en-gb-x-gbclan": "Lancastrian",
+    "en-gb-x-gbcwmd": "West Midlands",
+    "en-029": "Caribbean",
+}
+DEFAULT_ACCENT = OOV_VOICE
+# Voices whose start, square, north and force vowels (A@ e@ O@ o@) and fire (aI3) are r-coloured: espeak-ng's US
+# English; the British voices' are not, and the Scottish voice writes its r as a phoneme of its own
+RHOTIC_VOWELS = frozenset({"en-us"})
 # The model's phones whose sound starts or stops abruptly (stops, affricates, fricatives, nasals, silence):
 # their boundaries are acoustic events that `boundaries.refine_boundaries` can place finer than a frame.
 ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
@@ -179,20 +196,39 @@ def _words_with_spans(text: str) -> list[tuple[str, tuple[int, int]]]:
     return out
 
 
-def _pronunciation(word: str) -> str:
-    """The model's phones for a word missing from the dictionary, from espeak-ng's phonemes of it."""
+def cmu_of_phonemes(labels: list[str], rhotic: bool = True) -> list[tuple[str, ...]]:
+    """The model's phones of each of espeak-ng's phonemes (`labels`, stress marks allowed; a pause, `_...`, has
+    none), by `espeak_to_cmu`. An r-coloured vowel of espeak-ng's US English brings its r ("star": s t A@ ->
+    s t aa r, as the dictionary has it), except where the next phoneme, with no pause between, is an r of its
+    own ("story": s t o@ r i -> s t ao r iy, not ao r r). Not `rhotic` (a voice whose vowels are not
+    r-coloured, `RHOTIC_VOWELS`): no vowel brings an r. KeyError names a phoneme the table lacks."""
     table = espeak_to_cmu()
-    phones: list[str] = []
-    for phoneme in espeak.synthesize(word, OOV_VOICE).phonemes:
-        name = phoneme.label.lstrip("',%=!")
+    names = [label.lstrip("',%=!") for label in labels]
+    out = []
+    for k, name in enumerate(names):
         if name.startswith("_"):
+            out.append(())
             continue
         if name not in table:
-            raise AlignmentError(
-                f"the word {word!r} is not in the dictionary and espeak-ng's phoneme {name!r} has no CMU phone: "
-                "spell it as it sounds in the transcript"
-            )
-        phones.extend(table[name])
+            raise KeyError(name)
+        cmu = table[name]
+        after = table.get(names[k + 1], ()) if k + 1 < len(names) else ()
+        if len(cmu) > 1 and cmu[-1] == "r" and (after[:1] == ("r",) or not rhotic):
+            cmu = cmu[:-1]
+        out.append(cmu)
+    return out
+
+
+def _pronunciation(word: str) -> str:
+    """The model's phones for a word missing from the dictionary, from espeak-ng's phonemes of it."""
+    labels = [phoneme.label for phoneme in espeak.synthesize(word, OOV_VOICE).phonemes]
+    try:
+        phones = [phone for cmu in cmu_of_phonemes(labels) for phone in cmu]
+    except KeyError as exc:
+        raise AlignmentError(
+            f"the word {word!r} is not in the dictionary and espeak-ng's phoneme {exc.args[0]!r} has no CMU phone: "
+            "spell it as it sounds in the transcript"
+        ) from None
     if not phones:
         raise AlignmentError(f"the word {word!r} has no pronunciation: spell it as it sounds in the transcript")
     return " ".join(phones).upper()  # the model's phone names are upper case
@@ -210,25 +246,25 @@ class _Word:
     labels: tuple[tuple[int, str], ...] | None = None
 
 
-def _espeak_words(decoder, text: str) -> list[_Word]:
-    """Each word pronounced as espeak-ng says it in this sentence (its phonemes mapped to the model's phones),
-    so the aligned phones carry the text path's phoneme names and visemes; a word without phonemes of its
-    own keeps the dictionary's pronunciation."""
+def _espeak_words(decoder, text: str, accent: str = DEFAULT_ACCENT) -> list[_Word]:
+    """Each word pronounced as espeak-ng's voice `accent` says it in this sentence (its phonemes mapped to the
+    model's phones), so the aligned phones carry the text path's phoneme names and visemes; a word without
+    phonemes of its own keeps the dictionary's pronunciation."""
     text = text.strip()
     words = _words_with_spans(text)
-    speech = espeak.synthesize(text, OOV_VOICE)
+    speech = espeak.synthesize(text, accent)
     starts = [span[0] for _, span in words]
-    table = espeak_to_cmu()
+    try:
+        cmu_phones = cmu_of_phonemes([phoneme.label for phoneme in speech.phonemes], accent in RHOTIC_VOWELS)
+    except KeyError as exc:
+        raise AlignmentError(f"espeak-ng's phoneme {exc.args[0]!r} in {text!r} has no CMU phone") from None
     parts: list[list[tuple[str, tuple[str, ...]]]] = [[] for _ in words]
-    for phoneme in speech.phonemes:
-        name = phoneme.label.lstrip("',%=!")
+    for phoneme, cmu in zip(speech.phonemes, cmu_phones, strict=True):
         position = phoneme.text_position - 1  # espeak-ng's is 1-based
         k = bisect.bisect_right(starts, position) - 1
-        if name.startswith("_") or k < 0 or position >= words[k][1][1]:
+        if not cmu or k < 0 or position >= words[k][1][1]:
             continue
-        if name not in table:
-            raise AlignmentError(f"espeak-ng's phoneme {name!r} in {words[k][0]!r} has no CMU phone")
-        parts[k].append((phoneme.label, table[name]))
+        parts[k].append((phoneme.label, cmu))
     out = []
     for (word, _), phonemes in zip(words, parts, strict=True):
         phones = tuple(p.upper() for _, cmu in phonemes for p in cmu)
@@ -468,13 +504,21 @@ def _join(pieces_phones: list[list[TimedLabel]], duration: float) -> list[TimedL
 
 
 def alignment_steps(
-    recording: Recording, transcript: str, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD"
+    recording: Recording,
+    transcript: str,
+    *,
+    vad_mode: int = DEFAULT_VAD_MODE,
+    accuracy: str = "STANDARD",
+    accent: str = DEFAULT_ACCENT,
 ) -> ProgressSteps:
     """Forced alignment of `transcript` with `recording`: yields progress, returns the timed phones.
 
-    The words are pronounced as espeak-ng says them in the sentence (`_espeak_words`), so that the phones and
-    visemes match what Speak Text gives for the same text; if that alignment fails (a speaker whose accent
-    differs), or espeak-ng is missing, with the dictionary's pronunciations."""
+    The words are pronounced as espeak-ng's voice `accent` (one of `ACCENTS`) says them in the sentence
+    (`_espeak_words`), so that the phones and visemes match what Speak Text gives for the same text in that
+    voice; if that alignment fails (a speaker whose accent differs), or espeak-ng is missing, with the
+    dictionary's pronunciations."""
+    if accent not in ACCENTS:
+        raise AlignmentError(f"accent {accent!r} is not one of {', '.join(ACCENTS)}")
     words = transcript_words(transcript)
     if not words:
         raise AlignmentError("the transcript has no words")
@@ -486,7 +530,7 @@ def alignment_steps(
     ranges, voiced = pieces(recording.samples, vad_mode)
     with _decoder("align", accuracy) as decoder:
         try:
-            spoken = _espeak_words(decoder, transcript)
+            spoken = _espeak_words(decoder, transcript, accent)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(spoken, voiced))
         except (AlignmentError, espeak.EspeakMissingError):
             listed = _dictionary_words(decoder, words)
@@ -653,11 +697,13 @@ def phones_from_recording(
     accuracy: str = "STANDARD",
     progress: Callable[[float], None] | None = None,
     words: bool = False,
+    accent: str = DEFAULT_ACCENT,
 ) -> list[TimedLabel]:
-    """The recording's timed phones: aligned with `transcript` when given (not blank), else recognised (with
-    `words`: the recognised words aligned, see `recognition_steps`)."""
+    """The recording's timed phones: aligned with `transcript` when given (not blank), pronounced in `accent`,
+    else recognised (with `words`: the recognised words aligned, see `recognition_steps`)."""
     if transcript is not None and transcript.strip():
-        return run(alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy), progress)
+        steps = alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy, accent=accent)
+        return run(steps, progress)
     return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words), progress)
 
 

@@ -1,6 +1,6 @@
 """Lip-sync from a recording against the text path (docs/voice.md's figures).
 
-    .venv/bin/python -m scripts.bench.bench_lipsync [--json OUT.json] [--quick] [--words]
+    .venv/bin/python -m scripts.bench.bench_lipsync [--json OUT.json] [--quick] [--words] [--accent-given]
 
 Test recordings are made with espeak-ng, whose synthesis reports each phoneme's time in the same output as its
 audio: the text path's visemes of that synthesis (`espeak.speech_segments`, what Speak Text keys: each stop from the
@@ -173,6 +173,13 @@ def with_noise(samples: np.ndarray, snr_db: float, seed: int) -> np.ndarray:
 
 
 WORDS = {"on": False}  # --words: without a transcript, the recognised words aligned (phone_alignment.recognition_steps)
+ACCENT = {"given": False}  # --accent-given: with a transcript, aligned in the take's accent (its voice)
+
+
+def accent_of(voice: str) -> str:
+    """The accent a take is aligned in: with --accent-given its espeak-ng voice without the variant ("en-us+f3":
+    "en-us"), as a user who knows the speaker's accent would pick it; else the default (US English)."""
+    return voice.split("+")[0] if ACCENT["given"] else phone_alignment.DEFAULT_ACCENT
 
 
 def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcript: bool) -> dict:
@@ -182,7 +189,9 @@ def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcrip
     take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
     refused = False
     try:
-        phones = phone_alignment.phones_from_recording(take, text if transcript else None, words=WORDS["on"])
+        phones = phone_alignment.phones_from_recording(
+            take, text if transcript else None, words=WORDS["on"], accent=accent_of(voice)
+        )
     except phone_alignment.AlignmentError:  # refused: scored as a mouth that never moves
         phones, refused = [TimedLabel(0.0, speech.duration, "sil")], True
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
@@ -355,8 +364,10 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, help="write the figures here")
     parser.add_argument("--quick", action="store_true", help="3 sentences a set (a smoke run)")
     parser.add_argument("--words", action="store_true", help="without a transcript: recognised words, aligned")
+    parser.add_argument("--accent-given", action="store_true", help="with a transcript: in each take's accent")
     args = parser.parse_args(argv)
     WORDS["on"] = args.words
+    ACCENT["given"] = args.accent_given
     sentences = read_sentences()
     count = 3 if args.quick else N_SENTENCES
     dev, held_out = sentences[:count], sentences[-count:]

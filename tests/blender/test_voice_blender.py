@@ -211,3 +211,23 @@ def test_flac_and_ogg_are_read_through_blenders_audio_library(tmp_path, containe
     assert bpy.path.abspath(strip.sound.filepath) == str(encoded)
     take = recording.read_recording(encoded)
     assert abs(take.duration - speech.duration) < 0.01
+
+
+@needs_espeak
+def test_the_accent_chosen_is_the_one_the_transcript_is_aligned_in(tmp_path, monkeypatch):
+    from addon.speech import phone_alignment
+
+    saved_sample(tmp_path)
+    path, _ = voice(tmp_path)
+    accents = []
+    align = phone_alignment.alignment_steps
+
+    def spy(*args, **kwargs):
+        accents.append(kwargs.get("accent"))
+        return align(*args, **kwargs)
+
+    monkeypatch.setattr(phone_alignment, "alignment_steps", spy)
+    assert bpy.ops.mpeg4.lipsync_audio(filepath=str(path), accent="en") == {"FINISHED"}
+    assert accents == ["en"]
+    with pytest.raises(TypeError):  # only espeak-ng's English voices
+        bpy.ops.mpeg4.lipsync_audio(filepath=str(path), accent="fr")

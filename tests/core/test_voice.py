@@ -157,6 +157,52 @@ def test_every_english_espeak_phoneme_maps_to_dictionary_phones():
     assert all(p in tables.cmu_phones().visemes for phones in mapping.values() for p in phones)
 
 
+def test_r_coloured_vowels_of_us_english_bring_their_r_once():
+    # espeak-ng's US English writes the r of "star", "where", "warm", "floor", "fire" inside the vowel; the
+    # dictionary (what the acoustic model was trained on) writes it as a phone: S T AA R, W EH R, F AY ER
+    of = phone_alignment.cmu_of_phonemes
+    assert of(["s", "t", "'A@", "_:"]) == [("s",), ("t",), ("aa", "r"), ()]
+    assert of(["w", "'e@"]) == [("w",), ("eh", "r")]
+    assert of(["w", "'O@", "m"]) == [("w",), ("ao", "r"), ("m",)]
+    assert of(["f", "l", "'o@"]) == [("f",), ("l",), ("ao", "r")]
+    assert of(["f", "'aI3"]) == [("f",), ("ay", "er")]
+    # where espeak-ng writes an r of its own after the vowel, the r is that phoneme's (never r r)
+    assert of(["s", "t", "'o@", "r", "i"]) == [("s",), ("t",), ("ao",), ("r",), ("iy",)]
+    assert of(["f", "'A@", "r-", "a#"]) == [("f",), ("aa",), ("r",), ("ah",)]
+    # a pause between keeps both
+    assert of(["w", "'e@", "_", "r"]) == [("w",), ("eh", "r"), (), ("r",)]
+    with pytest.raises(KeyError):
+        of(["s", "no-such-phoneme"])
+
+
+def test_vowels_that_are_not_r_coloured_bring_no_r():
+    of = phone_alignment.cmu_of_phonemes
+    assert of(["s", "t", "'A@"], rhotic=False) == [("s",), ("t",), ("aa",)]
+    assert of(["s", "t", "'A@", "r"], rhotic=False) == [("s",), ("t",), ("aa",), ("r",)]  # the Scottish voice's r
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_the_transcript_is_aligned_in_the_accent_given():
+    text = "Maybe Bob should show you the whole map."
+    take, speech = _take(text, voice="en")
+    said = [p.label for p in speech.phonemes if not p.label.startswith("_")]
+    assert "@" in said  # British "the": D @ (US English: D @2)
+    found = [p.label for p in phone_alignment.phones_from_recording(take, text, accent="en") if p.label != "sil"]
+    assert found == said
+    default = [p.label for p in phone_alignment.phones_from_recording(take, text) if p.label != "sil"]
+    assert default != said and "@2" in default
+    with pytest.raises(phone_alignment.AlignmentError, match="accent 'en-xx' is not one of en-us"):
+        phone_alignment.phones_from_recording(take, text, accent="en-xx")
+
+
+@needs_espeak
+def test_a_missing_words_r_coloured_vowel_keeps_its_r():
+    # the dictionary path labels a missing word's phones with their CMU names: without its r, "blarn" had no RR
+    assert phone_alignment._pronunciation("blarnsworth").split()[:5] == ["B", "L", "AA", "R", "N"]
+    assert phone_alignment._pronunciation("quorpy").split()[:4] == ["K", "W", "AO", "R"]
+
+
 def test_cue_files_read_cmu_phones():
     from addon.speech.segments import TimedLabel, segments_from_labels
 
