@@ -37,7 +37,8 @@ import bpy
 import numpy as np
 
 import addon
-from addon.blender import face_data, inner_parts, rest_shape
+from addon.blender import eyelid_rig, face_data, inner_parts, rest_shape
+from addon.deform.eyelids import EYE_FPS, seen_margin_points
 from addon.deform.folds import count_inverted
 from addon.deform.overlaps import crossing_pairs, crossings, edge_chain, edge_roughness
 from addon.mpeg4.feature_points import fp_index
@@ -71,6 +72,33 @@ def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
         if len(chain) >= 5:
             chains.append(chain)
     return chains
+
+
+def lid_margins(face, rest: np.ndarray, skin: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each upper lid's margin at rest as the eye's centre sees it (`eyelids.seen_margin_points` on the `skin` (T, 3)
+    triangles, the rig's eyeball: its centre, its radius to the pupil FP): (P, 3) corners and (P, 3) barycentric
+    weights of points on the skin, evenly along the eye; `lid_edges`' vertices nearest the FP line are not the
+    margin where it curves away from that line (the sample's inner corners)."""
+    rig = eyelid_rig._rigs[face.session_uid][1]
+    neutral = face_data.neutral_positions(face_data.fp_empties(face)) @ rig.axes.T
+    local = np.asarray(rest, dtype=np.float64) @ rig.axes.T
+    margins = []
+    for eye, (_up, _low, inner, outer, pupil) in enumerate(EYE_FPS):
+        ends = neutral[[fp_index(inner), fp_index(outer), fp_index(pupil)]] - rig.centres[eye]
+        if not np.isfinite(ends).all():
+            continue
+        corners, weights = seen_margin_points(local - rig.centres[eye], skin, np.linalg.norm(ends[2]), ends[:2])
+        if len(corners[0]) >= 5:
+            margins.append((corners[0], weights[0]))
+    return margins
+
+
+def margin_roughness(points: np.ndarray, margin: tuple[np.ndarray, np.ndarray]) -> float:
+    """The largest distance of a point of the lid `margin` (`lid_margins`) at `points` off the smooth curve through
+    its neighbours (`overlaps.edge_roughness`)."""
+    corners, weights = margin
+    on_skin = np.einsum("pk,pkc->pc", weights, np.asarray(points, dtype=np.float64)[corners])
+    return float(edge_roughness(on_skin, np.arange(len(on_skin)), closed=False).max())
 
 
 def played_positions(mesh, buffer: np.ndarray | None = None) -> np.ndarray:
