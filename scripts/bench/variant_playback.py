@@ -157,7 +157,7 @@ def play(face, stream: Path, every: int) -> dict:
     got |= {"crossed": crossed, "status": status}
     got["rigid"] = max(bent) if anchored else None
     got["at_rest"] = len(at_rest)
-    got["margin"] = (max((margin_roughness(rest, m) for m in margins), default=0.0), max(seen_rough, default=0.0))
+    got["margin"] = (max(margin_roughness(rest, m) for m in margins), max(seen_rough, default=0.0)) if margins else None
     return got, rough, rest_rough
 
 
@@ -218,7 +218,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{max(got['folds'], default=0)} | "
                 f"{max(got['crossed'], default=0)} ({got['at_rest']}) | "
                 f"{rest_rough * 1000:.2f} → {max(rough, default=0.0) * 1000:.2f}; "
-                f"{got['margin'][0] * 1000:.2f} → {got['margin'][1] * 1000:.2f} | "
+                f"{'-' if got['margin'] is None else ' → '.join(f'{m * 1000:.2f}' for m in got['margin'])} | "
                 f"{rigid} | {got['status'] or 'no'} |"
             )
             if args.profile:
