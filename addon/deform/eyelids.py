@@ -137,26 +137,54 @@ def seen_margins(
     bottom the lower; a line that sees none (past the eyeball's outline, or the skin of a corner) has the margins
     meet on the line between the corners, as they do at the corners themselves. None when fewer than 3 lines see
     an opening (an eye closed at rest, or no eye opening in the mesh)."""
+    ts, margins, _points, seen = _seen_margin_points(local, triangles, radius, corners, columns)
+    if seen.sum() < 3:
+        return None
+    return [(ts, margin, np.full(len(ts), -1)) for margin in margins]
+
+
+def seen_margin_points(
+    local: np.ndarray, triangles: np.ndarray, radius: float, corners: np.ndarray, columns: int = PROFILE_BINS
+) -> tuple[np.ndarray, np.ndarray]:
+    """The points of the skin on the lid margins `seen_margins` finds, on the lines that see an opening: (2, P, 3)
+    the corners (vertex indices) of the triangle each point of the upper and of the lower margin lies on and
+    (2, P, 3) its barycentric weights there, from the inner corner out. Followed through a deformation (the
+    weights applied to the triangle's corners), they are the lids' edges themselves, evenly along the eye, on any
+    topology: the vertices nearest a line through the lid FPs are not the margin where it curves away from that
+    line (the inner corner of the sample's lids, 1 mm above it)."""
+    _ts, _margins, points, seen = _seen_margin_points(local, triangles, radius, corners, columns)
+    points = points[:, seen]
+    return points[:, :, 4:].astype(np.intp), points[:, :, 1:4]
+
+
+def _seen_margin_points(local, triangles, radius, corners, columns):
+    """`seen_margins`' lines (P,), margins (2, P) and the points of the skin at them (2, P, 1 + 3 + 3: elevation,
+    barycentric weights, the triangle's corners), with which lines see an opening (P,)."""
     local = np.asarray(local, dtype=np.float64)
     triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
     near = np.linalg.norm(local, axis=1) / radius
     skin = ((local[:, 2] > 0.0) & (near > 1.0) & (near < REACH_RADII[1]))[triangles].all(axis=1)
     chart = np.stack([local[:, 0], elevation(local, np.zeros(3))], axis=1)[triangles[skin]]
+    # each corner carries its barycentric weights and the triangle's corners, which `column_cuts` interpolates
+    carried = np.concatenate(
+        [np.broadcast_to(np.eye(3), (len(chart), 3, 3)), triangles[skin][:, None, :].repeat(3, 1)], axis=2
+    )
+    chart = np.concatenate([chart, carried], axis=2)
     ends = np.asarray(corners, dtype=np.float64)
     ends = np.stack([ends[:, 0], elevation(ends, np.zeros(3))], axis=1)  # (2, 2) x and elevation, inner and outer
     ts = np.linspace(0.0, 1.0, columns + 2)
     margins = np.repeat((ends[0, 1] + ts * (ends[1, 1] - ends[0, 1]))[None], 2, axis=0)  # (2, P) upper, lower
-    seen = 0
+    points = np.zeros((2, len(ts), 7))
+    seen = np.zeros(len(ts), bool)
     for k, t in enumerate(ts[1:-1], start=1):
         x, across = ends[0] + t * (ends[1] - ends[0])  # across: the line between the corners
         below, above = column_gaps(*column_cuts(chart, x))
         hit = np.flatnonzero((below[:, 0] <= across) & (above[:, 0] >= across))
         if len(hit) and abs(x) < radius:
-            margins[:, k] = above[hit[0], 0], below[hit[0], 0]
-            seen += 1
-    if seen < 3:
-        return None
-    return [(ts, margin, np.full(len(ts), -1)) for margin in margins]
+            points[:, k] = above[hit[0]], below[hit[0]]
+            margins[:, k] = points[:, k, 0]
+            seen[k] = True
+    return ts, margins, points, seen
 
 
 def margin_members(

@@ -468,9 +468,14 @@ def open_folds_guarded(
     its own made the 2 mm remesh's slowest frames 5x its median). `guarded`: the vertices the guard can move, where a
     round's unfold starts (a round follows one that left no triangle turned over, so only the guard's can be; each
     round looked at every triangle, 1.5 ms at 53k vertices, 7 rounds a third of the 2 mm remesh's slowest frames).
-    The vertices the membrane moved."""
+    A round whose membrane kept no smaller share of its change than the round before (`Unfolded.share`) opened no
+    smaller fold: the guard and the membrane undo each other, and more rounds would spend the budget to end where
+    they began (the Lee Perry-Smith scan's sealed lip line, demo frames 22-27: 4-5 rounds each keeping 0.79-0.81,
+    the last out of budget with a face left turned over), so the rounds end there, as they do after a round that
+    left a fold. The vertices the membrane moved."""
     budget = FrameBudget(mesh.n_vertices, max_steps, work)
     moved = open_folds_within(mesh, positions, look, budget).moved
+    share = np.inf
     for _ in range(GUARD_ROUNDS if len(moved) else 0):
         if budget.allowed() <= 0 or not guard():
             break
@@ -478,4 +483,7 @@ def open_folds_guarded(
         if not len(done.moved):
             break
         moved = np.union1d(moved, done.moved)
+        if done.left or done.share >= share:
+            break
+        share = done.share
     return moved

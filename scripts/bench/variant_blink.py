@@ -26,7 +26,7 @@ import addon
 from addon.blender import eyelid_rig, face_data, inner_parts, live
 from addon.deform.folds import inverted_faces
 from addon.deform.overlaps import crossing_pairs, crossings, edge_roughness, seen_lid_gap
-from scripts.bench.variant_playback import _face, lid_edges
+from scripts.bench.variant_playback import _face, lid_edges, lid_margins, margin_roughness
 from scripts.bench.variants import SAMPLE
 from scripts.docs.render_eyes_brows import positions
 
@@ -75,6 +75,7 @@ def measure(face) -> list[dict]:
         parts[members] = True
     skin = triangles[~parts[triangles].any(axis=1)]
     edges = lid_edges(face, rest, ~parts)
+    margins = lid_margins(face, rest, skin)
     closed = full_blink(face)
     rig = eyelid_rig._rigs[face.session_uid][1]
     turned = inverted_faces(rest, closed, triangles)
@@ -89,6 +90,9 @@ def measure(face) -> list[dict]:
                 "seen": [1e3 * g for g in seen_gaps(face, closed, skin, eye)],
                 "rest_edge": 1e3 * edge_roughness(rest, edges[eye], closed=False).max(),
                 "edge": 1e3 * edge_roughness(closed, edges[eye], closed=False).max(),
+                "margin": [1e3 * margin_roughness(p, margins[eye]) for p in (rest, closed)]
+                if len(margins) == 2
+                else [],
                 "folds": int(np.count_nonzero(turned & lid[triangles].any(axis=1))),
                 "crossings": crossings(closed, skin, lid & np.any(closed != rest, axis=1), at_rest),
             }
@@ -104,18 +108,19 @@ def main(argv: list[str] | None = None) -> int:
     addon.register()
     print(
         "| face | eye | seen gap straight / 30° below, rest → blink (mm) | lid edge off smooth, rest → blink (mm) |"
-        " faces turned over | crossing pairs |"
+        " seen margin off smooth, rest → blink (mm) | faces turned over | crossing pairs |"
     )
-    print("|---|---|---:|---:|---:|---:|")
+    print("|---|---|---:|---:|---:|---:|---:|")
     for path in files:
         bpy.ops.wm.open_mainfile(filepath=str(path))
         face = _face()
         bpy.ops.mpeg4.setup_face()
         for eye, row in zip(("left", "right"), measure(face), strict=True):
             rest_seen, seen = "/".join(f"{g:.2f}" for g in row["rest_seen"]), "/".join(f"{g:.2f}" for g in row["seen"])
+            margin = " → ".join(f"{m:.2f}" for m in row["margin"]) or "-"
             print(
                 f"| {path.stem} | {eye} | {rest_seen} → **{seen}** | {row['rest_edge']:.2f} → **{row['edge']:.2f}** | "
-                f"{row['folds']} | {row['crossings']} |"
+                f"{margin} | {row['folds']} | {row['crossings']} |"
             )
     return 0
 

@@ -12,11 +12,11 @@ frames, and over the frames in which the face moved), and the largest over the m
 process's CPU time per frame (`time.process_time`: what the frame itself cost, which other jobs on the machine
 do not lengthen, as they do the wall-clock time by taking the cores away); the most faces turned
 over in a frame (`folds`); the most crossing triangle pairs in a frame (`overlaps.crossings`, every K-th frame;
-pairs that cross at rest already are not counted, their number in brackets); how
-far the upper lids' edges (the vertices along their FPs, `lid_edges`) lie off a smooth curve through their
-neighbours, at rest and at most; how far the parts inside the face (eyeballs, teeth, tongue) are from rigid (the
-most any distance between a part's vertices and its anchors changed, mm; "-" where the face has none); and the
-status message that turned deformation off, if one did (playback of that stream stops there).
+pairs that cross at rest already are not counted, their number in brackets); how far the upper lids' edges (the
+vertices along their FPs, `lid_edges`; and the margins the eyes' centres see on the skin, `lid_margins`) lie off
+a smooth curve through their neighbours, at rest and at most; how far the parts inside the face (eyeballs, teeth,
+tongue) are from rigid (the most any distance between a part's vertices and its anchors changed, mm; "-" where the
+face has none); and the status message that turned deformation off, if one did (playback of that stream stops there).
 `--profile N` then plays each of the N slowest frames again (from the frame before it) under cProfile and prints
 its time again and the functions it spent most in: a frame slow in the timed pass but not again was slowed by
 other jobs.
@@ -37,7 +37,8 @@ import bpy
 import numpy as np
 
 import addon
-from addon.blender import face_data, inner_parts, rest_shape
+from addon.blender import eyelid_rig, face_data, inner_parts, rest_shape
+from addon.deform.eyelids import EYE_FPS, seen_margin_points
 from addon.deform.folds import count_inverted
 from addon.deform.overlaps import crossing_pairs, crossings, edge_chain, edge_roughness
 from addon.mpeg4.feature_points import fp_index
@@ -73,6 +74,35 @@ def lid_edges(face, rest: np.ndarray, skin: np.ndarray) -> list[np.ndarray]:
     return chains
 
 
+def lid_margins(face, rest: np.ndarray, skin: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each upper lid's margin at rest as the eye's centre sees it (`eyelids.seen_margin_points` on the `skin` (T, 3)
+    triangles, the rig's eyeball: its centre, its radius to the pupil FP): (P, 3) corners and (P, 3) barycentric
+    weights of points on the skin, evenly along the eye; `lid_edges`' vertices nearest the FP line are not the
+    margin where it curves away from that line (the sample's inner corners)."""
+    rig = eyelid_rig._rigs.get(face.session_uid, (None, None))[1]
+    if rig is None:  # no lids' turn (an eye's FPs missing)
+        return []
+    neutral = face_data.neutral_positions(face_data.fp_empties(face)) @ rig.axes.T
+    local = np.asarray(rest, dtype=np.float64) @ rig.axes.T
+    margins = []
+    for eye, (_up, _low, inner, outer, pupil) in enumerate(EYE_FPS):
+        ends = neutral[[fp_index(inner), fp_index(outer), fp_index(pupil)]] - rig.centres[eye]
+        if not np.isfinite(ends).all():
+            continue
+        corners, weights = seen_margin_points(local - rig.centres[eye], skin, np.linalg.norm(ends[2]), ends[:2])
+        if len(corners[0]) >= 5:
+            margins.append((corners[0], weights[0]))
+    return margins
+
+
+def margin_roughness(points: np.ndarray, margin: tuple[np.ndarray, np.ndarray]) -> float:
+    """The largest distance of a point of the lid `margin` (`lid_margins`) at `points` off the smooth curve through
+    its neighbours (`overlaps.edge_roughness`)."""
+    corners, weights = margin
+    on_skin = np.einsum("pk,pkc->pc", weights, np.asarray(points, dtype=np.float64)[corners])
+    return float(edge_roughness(on_skin, np.arange(len(on_skin)), closed=False).max())
+
+
 def played_positions(mesh, buffer: np.ndarray | None = None) -> np.ndarray:
     """(N, 3) float64: the face's positions as the frame left them (a mesh with shape keys is played in the add-on's
     own key, `rest_shape.deform_target`)."""
@@ -95,11 +125,13 @@ def play(face, stream: Path, every: int) -> dict:
         parts[members] = True
     skin = fans[0][~parts[fans[0]].any(axis=1)]
     lids = lid_edges(face, rest, ~parts)
+    seen_rough = []
     at_rest = crossing_pairs(rest, skin)  # the surface's own crossings before anything moves are not counted
     anchored = [part_anchors(rest, members) for members in inner_parts.group_members(face).values() if len(members)]
     buffer = np.empty(len(mesh.vertices) * 3, np.float32)
     times, cpu, moved, folds, crossed, rough, bent = [], [], [], [], [], [], [0.0]
     scene.frame_set(scene.frame_start)
+    margins = lid_margins(face, rest, skin)  # the lids' rig is made at the first frame played
     last = rest
     for frame in range(scene.frame_start + 1, int(np.ceil(scene.frame_end)) + 1):
         start, start_cpu = time.perf_counter(), time.process_time()
@@ -113,6 +145,7 @@ def play(face, stream: Path, every: int) -> dict:
         if frame % every == 0:
             crossed.append(crossings(now, skin, np.any(now != rest, axis=1), at_rest))
         rough.append(max((edge_roughness(now, loop, closed=False).max() for loop in lids), default=0.0))
+        seen_rough.append(max((margin_roughness(now, m) for m in margins), default=0.0))
         bent += [distance_change(rest, now, *anchors) for anchors in anchored]
         if face.mpeg4_face.status:
             status = f"frame {frame}: {face.mpeg4_face.status}"
@@ -124,6 +157,7 @@ def play(face, stream: Path, every: int) -> dict:
     got |= {"crossed": crossed, "status": status}
     got["rigid"] = max(bent) if anchored else None
     got["at_rest"] = len(at_rest)
+    got["margin"] = (max(margin_roughness(rest, m) for m in margins), max(seen_rough, default=0.0)) if margins else None
     return got, rough, rest_rough
 
 
@@ -155,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
     columns = "frames | median ms (moving) | max ms | >3x median (moving) | max / moving median"
     columns += " | CPU: median ms (moving), max ms, max / moving median | folds"
     columns += " | crossings (at rest)"
-    columns += " | lid edge mm | parts rigid mm | deformation turned off"
+    columns += " | lid edge mm, rest → most (FP line's vertices; seen margin) | parts rigid mm | deformation turned off"
     print(f"| face | stream | {columns} |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for path in files:
@@ -183,7 +217,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"{np.median(c):.1f} ({cpu_moving:.1f}), {c.max():.1f}, {c.max() / cpu_moving:.1f} | "
                 f"{max(got['folds'], default=0)} | "
                 f"{max(got['crossed'], default=0)} ({got['at_rest']}) | "
-                f"{rest_rough * 1000:.2f} → {max(rough, default=0.0) * 1000:.2f} | "
+                f"{rest_rough * 1000:.2f} → {max(rough, default=0.0) * 1000:.2f}; "
+                f"{'-' if got['margin'] is None else ' → '.join(f'{m * 1000:.2f}' for m in got['margin'])} | "
                 f"{rigid} | {got['status'] or 'no'} |"
             )
             if args.profile:

@@ -14,6 +14,7 @@ from addon.deform.eyelids import (
     hold_lids,
     lid_profile,
     lid_turns,
+    seen_margin_points,
     seen_margins,
 )
 from addon.deform.overlaps import edge_roughness
@@ -377,6 +378,36 @@ def test_the_seen_margins_are_the_shells_margins_by_hand():
     ts, up, _rows = seen_margins(rest - CENTRES[0], triangles, R_EYE, wide)[0]
     x = wide[0, 0] + ts * (wide[1, 0] - wide[0, 0])
     assert np.all(up[np.abs(x) >= R_EYE] == 0.0) and np.all(up[np.abs(x) < 0.9 * CORNER] > 0.0)
+
+
+def test_the_seen_margin_points_lie_on_the_shells_margins():
+    """`seen_margin_points` are points of the skin on the margins `seen_margins` finds: on `_eye`'s shell, each lies on
+    the chord between two neighbouring margin vertices (the triangle's edge the line crosses), on its line's x and
+    at the elevation `seen_margins` gives there (within the chord's bend, 1e-3 rad: the chart's elevation is
+    interpolated along the edge), weights on the triangle summing to 1; one per line that sees an opening. The lids'
+    edge followed through a deformation by them is the margin itself, evenly along the eye, whatever vertices lie
+    nearest the line through the lid FPs (the sample's inner corners: a vertex 1.1 mm above the margin read as the
+    edge, 0.88 mm off smooth at the blink)."""
+    rest, _upper, _lower, neutral, margins = _eye(fuller=True)
+    triangles = _shell_triangles(len(rest), len(XS))
+    local = rest - CENTRES[0]
+    corners = neutral[[fp_index("3.11"), fp_index("3.7")]] - CENTRES[0]
+    found = seen_margins(local, triangles, R_EYE, corners)
+    ids, weights = seen_margin_points(local, triangles, R_EYE, corners)
+    seen = found[0][1] != 0.0  # the lines that see an opening (the margins meet at 0 elsewhere)
+    assert ids.shape == weights.shape == (2, int(seen.sum()), 3)
+    np.testing.assert_allclose(weights.sum(axis=2), 1.0, atol=1e-12)
+    assert np.all(weights >= -1e-12)
+    for side in (0, 1):
+        points = np.einsum("pk,pkc->pc", weights[side], local[ids[side]])
+        x = corners[0, 0] + found[side][0][seen] * (corners[1, 0] - corners[0, 0])
+        np.testing.assert_allclose(points[:, 0], x, atol=1e-12)
+        np.testing.assert_allclose(elevation(points, np.zeros(3)), found[side][1][seen], atol=1e-3)
+        chain = local[margins[(0, side)]]
+        for p in points:  # on the polyline through the margin's vertices
+            a, b = chain[:-1], chain[1:]
+            u = np.clip(np.einsum("ij,ij->i", p - a, b - a) / np.einsum("ij,ij->i", b - a, b - a), 0.0, 1.0)
+            assert np.linalg.norm(a + u[:, None] * (b - a) - p, axis=1).min() < 1e-12
 
 
 def test_an_eye_shut_in_the_skin_does_not_turn_its_lids_through_each_other():
