@@ -1,17 +1,21 @@
 """Points the surface itself says where they are, refined after the registration carried them near: the
 nose tip is the skin's most forward point near the carried guess on the mid-plane (pronasale), whatever
-the template's nose looked like; the top of the spine (7.1) is where the ears say it is (`spine_top`)."""
+the template's nose looked like; the upper points of the ears (10.9/10.10) the highest skin near the carried
+guesses that stands out from the head (`ear_tops`); the top of the spine (7.1) is where the ears say it is
+(`spine_top`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
-from .surface import Surface
+from .surface import Surface, area_samples
 from .symmetry import MidPlane
 
 NOSE_REACH = 0.015  # template metres: the nose tip is looked for this near the carried guess
 MID_REACH = 0.003  # template metres: and this near the mid-plane
+EAR_REACH = 0.008  # template metres: an ear's upper point is looked for this near the carried guess
+EAR_SAMPLES = 4000  # area samples of the skin around the guess (about 0.5 mm apart)
 
 
 def nose_tip(surface: Surface, guess: np.ndarray, forward: np.ndarray, plane: MidPlane) -> np.ndarray:
@@ -28,6 +32,33 @@ def nose_tip(surface: Surface, guess: np.ndarray, forward: np.ndarray, plane: Mi
     tip = candidates[on_mid][np.argmax(candidates[on_mid] @ forward)]
     snapped, _normal = surface.closest(plane.project(tip)[None])
     return snapped[0]
+
+
+def ear_top(surface: Surface, guess: np.ndarray, up: np.ndarray, outward: np.ndarray) -> np.ndarray:
+    """FP 10.9 or 10.10, "the upper point of the ear": the skin point furthest along `up` (the head's, from
+    `skull.head_frame`) within EAR_REACH of the carried `guess`, among the skin no nearer the mid-plane than
+    the guess (`outward` points away from it on the ear's side). The helix's rim is an extreme of the
+    surface, which a registration sliding along the rim does not keep; the scalp above the ear stands
+    further in than the rim and is left out by the second condition. The guess when no skin is that near."""
+    near = surface.tree.query_ball_point(guess, 2.0 * EAR_REACH)
+    if not near:
+        return guess
+    around = np.isin(surface.triangles, near).any(axis=1)
+    samples, _normals = area_samples(surface.vertices, surface.triangles[around], EAR_SAMPLES)
+    keep = (np.linalg.norm(samples - guess, axis=1) <= EAR_REACH) & ((samples - guess) @ outward >= 0.0)
+    if not keep.any():
+        return guess
+    return samples[keep][np.argmax(samples[keep] @ up)]
+
+
+def ear_tops(surface: Surface, points: np.ndarray, plane: MidPlane, up: np.ndarray) -> np.ndarray:
+    """`points` (84, 3) with 10.9 and 10.10 moved to the ears' upper points (`ear_top`)."""
+    points = points.copy()
+    for fp_id in ("10.9", "10.10"):
+        row = fp_index(fp_id)
+        side = np.sign(points[row] @ plane.normal - plane.offset) or 1.0
+        points[row] = ear_top(surface, points[row], up, side * plane.normal)
+    return points
 
 
 def spine_top(points: np.ndarray) -> np.ndarray:
