@@ -1,6 +1,8 @@
 """The upper points of the ears 10.9/10.10 read off the skin (`landmarks.ear_top`): on a hand-made rim beside
-a higher scalp the rim's top, however turned, not the scalp; on the sample head with its ears' upper rims
-pulled up and back, the moved tops, where the registration alone leaves them about 4 mm off."""
+a higher scalp the rim's top, however turned, not the scalp; a guess on the scalp itself (still climbing at
+the edge of the reach) not moved; the ear's contact points moved with its top in proportion to how far up
+from the lobe they lie (`ear_tops`); on the sample head with its ears' upper rims pulled up and back, the
+moved tops, where the registration alone leaves them about 4 mm off."""
 
 import numpy as np
 import pytest
@@ -8,9 +10,10 @@ import pytest
 pytest.importorskip("scipy")
 
 from addon.mpeg4.feature_points import fp_index
-from addon.placement.landmarks import ear_top
+from addon.placement.landmarks import ear_top, ear_tops
 from addon.placement.pipeline import place_feature_points
 from addon.placement.surface import Surface
+from addon.placement.symmetry import MidPlane
 from addon.placement.template import load_template
 
 RIM_CENTRE = np.array([0.07, 0.0, 0.02])  # (outward, forward, up) in metres
@@ -46,9 +49,7 @@ def _turn(degrees: float) -> np.ndarray:
 def test_the_rims_top_not_the_higher_scalp_however_turned(degrees):
     turn = _turn(degrees)
     vertices, triangles = _rim_and_scalp()
-    # a guess slid 50 degrees down the rim's inner side; the scalp lies within reach of it, higher
-    slid = np.radians(50.0)
-    guess = RIM_CENTRE + RIM_RADIUS * np.array([np.cos(np.pi - slid), 0.0, np.sin(np.pi - slid)])
+    guess = _slid_guess()  # 50 degrees down the rim's inner side; the scalp lies within reach of it, higher
     found = ear_top(Surface(vertices @ turn.T, triangles), guess @ turn.T, turn[:, 2], turn[:, 0])
     top = RIM_CENTRE + (0.0, 0.0, RIM_RADIUS)
     back = found @ turn
@@ -56,10 +57,41 @@ def test_the_rims_top_not_the_higher_scalp_however_turned(degrees):
     assert abs(back[1]) < 0.008
 
 
-def test_no_skin_near_leaves_the_guess():
+def test_no_skin_near_finds_nothing():
     vertices, triangles = _rim_and_scalp()
-    guess = np.array([0.5, 0.0, 0.0])
-    assert np.array_equal(ear_top(Surface(vertices, triangles), guess, np.array([0.0, 0.0, 1.0]), np.eye(3)[0]), guess)
+    far = np.array([0.5, 0.0, 0.0])
+    assert ear_top(Surface(vertices, triangles), far, np.array([0.0, 0.0, 1.0]), np.eye(3)[0]) is None
+
+
+def _slid_guess():
+    slid = np.radians(50.0)
+    return RIM_CENTRE + RIM_RADIUS * np.array([np.cos(np.pi - slid), 0.0, np.sin(np.pi - slid)])
+
+
+def test_a_guess_on_the_climbing_scalp_finds_no_top():
+    vertices, triangles = _rim_and_scalp()
+    on_scalp = np.array([SCALP, 0.0, 0.012])  # the scalp rises 2.3 cm above it, beyond any reach
+    assert ear_top(Surface(vertices, triangles), on_scalp, np.array([0.0, 0.0, 1.0]), np.array([-1.0, 0, 0])) is None
+
+
+def test_contact_points_move_with_the_top_as_far_as_they_lie_up_the_ear():
+    vertices, triangles = _rim_and_scalp()
+    points = np.zeros((84, 3))
+    points[fp_index("10.9")] = _slid_guess()
+    points[fp_index("10.5")] = (SCALP, 0.0, 0.0)  # the lobe, at the scalp's foot
+    points[fp_index("10.1")] = (SCALP, 0.0, 0.5 * _slid_guess()[2])  # half way up the ear, on the scalp
+    points[fp_index("10.7")] = (SCALP, 0.0, 0.0)  # at the lobe
+    points[fp_index("10.10")] = (-0.5, 0.0, 0.0)  # the other ear, no skin near it
+    plane = MidPlane(np.array([1.0, 0.0, 0.0]), 0.0)
+    moved = ear_tops(Surface(vertices, triangles), points, plane, np.array([0.0, 0.0, 1.0]))
+    top = moved[fp_index("10.9")]
+    assert abs(top[2] - (RIM_CENTRE[2] + RIM_RADIUS)) < 0.0002
+    rise = top[2] - points[fp_index("10.9")][2]  # 1.8 mm
+    along = 0.5 * points[fp_index("10.9")][2] / np.linalg.norm(points[fp_index("10.9")] - points[fp_index("10.5")])
+    assert moved[fp_index("10.1")][2] - points[fp_index("10.1")][2] == pytest.approx(along * rise, abs=3e-4)
+    assert moved[fp_index("10.1")][0] == pytest.approx(SCALP)  # snapped back onto the skin
+    assert np.allclose(moved[fp_index("10.7")], points[fp_index("10.7")], atol=1e-9)
+    assert np.array_equal(moved[fp_index("10.10")], points[fp_index("10.10")])
 
 
 def test_raised_ear_tops_are_found_on_the_sample_head():
