@@ -15,6 +15,7 @@ from addon.placement.pipeline import place_feature_points
 from addon.placement.surface import Surface
 from addon.placement.symmetry import MidPlane
 from addon.placement.template import load_template
+from tests.core.test_placement_subnasale import _turn
 
 RIM_CENTRE = np.array([0.07, 0.0, 0.02])  # (outward, forward, up) in metres
 RIM_RADIUS = 0.005
@@ -36,13 +37,6 @@ def _rim_and_scalp():
         for k in range(n - 1):
             triangles += [(base + k, base + k + 1, base + n + k), (base + k + 1, base + n + k + 1, base + n + k)]
     return np.vstack(vertices), np.array(triangles)
-
-
-def _turn(degrees: float) -> np.ndarray:
-    k = np.ones(3) / np.sqrt(3.0)
-    cross = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    a = np.radians(degrees)
-    return np.eye(3) + np.sin(a) * cross + (1.0 - np.cos(a)) * cross @ cross
 
 
 @pytest.mark.parametrize("degrees", [0.0, 30.0, -70.0])
