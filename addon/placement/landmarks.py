@@ -1,17 +1,21 @@
 """Points the surface itself says where they are, refined after the registration carried them near: the
 nose tip is the skin's most forward point near the carried guess on the mid-plane (pronasale), whatever
-the template's nose looked like; the top of the spine (7.1) is where the ears say it is (`spine_top`)."""
+the template's nose looked like; the upper points of the ears (10.9/10.10) the highest skin near the carried
+guesses that stands out from the head (`ear_tops`); the top of the spine (7.1) is where the ears say it is
+(`spine_top`)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
-from .surface import Surface
+from .surface import Surface, area_samples, triangle_areas
 from .symmetry import MidPlane
 
 NOSE_REACH = 0.015  # template metres: the nose tip is looked for this near the carried guess
 MID_REACH = 0.003  # template metres: and this near the mid-plane
+EAR_REACH = 0.008  # template metres: an ear's upper point is looked for this near the carried guess
+EAR_SAMPLES = 4000  # area samples of the skin around the guess (about 0.5 mm apart)
 
 
 def nose_tip(surface: Surface, guess: np.ndarray, forward: np.ndarray, plane: MidPlane) -> np.ndarray:
@@ -28,6 +32,55 @@ def nose_tip(surface: Surface, guess: np.ndarray, forward: np.ndarray, plane: Mi
     tip = candidates[on_mid][np.argmax(candidates[on_mid] @ forward)]
     snapped, _normal = surface.closest(plane.project(tip)[None])
     return snapped[0]
+
+
+def ear_top(surface: Surface, guess: np.ndarray, up: np.ndarray, outward: np.ndarray) -> np.ndarray | None:
+    """FP 10.9 or 10.10, "the upper point of the ear": the skin point furthest along `up` (the head's, from
+    `skull.head_frame`) within EAR_REACH of the carried `guess`, among the skin no nearer the mid-plane than
+    the guess (`outward` points away from it on the ear's side), when it is a top: no such skin within half
+    as far again stands higher (by more than the samples' spacing). The helix's rim is an extreme of the
+    surface, which a registration sliding along the rim does not keep; the scalp above the ear stands
+    further in than the rim and is left out by the second condition. A guess on the scalp (an ear smaller
+    than the template's) finds no top, only the edge of its reach, still climbing: None then, as when no
+    skin is that near."""
+    near = surface.tree.query_ball_point(guess, 2.0 * EAR_REACH)
+    if not near:
+        return None
+    around = np.isin(surface.triangles, near).any(axis=1)
+    samples, _normals = area_samples(surface.vertices, surface.triangles[around], EAR_SAMPLES)
+    spacing = np.sqrt(triangle_areas(surface.vertices, surface.triangles[around]).sum() / EAR_SAMPLES)
+    samples = samples[(samples - guess) @ outward >= 0.0]
+    distance = np.linalg.norm(samples - guess, axis=1)
+    reach, wider = distance <= EAR_REACH, distance <= 1.5 * EAR_REACH
+    if not reach.any():
+        return None
+    top = samples[reach][np.argmax(samples[reach] @ up)]
+    return top if (samples[wider] @ up).max() <= top @ up + spacing else None
+
+
+# per ear: its upper point, its lobe's bottom, the points between them (the contact points with the face)
+EARS = (("10.9", "10.5", ("10.1", "10.3", "10.7")), ("10.10", "10.6", ("10.2", "10.4", "10.8")))
+
+
+def ear_tops(surface: Surface, points: np.ndarray, plane: MidPlane, up: np.ndarray) -> np.ndarray:
+    """`points` (84, 3) with 10.9 and 10.10 moved to the ears' upper points (`ear_top`), and each ear's
+    contact points moved with its top: by the top's move times how far along the ear from its lobe's
+    bottom (10.5/10.6, kept) to its top they lie (0 at the lobe, 1 at the top), then snapped back onto the
+    skin. Read here: the ear is registered as one piece, so where its top was carried short (stretched
+    ears, whose registration slides down the rim) the points on the way up were carried short in proportion."""
+    points = points.copy()
+    for top_id, lobe_id, between in EARS:
+        top, lobe = fp_index(top_id), fp_index(lobe_id)
+        side = np.sign(points[top] @ plane.normal - plane.offset) or 1.0
+        read = ear_top(surface, points[top], up, side * plane.normal)
+        if read is None:
+            continue
+        move, axis = read - points[top], points[top] - points[lobe]
+        rows = [fp_index(fp_id) for fp_id in between]
+        along = np.clip((points[rows] - points[lobe]) @ axis / max(float(axis @ axis), 1e-300), 0.0, 1.0)
+        points[rows], _normals = surface.closest(points[rows] + along[:, None] * move)
+        points[top] = read
+    return points
 
 
 def spine_top(points: np.ndarray) -> np.ndarray:

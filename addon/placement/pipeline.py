@@ -20,7 +20,7 @@ from ..progress import scaled
 from .body import head_region
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
-from .landmarks import refine
+from .landmarks import ear_tops, refine
 from .mouth_parts import READ_CONFIDENCE, mouth_ends
 from .nicp import border_vertices, register
 from .openings import boundary_loops, refine_openings
@@ -28,7 +28,7 @@ from .parts import find_eyeballs, pupil_on_eyeball
 from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
 from .shape import fit_shape
-from .skull import read_skull
+from .skull import head_frame, read_skull
 from .subnasale import subnasale
 from .surface import Surface, area_samples, loose_parts, triangle_areas
 from .symmetry import MidPlane, surface_mid_plane, symmetrise
@@ -268,6 +268,8 @@ def _symmetric(template, placed, surface):
         refine_openings(placed, surface.vertices, surface.triangles, loops, TEMPLATE_AXES, skin)
     reference = (template.fp_positions, TEMPLATE_AXES)
     placed = subnasale(surface.vertices, surface.triangles, placed, plane.normal)
+    axes = head_frame(placed, plane.normal, TEMPLATE_AXES[1], *reference)
+    placed = ear_tops(surface, placed, plane, axes[1])
     placed = read_skull(surface.vertices, surface.triangles, placed, plane.normal, TEMPLATE_AXES[1], *reference)
     return placed, plane
 
