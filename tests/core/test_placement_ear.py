@@ -1,8 +1,8 @@
 """The upper points of the ears 10.9/10.10 read off the skin (`landmarks.ear_top`): on a hand-made rim beside
 a higher scalp the rim's top, however turned, not the scalp; a guess on the scalp itself (still climbing at
-the edge of the reach) not moved; the ear's contact points moved with its top in proportion to how far up
-from the lobe they lie (`ear_tops`); on the sample head with its ears' upper rims pulled up and back, the
-moved tops, where the registration alone leaves them about 4 mm off."""
+the edge of the reach) not moved; only the tops move (`ear_tops`), the contact points stay; on the sample
+head with its ears' upper rims pulled up and back, the moved tops, where the registration alone leaves them
+about 4 mm off, and the contact points left near their places."""
 
 import numpy as np
 import pytest
@@ -68,24 +68,19 @@ def test_a_guess_on_the_climbing_scalp_finds_no_top():
     assert ear_top(Surface(vertices, triangles), on_scalp, np.array([0.0, 0.0, 1.0]), np.array([-1.0, 0, 0])) is None
 
 
-def test_contact_points_move_with_the_top_as_far_as_they_lie_up_the_ear():
+def test_only_the_top_moves_the_contact_points_stay():
     vertices, triangles = _rim_and_scalp()
     points = np.zeros((84, 3))
     points[fp_index("10.9")] = _slid_guess()
     points[fp_index("10.5")] = (SCALP, 0.0, 0.0)  # the lobe, at the scalp's foot
     points[fp_index("10.1")] = (SCALP, 0.0, 0.5 * _slid_guess()[2])  # half way up the ear, on the scalp
-    points[fp_index("10.7")] = (SCALP, 0.0, 0.0)  # at the lobe
     points[fp_index("10.10")] = (-0.5, 0.0, 0.0)  # the other ear, no skin near it
     plane = MidPlane(np.array([1.0, 0.0, 0.0]), 0.0)
     moved = ear_tops(Surface(vertices, triangles), points, plane, np.array([0.0, 0.0, 1.0]))
-    top = moved[fp_index("10.9")]
-    assert abs(top[2] - (RIM_CENTRE[2] + RIM_RADIUS)) < 0.0002
-    rise = top[2] - points[fp_index("10.9")][2]  # 1.8 mm
-    along = 0.5 * points[fp_index("10.9")][2] / np.linalg.norm(points[fp_index("10.9")] - points[fp_index("10.5")])
-    assert moved[fp_index("10.1")][2] - points[fp_index("10.1")][2] == pytest.approx(along * rise, abs=3e-4)
-    assert moved[fp_index("10.1")][0] == pytest.approx(SCALP)  # snapped back onto the skin
-    assert np.allclose(moved[fp_index("10.7")], points[fp_index("10.7")], atol=1e-9)
-    assert np.array_equal(moved[fp_index("10.10")], points[fp_index("10.10")])
+    assert abs(moved[fp_index("10.9")][2] - (RIM_CENTRE[2] + RIM_RADIUS)) < 0.0002
+    others = np.ones(84, bool)
+    others[fp_index("10.9")] = False
+    assert np.array_equal(moved[others], points[others])
 
 
 def test_raised_ear_tops_are_found_on_the_sample_head():
@@ -100,3 +95,6 @@ def test_raised_ear_tops_are_found_on_the_sample_head():
     for fp_id in ("10.9", "10.10"):
         row = fp_index(fp_id)
         assert np.linalg.norm(placed[row] - vertices[t.fp_vertices[row]]) < 0.001  # 4 mm by the registration alone
+    for fp_id in ("10.1", "10.2"):  # only the rims were raised: the contact points stay near their places
+        row = fp_index(fp_id)
+        assert np.linalg.norm(placed[row] - vertices[t.fp_vertices[row]]) < 0.002  # 4.3-4.5 mm if moved with the top
