@@ -23,7 +23,7 @@ import bpy
 import numpy as np
 
 from ..deform import fused, unfold
-from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides
+from ..deform.lips import LipGuard, bind_lip_guard, guard_lips, mouth_sides, press_apart
 from ..deform.loose_parts import DRIVERS, RigidParts, move_parts
 from ..deform.neck import turn_back
 from ..deform.planar_bones import Binding, evaluate, playback, prepare_playback
@@ -433,6 +433,7 @@ def _keep_lips_apart(state: _State, driving: np.ndarray, off_rest: np.ndarray | 
     moved = fused.guard_lips_into(state.lip_arrays, state.out, driving) if _NATIVE_GUARD else None
     if moved is None:
         moved = guard_lips(state.lip_guard, state.out, driving)
+    moved = press_apart(state.lip_guard, state.out) or moved  # where the seam does not part the lips at rest
     if moved and state.playback is not None:
         state.playback.changed(state.lip_skin_groups)  # the next frame writes them afresh
         if off_rest is not None:

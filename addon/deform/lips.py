@@ -157,6 +157,23 @@ NO_PAIRS = np.zeros((0, 2), np.intp)  # `_carry` with no (vertex, guarded vertex
 # (`_shadowed`); farther, a layer of its own (the 2 mm remesh's fused lips: 0.55 and more; with those too, the guard's
 # rounds and Unfold Skin's fought to the frame's budget, leaving 2 faces turned over in joy.fap)
 SLIVER = 0.25
+CONTACT_ROUNDS = 3  # `press_apart`'s passes at most (each a few hundred vertices against a few hundred triangles)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The guarded vertices past the seam at rest (slack < 0) and the other lip's skin they are kept out of.
+
+    Where the lips touch over a surface that is not a function of x alone (a closed mouth whose lower lip tucks in
+    behind the upper one, the Rocketbox's lips overlapping 2 mm in height; a sealed lip crease whose walls are
+    bumpy, the Lee Perry-Smith scan), every vertex of the contact past the seam keeps its rest offset as slack, and
+    a slack says nothing of where the other lip is: lips sliding on each other in depth or across passed through
+    each other there, both sides held at their bounds (session 11). These vertices are kept out of the other lip's
+    flesh as `lip_penetration` measures it, on the other lip's own triangles as they are deformed."""
+
+    rows: tuple[np.ndarray, np.ndarray]  # rows into `LipGuard.vertices`: the upper lip's past the seam, the lower's
+    triangles: tuple[np.ndarray, np.ndarray]  # (T, 3) mesh triangles of the lower lip, then of the upper lip
+    keep: tuple[np.ndarray, np.ndarray]  # each row's depth into the other lip at rest (>= 0), kept as it was
 
 
 @dataclass(frozen=True)
@@ -180,6 +197,8 @@ class LipGuard:
     sources: np.ndarray  # (CARRY_SOURCES, V + C) rows into `vertices`: whose push each of `skin` shares
     shares: np.ndarray  # (CARRY_SOURCES, V + C) how much (signed: along a guarded vertex's side, else face up)
     lift: tuple[tuple[np.ndarray, float], ...]  # (flat index of `skin` along a mesh axis, the face's up on it)
+    # where the seam does not part the lips at rest (`Contact`): each kept out of the other lip's own surface
+    contact: Contact | None = None
 
 
 def seam(guard: LipGuard, points: np.ndarray, signed_y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -220,6 +239,7 @@ def bind_lip_guard(
     skin straight past it toward the other lip, or behind it (`_shadowed`: a fold, as at the mouth's corners) is
     carried with the skin beside the lips, not guarded."""
     rows = {fp_id: k for k, fp_id in enumerate(fp_ids)}
+    upper_all, lower_all = upper, lower
     upper, lower = np.asarray(upper, bool), np.asarray(lower, bool) & ~np.asarray(upper, bool)
     axes = np.asarray(axes, dtype=np.float64)
     face_rest = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -271,7 +291,27 @@ def bind_lip_guard(
     )
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
-    return LipGuard(**{**guard.__dict__, "slack": np.minimum(clearance, 0.0)})
+    slack = np.minimum(clearance, 0.0)
+    lips = (np.asarray(upper_all, bool), np.asarray(lower_all, bool) & ~np.asarray(upper_all, bool))
+    contact = _contact(face_rest, tris, vertices, n_upper, np.isin(nearest, nearest[slack < 0.0]), lips)
+    return LipGuard(**{**guard.__dict__, "slack": slack, "contact": contact})
+
+
+def _contact(
+    face: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, n_upper: int, past: np.ndarray, lips: tuple
+) -> Contact | None:
+    """The `Contact` of the guarded `vertices` (the first `n_upper` on the upper lip) flagged in (V,) bool `past`, at
+    rest in the (N, 3) face frame; the other lip's triangles are those with every corner on it (`lips`: (upper, lower)
+    (N,) bool, the mouth's sides before the layers behind a fold were left to the carry). None where none is."""
+    rows = (np.flatnonzero(past[:n_upper]), n_upper + np.flatnonzero(past[n_upper:]))
+    if not (len(rows[0]) or len(rows[1])):
+        return None
+    other = tuple(triangles[lip[triangles].sum(axis=1) >= 2] for lip in (lips[1], lips[0]))
+    keep = tuple(
+        np.maximum(np.nan_to_num(_depth(face[vertices[r]], face[t], up), nan=0.0), 0.0)
+        for r, t, up in zip(rows, other, (1.0, -1.0), strict=True)
+    )
+    return Contact(rows=rows, triangles=other, keep=keep)
 
 
 def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> tuple:
@@ -320,7 +360,38 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
     past = guard.slack - signed_y + _bound(guard, x, *seam(guard, points, signed_y))
     if past.max(initial=0.0) <= 0.0:
         return False
-    push = np.maximum(past, 0.0)
+    _push(guard, out, np.maximum(past, 0.0))
+    return True
+
+
+def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
+    """Keep the vertices of `guard.contact` out of the other lip's flesh (`lip_penetration`'s depth, less what they
+    had at rest), in place on the deformed (N, 3) `out`, after `guard_lips`: each moves straight up or down by that
+    depth onto the other lip's surface, the skin beside it following as it follows the seam's push. True when it
+    moved any. Pushes only part the lips (the upper lip up, the lower down), so a pass leaves no vertex of the
+    contact inside the layer of the other lip it was in; a lip folded in layers (a bumpy sealed crease) can hold it
+    in the next, so up to CONTACT_ROUNDS passes."""
+    contact = guard.contact
+    if contact is None:
+        return False
+    moved = False
+    for _ in range(CONTACT_ROUNDS):
+        push = np.zeros(len(guard.vertices))
+        for rows, tris, keep, up in zip(contact.rows, contact.triangles, contact.keep, (1.0, -1.0), strict=True):
+            if len(rows) and len(tris):
+                points = out.take(guard.vertices[rows], axis=0).astype(np.float64) @ guard.axes.T
+                corners = out[tris].astype(np.float64) @ guard.axes.T
+                push[rows] = np.maximum(np.nan_to_num(_depth(points, corners, up), nan=0.0) - keep, 0.0)
+        if push.max(initial=0.0) <= 0.0:
+            break
+        _push(guard, out, push)
+        moved = True
+    return moved
+
+
+def _push(guard: LipGuard, out: np.ndarray, push: np.ndarray) -> None:
+    """Move each guarded vertex by its (V,) `push` (>= 0) toward its side, and the skin beside the lips by its
+    shares of the pushes (`_carry`), along the face's up, in place on `out`."""
     step = (guard.shares * push.take(guard.sources)).sum(axis=0)  # (k, V + C): 3x faster than (V + C, k)
     n = len(guard.vertices)
     step[:n] = guard.side * np.maximum(push, step[:n])
@@ -330,7 +401,6 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
             flat.put(rows, flat.take(rows) + step * part)
     else:
         out[guard.skin] += step[:, None] * guard.axes[1]
-    return True
 
 
 def _carry(
