@@ -368,9 +368,9 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
 def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
     """Keep the vertices of `guard.contact` out of the other lip's flesh (`lip_penetration`'s depth, less what they
     had at rest) and as far from it as at rest where they were apart, in place on the deformed (N, 3) `out`, after
-    `guard_lips`: each moves straight up or down by what it lacks, the skin beside it following as it follows the seam's push. True when it
-    moved any. Pushes only part the lips (the upper lip up, the lower down), so no vertex of the contact is left
-    inside the other lip as that lip stood (a second pass changed no count on the heads)."""
+    `guard_lips`: each moves straight up or down by what it lacks, the skin beside it following as it follows the
+    seam's push. True when it moved any. Pushes only part the lips (the upper lip up, the lower down), so no vertex
+    of the contact is left inside the other lip as that lip stood (a second pass changed no count on the heads)."""
     contact = guard.contact
     if contact is None:
         return False
