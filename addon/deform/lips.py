@@ -172,9 +172,13 @@ class Contact:
     than at rest: there the lips touch already (ICT's closed lips 0.1 mm apart at the corners), and a vertex kept only
     out of the other lip let the edges between cross it."""
 
-    rows: tuple[np.ndarray, np.ndarray]  # rows into `LipGuard.vertices`: the upper lip's past the seam, the lower's
-    triangles: tuple[np.ndarray, np.ndarray]  # (T, 3) mesh triangles of the lower lip, then of the upper lip
-    keep: tuple[np.ndarray, np.ndarray]  # each row's `_depth` into the other lip at rest (< 0: its clearance; 0: none)
+    rows: np.ndarray  # (P,) rows into `LipGuard.vertices`: the upper lip's in the contact, then the lower lip's
+    vertices: np.ndarray  # (P,) their mesh vertices
+    look: np.ndarray  # (P,) 1 on the upper lip (the lower lip is looked for above it), -1 on the lower
+    keep: np.ndarray  # (P,) each one's `_depth` into the other lip at rest (< 0: a clearance kept; 0: none)
+    triangles: np.ndarray  # (T, 3) the lower lip's triangles, then the upper lip's: the other lip's skin
+    facing: np.ndarray  # (T,) 1 on the lower lip (looked at from the upper), -1 on the upper
+    width: float  # the median triangle's width across (face x) at rest: `_depths_ahead`'s bins
 
 
 @dataclass(frozen=True)
@@ -308,11 +312,27 @@ def _contact(
     if not (len(rows[0]) or len(rows[1])):
         return None
     other = tuple(triangles[lip[triangles].sum(axis=1) >= 2] for lip in (lips[1], lips[0]))
-    keep = tuple(
-        np.nan_to_num(_depth(face[vertices[r]], face[t], up), nan=0.0)
-        for r, t, up in zip(rows, other, (1.0, -1.0), strict=True)
+    # the clearance kept is a touch at the mesh's resolution: less than the vertex's longest edge (farther, 1 cm below
+    # on ICT's lower lip, the other lip may come closer as the lips press)
+    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    lengths = np.linalg.norm(face[edges[:, 0]] - face[edges[:, 1]], axis=1)
+    longest = np.zeros(len(face))
+    np.maximum.at(longest, edges.ravel(), np.repeat(lengths, 2))
+    keep = []
+    for r, t, up in zip(rows, other, (1.0, -1.0), strict=True):
+        depth = np.nan_to_num(_depth(face[vertices[r]], face[t], up), nan=0.0)
+        keep.append(np.where(depth > -longest[vertices[r]], depth, 0.0))
+    tris = np.concatenate(other)
+    width = np.ptp(face[tris, 0], axis=1)
+    return Contact(
+        rows=np.concatenate(rows),
+        vertices=vertices[np.concatenate(rows)],
+        look=np.repeat([1.0, -1.0], [len(rows[0]), len(rows[1])]),
+        keep=np.concatenate(keep),
+        triangles=tris,
+        facing=np.repeat([1.0, -1.0], [len(other[0]), len(other[1])]),
+        width=float(np.median(width)) if len(width) else 0.0,
     )
-    return Contact(rows=rows, triangles=other, keep=keep)
 
 
 def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> tuple:
@@ -372,59 +392,75 @@ def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
     seam's push. True when it moved any. Pushes only part the lips (the upper lip up, the lower down), so no vertex
     of the contact is left inside the other lip as that lip stood (a second pass changed no count on the heads)."""
     contact = guard.contact
-    if contact is None:
+    if contact is None or not len(contact.triangles):
         return False
+    axes = guard.axes
+    points = out.take(contact.vertices, axis=0).astype(np.float64) @ axes.T
+    corners = (out.take(contact.triangles.ravel(), axis=0).astype(np.float64) @ axes.T).reshape(-1, 3, 3)
+    # heights along the way each looks (the upper lip up, the lower down), a clearance at rest looked from that far back
+    height = contact.look * points[:, 1] + np.minimum(contact.keep, 0.0)
+    depth = _depths_ahead(points, height, contact.look > 0.0, corners, contact.facing, contact.width)
     push = np.zeros(len(guard.vertices))
-    for rows, tris, keep, up in zip(contact.rows, contact.triangles, contact.keep, (1.0, -1.0), strict=True):
-        if len(rows) and len(tris):
-            points = out.take(guard.vertices[rows], axis=0).astype(np.float64) @ guard.axes.T
-            points[:, 1] += up * np.minimum(keep, 0.0)  # a clearance at rest is kept: looked at from that far back
-            corners = out[tris].astype(np.float64) @ guard.axes.T
-            depth = np.nan_to_num(_depth_by_x(points, corners, up), nan=0.0)
-            push[rows] = np.maximum(depth - np.maximum(keep, 0.0), 0.0)
+    push[contact.rows] = np.maximum(depth - np.maximum(contact.keep, 0.0), 0.0)
     if push.max(initial=0.0) <= 0.0:
         return False
     _push(guard, out, push)
     return True
 
 
-def _depth_by_x(points: np.ndarray, tris: np.ndarray, up: float) -> np.ndarray:
-    """(P,) `_depth` of (P, 3) `points` into the flesh under (T, 3, 3) `tris` where positive (else NaN), looking only
-    at the (point, triangle) pairs that can decide it: the triangle's x range holds the point's x (its column meets
-    no other) and a corner of it lies ahead of the point along `up` (no other is a surface ahead). The pairs are found
-    through bins of x as wide as the median triangle (at least the span over T: T^2 pairs at most, as every pair);
-    on ICT's head a hundred pairs of 180,000 decide (every pair looked at: 100 ms frames)."""
-    depth = np.full(len(points), np.nan)
-    usable, normal_y = _seen_from_above(tris)
-    tris = tris[usable]
-    if not len(points) or not len(tris):
+def _depths_ahead(
+    points: np.ndarray, height: np.ndarray, first: np.ndarray, tris: np.ndarray, facing: np.ndarray, width: float
+) -> np.ndarray:
+    """(P,) `_depth` where positive (else 0) of each of the (P, 3) `points` (face frame), at `height` along the way it
+    looks, into the flesh under the (T, 3, 3) `tris` of the other group (`first` (P,) bool: the points that look at
+    the triangles with `facing` 1; the others at those with -1; a triangle's height along the way it is looked at is
+    `facing` x its y). Only the (point, triangle) pairs that can decide are looked at: the triangle's x range holds the
+    point's x (its column meets no other) and a corner of it lies ahead of the point (no other is a surface ahead),
+    found through bins of x `width` wide (at least the span over T: T^2 pairs at most, as every pair). On ICT's head a
+    hundred pairs of 360,000 decide; looking at every pair made its frames 20x the median."""
+    depth = np.zeros(len(points))
+    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
+    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
+    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA  # seen edge-on from above: no height to give
+    if not len(points) or not usable.any():
         return depth
     slack = EDGE_SLACK * (1.0 + np.abs(points[:, 0]).max())  # a column on a triangle's edge goes through it
     low, high = tris[:, :, 0].min(axis=1) - slack, tris[:, :, 0].max(axis=1) + slack
+    top = (facing[:, None] * tris[:, :, 1]).max(axis=1)
     origin = min(low.min(), points[:, 0].min())
-    width = max(float(np.median(high - low)), (max(high.max(), points[:, 0].max()) - origin) / len(tris), 1e-300)
-    first, last = ((low - origin) // width).astype(np.int64), ((high - origin) // width).astype(np.int64)
-    counts = last - first + 1
+    span = max(high.max(), points[:, 0].max()) - origin
+    width = max(width, span / len(tris), 1e-300)
+    group = int(span // width) + 2  # the bins of the triangles with facing -1 come after the others'
+    start = ((low - origin) // width).astype(np.int64) + np.where(facing > 0.0, 0, group)
+    counts = np.where(usable, ((high - origin) // width).astype(np.int64) - ((low - origin) // width) + 1, 0)
+    counts = counts.astype(np.int64)
     tri_of = np.repeat(np.arange(len(tris)), counts)
-    bin_of = np.repeat(first - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+    bin_of = np.repeat(start - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
     order = np.argsort(bin_of, kind="stable")
     bins, tri_of = bin_of[order], tri_of[order]
-    where = ((points[:, 0] - origin) // width).astype(np.int64)
-    start, stop = np.searchsorted(bins, where, "left"), np.searchsorted(bins, where, "right")
-    found = stop - start
-    point = np.repeat(np.arange(len(points)), found)
-    tri = tri_of[np.repeat(start - np.cumsum(found) + found, found) + np.arange(found.sum())]
-    x, y = points[point, 0], points[point, 1]
-    keep = (low[tri] <= x) & (high[tri] >= x) & ((up * tris[tri, :, 1]).max(axis=1) >= up * y)
+    if not len(bins):
+        return depth
+    where = ((points[:, 0] - origin) // width).astype(np.int64) + np.where(first, 0, group)
+    # a point under no corner ahead in its bin has no surface ahead
+    runs = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
+    run = np.minimum(np.searchsorted(bins[runs], where), len(runs) - 1)
+    reach = np.maximum.reduceat(top[tri_of], runs)
+    look = np.flatnonzero((bins[runs][run] == where) & (reach[run] >= height))
+    begin, end = np.searchsorted(bins, where[look], "left"), np.searchsorted(bins, where[look], "right")
+    found = end - begin
+    point = np.repeat(look, found)
+    tri = tri_of[np.repeat(begin - np.cumsum(found) + found, found) + np.arange(found.sum())]
+    x = points[point, 0]
+    keep = (low[tri] <= x) & (high[tri] >= x) & (top[tri] >= height[point])
     point, tri = point[keep], tri[keep]
-    a, b, c = tris[tri, 0], tris[tri, 1], tris[tri, 2]
-    px, pz, ny = points[point, 0], points[point, 2], normal_y[tri]
+    a, b, c, ny = a[tri], b[tri], c[tri], normal_y[tri]
+    px, pz = points[point, 0], points[point, 2]
     wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / ny
     wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / ny
     wa = 1.0 - wb - wc
-    offset = up * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1] - points[point, 1])
+    offset = facing[tri] * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1]) - height[point]
     ahead = (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wc >= -EDGE_SLACK) & (offset >= 0.0)
-    point, offset, toward = point[ahead], offset[ahead], up * ny[ahead] > 0.0
+    point, offset, toward = point[ahead], offset[ahead], facing[tri[ahead]] * ny[ahead] > 0.0
     order = np.lexsort((offset, point))  # each point's nearest surface ahead first
     point, offset, toward = point[order], offset[order], toward[order]
     nearest = np.r_[True, point[1:] != point[:-1]]
