@@ -157,6 +157,7 @@ NO_PAIRS = np.zeros((0, 2), np.intp)  # `_carry` with no (vertex, guarded vertex
 # (`_shadowed`); farther, a layer of its own (the 2 mm remesh's fused lips: 0.55 and more; with those too, the guard's
 # rounds and Unfold Skin's fought to the frame's budget, leaving 2 faces turned over in joy.fap)
 SLIVER = 0.25
+TOUCH_GAP = 5e-4  # m: lips this close at rest touch (`Contact.keep`); the mesh's own gaps there are kept
 
 
 @dataclass(frozen=True)
@@ -298,12 +299,18 @@ def bind_lip_guard(
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
     slack = np.minimum(clearance, 0.0)
     lips = (np.asarray(upper_all, bool), np.asarray(lower_all, bool) & ~np.asarray(upper_all, bool))
-    contact = _contact(face_rest, tris, vertices, n_upper, np.isin(nearest, nearest[slack < 0.0]), lips)
+    contact = _contact(face_rest, tris, vertices, n_upper, np.isin(nearest, nearest[slack < 0.0]), lips, unit)
     return LipGuard(**{**guard.__dict__, "slack": slack, "contact": contact})
 
 
 def _contact(
-    face: np.ndarray, triangles: np.ndarray, vertices: np.ndarray, n_upper: int, past: np.ndarray, lips: tuple
+    face: np.ndarray,
+    triangles: np.ndarray,
+    vertices: np.ndarray,
+    n_upper: int,
+    past: np.ndarray,
+    lips: tuple,
+    unit: float,
 ) -> Contact | None:
     """The `Contact` of the guarded `vertices` (the first `n_upper` on the upper lip) flagged in (V,) bool `past`, at
     rest in the (N, 3) face frame; the other lip's triangles are those with every corner on it (`lips`: (upper, lower)
@@ -312,16 +319,13 @@ def _contact(
     if not (len(rows[0]) or len(rows[1])):
         return None
     other = tuple(triangles[lip[triangles].sum(axis=1) >= 2] for lip in (lips[1], lips[0]))
-    # the clearance kept is a touch at the mesh's resolution: less than the vertex's longest edge (farther, 1 cm below
-    # on ICT's lower lip, the other lip may come closer as the lips press)
-    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    lengths = np.linalg.norm(face[edges[:, 0]] - face[edges[:, 1]], axis=1)
-    longest = np.zeros(len(face))
-    np.maximum.at(longest, edges.ravel(), np.repeat(lengths, 2))
+    # the clearance kept is a touch: closer than TOUCH_GAP at rest (ICT's corners 0.1-0.4 mm); farther (the sample's
+    # lower lip 3.8 mm under the upper at a corner), the lips may come closer as they press, as the seam lets them
+    touch = TOUCH_GAP * unit
     keep = []
     for r, t, up in zip(rows, other, (1.0, -1.0), strict=True):
         depth = np.nan_to_num(_depth(face[vertices[r]], face[t], up), nan=0.0)
-        keep.append(np.where(depth > -longest[vertices[r]], depth, 0.0))
+        keep.append(np.where(depth > -touch, depth, 0.0))
     tris = np.concatenate(other)
     width = np.ptp(face[tris, 0], axis=1)
     return Contact(
