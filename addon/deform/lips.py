@@ -168,10 +168,10 @@ class Contact:
     behind the upper one, the Rocketbox's lips overlapping 2 mm in height; a sealed lip crease whose walls are
     bumpy, the Lee Perry-Smith scan), every vertex of the contact past the seam keeps its rest offset as slack, and
     a slack says nothing of where the other lip is: lips sliding on each other in depth or across passed through
-    each other there, both sides held at their bounds (session 11). These vertices are kept out of the other lip's
-    flesh as `lip_penetration` measures it, on the other lip's own triangles as they are deformed, and no closer to it
-    than at rest: there the lips touch already (ICT's closed lips 0.1 mm apart at the corners), and a vertex kept only
-    out of the other lip let the edges between cross it."""
+    each other there, both sides held at their bounds (session 11). These vertices, and the other lip's at the same
+    seam knots, are kept out of the other lip's flesh as `lip_penetration` measures it, on the other lip's own
+    triangles as they are deformed, and where they touch it at rest (closer than TOUCH_GAP: ICT's closed lips 0.1-0.4
+    mm apart at the corners) no closer than at rest: kept only out of the other lip, the edges between crossed it."""
 
     rows: np.ndarray  # (P,) rows into `LipGuard.vertices`: the upper lip's in the contact, then the lower lip's
     vertices: np.ndarray  # (P,) their mesh vertices
@@ -391,7 +391,7 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
 
 def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
     """Keep the vertices of `guard.contact` out of the other lip's flesh (`lip_penetration`'s depth, less what they
-    had at rest) and as far from it as at rest where they were apart, in place on the deformed (N, 3) `out`, after
+    had at rest) and as far from it as at rest where they touched it, in place on the deformed (N, 3) `out`, after
     `guard_lips`: each moves straight up or down by what it lacks, the skin beside it following as it follows the
     seam's push. True when it moved any. Pushes only part the lips (the upper lip up, the lower down), so no vertex
     of the contact is left inside the other lip as that lip stood (a second pass changed no count on the heads)."""
