@@ -433,6 +433,8 @@ def _depths_ahead(
     top = (facing[:, None] * tris[:, :, 1]).max(axis=1)
     origin = min(low.min(), points[:, 0].min())
     span = max(high.max(), points[:, 0].max()) - origin
+    if not np.isfinite(span):  # a position not a number: no depth to give (and no bins to count)
+        return depth
     width = max(width, span / len(tris), 1e-300)
     group = int(span // width) + 2  # the bins of the triangles with facing -1 come after the others'
     start = ((low - origin) // width).astype(np.int64) + np.where(facing > 0.0, 0, group)
