@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from addon.deform.folds import count_inverted
-from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration
+from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration, press_apart
+from addon.deform.overlaps import crossings
 
 FACE = np.eye(3)  # the test mesh is built in the face frame
 XS = np.linspace(-0.025, 0.025, 11)  # 5 mm apart, mirror-symmetric about x = 0
@@ -217,3 +218,55 @@ def test_a_lip_vertex_folded_over_its_own_lip_takes_the_triangle_behind_along():
     assert deformed[u, 1] <= -GAP + 1e-12  # onto the seam (or below, under the upper lip's triangles)
     below = 0.625 * deformed[[a, b], 1].mean() + 0.375 * deformed[c, 1]  # ABC's plane under u (x = 0, z = 11.5 mm)
     assert deformed[u, 1] > below
+
+
+def tucked_mouth(slope: float = 1.0, apart: float = 2 * GAP):
+    """The hand-made mouth with its lips on a sloping contact: both sheets rise by `slope` x how far they lie behind
+    the front (z = 8 mm), the upper lip 1 mm over the lower one (GAP each side of the contact), so going back the
+    lower lip stands up to 8 mm higher than the upper lip's front edge, behind it (a closed mouth whose lower lip tucks
+    in behind the upper one, as the Rocketbox's does by 2 mm). The FPs stay at the front, where the lips meet."""
+    rest, triangles, upper, lower, fps = mouth()
+    rest = rest.copy()
+    rest[:, 1] += slope * (ZS[-1] - rest[:, 2]) + np.where(upper, 0.5, -0.5) * (apart - 2 * GAP)
+    return rest, triangles, upper, lower, fps
+
+
+@pytest.mark.parametrize(("apart", "kept", "crossed"), [(0.001, 0.0, 14), (0.0002, 0.0002, 12)])
+def test_lips_sliding_on_a_sloping_contact_are_kept_out_of_each_other(apart, kept, crossed):
+    """The lower lip slid forward on the sloping contact by 2 mm x a bump along the mouth (cos^2, 0 at the ends; the
+    Rocketbox's and the scan's lips in speech): at the mid line each lower vertex goes into the upper lip as the upper
+    lip stands in its column, toward the ends the lips stay apart, and triangle pairs cross between. The seam (between
+    2.2 and 2.3 at the front) is passed at rest by every lower vertex behind the front, which keeps that as slack: the
+    seam's guard leaves the pairs crossed. `press_apart` takes those vertices, the seam's contact, down out of the
+    upper lip, and where the lips touch at rest (0.2 mm apart, under TOUCH_GAP) as far from it as at rest: no pair
+    crossing, and only straight down. 1 mm apart at rest they may come closer (the seam lets lips press)."""
+    rest, triangles, upper, lower, fps = tucked_mouth(apart=apart)
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    assert np.all(guard.slack[guard.side < 0][rest[guard.vertices[guard.side < 0], 2] < ZS[-1]] < 0.0)
+    assert guard.contact is not None  # every seam knot has lower vertices past it: every lip vertex is in the contact
+    np.testing.assert_array_equal(np.sort(guard.contact.rows), np.arange(len(guard.vertices)))
+    np.testing.assert_allclose(guard.contact.keep, -kept, atol=1e-15)
+    out = rest.copy()
+    guard_lips(guard, out, fps)
+    press_apart(guard, out)
+    np.testing.assert_allclose(out, rest, rtol=0.0, atol=1e-15)  # the mouth at rest is left as it is (to rounding)
+    slid = rest.copy()
+    slid[lower, 2] += 0.002 * np.cos(np.pi * rest[lower, 0] / 0.05) ** 2
+    out = slid.copy()
+    guard_lips(guard, out, fps)
+    assert crossings(out, triangles) == crossed  # the seam's guard leaves them crossed
+    seamed = out.copy()
+    assert press_apart(guard, out)
+    assert crossings(out, triangles) == 0
+    assert depth(out, triangles, upper, lower) <= -kept + 1e-12  # out of it, and a touch kept
+    np.testing.assert_array_equal(out[:, [0, 2]], slid[:, [0, 2]])  # only up and down
+    assert np.all(out[lower, 1] <= seamed[lower, 1]) and np.all(out[upper, 1] >= seamed[upper, 1])
+
+
+def test_a_mouth_whose_seam_parts_its_lips_at_rest_has_no_contact():
+    rest, triangles, upper, lower, fps = mouth()
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    assert guard.contact is None
+    out = rest.copy()
+    out[upper, 1] -= 0.003
+    assert not press_apart(guard, out)
