@@ -41,6 +41,13 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
   9.3: each side's nostril points (9.1 and the nose's bottom edge 9.5 on the left; 9.2, 9.4 on the right)
   rise as far as the recipe lifted the upper lip's outer point beside them (8.5, 8.6), no size of their own.
+- `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
+  (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
+  pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
+  head its surface normal at 5.1 lies 36 deg forward of sideways). So each cheek point goes as far as the FAP
+  moved it, along the face's outward surface normal at it (`surface_normals`, from the face's mesh at rest), and
+  the lips come forward with the air behind them as in `whole_lip_push`. No size of its own: the distance is the
+  FAP's, the direction the face's surface; without the mesh's normals the cheeks move sideways as the FAPs say.
 - `tongue_forward` (tongueOut) moves a part, not feature points: the Blender layer moves the tongue part forward
   by the tip's thrust beyond the tongue body (arkit_keys), which the tongue part follows.
 """
@@ -83,7 +90,12 @@ CORNER_SLIDES = {
 # each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
 # outer point beside them that the same muscle lifts
 NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
-FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "whole_lip_shift", "nostril_lift")
+# the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
+CHEEKS = ("5.1", "5.2")
+# how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
+# direction at 5.1, not a scan's pores (0.1 ES0, about 6 mm on an adult)
+NORMAL_RADIUS_PER_ES0 = 0.1
+FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "whole_lip_shift", "nostril_lift", "cheek_puff")
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
@@ -276,9 +288,61 @@ def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLE
     return moved
 
 
-def deform_points(name: str | None, neutral: np.ndarray, points: np.ndarray, axes=BLENDER_FACE_AXES) -> np.ndarray:
+def surface_normals(neutral: np.ndarray, vertices: np.ndarray, vertex_normals: np.ndarray) -> np.ndarray:
+    """(84, 3) the face's unit outward surface normal at each FP at rest (mesh coordinates; NaN where the FP is
+    missing, the face has no ES0 or no vertex lies near): the mean of the (N, 3) `vertex_normals` of the rest
+    `vertices` within NORMAL_RADIUS_PER_ES0 x ES0 of it (the nearest vertex's alone when none lies that near)."""
+    neutral = np.asarray(neutral, dtype=np.float64)
+    vertices = np.asarray(vertices, dtype=np.float64)
+    vertex_normals = np.asarray(vertex_normals, dtype=np.float64)
+    out = np.full(neutral.shape, np.nan)
+    es0 = np.linalg.norm(neutral[fp_index(PUPILS[0])] - neutral[fp_index(PUPILS[1])])
+    if not (np.isfinite(es0) and es0 > 0.0) or len(vertices) == 0:
+        return out
+    for k in np.flatnonzero(np.all(np.isfinite(neutral), axis=1)):
+        distance = np.linalg.norm(vertices - neutral[k], axis=1)
+        near = distance <= NORMAL_RADIUS_PER_ES0 * es0
+        mean = vertex_normals[near].sum(axis=0) if near.any() else vertex_normals[np.argmin(distance)]
+        length = np.linalg.norm(mean)
+        if length > 0.0:
+            out[k] = mean / length
+    return out
+
+
+def cheek_puff(
+    neutral: np.ndarray, points: np.ndarray, normals: np.ndarray | None, axes: np.ndarray = BLENDER_FACE_AXES
+) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) after `whole_lip_push`, with each cheek point's sideways motion (face
+    x, puff_cheek's) turned onto the face's outward surface normal there, its length kept: outward along the
+    normal for a puff, inward for a suck. (84, 3) `normals` in mesh coordinates (`surface_normals`); without
+    them, or where a normal is unknown or square to the sideways, the cheek moves as the FAPs moved it."""
+    axes = np.asarray(axes, dtype=np.float64)
+    moved = whole_lip_push(neutral, points, axes) @ axes.T
+    if normals is None:
+        return moved @ axes
+    face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
+    face_normals = np.asarray(normals, dtype=np.float64) @ axes.T
+    for cheek in CHEEKS:
+        k = fp_index(cheek)
+        out, normal = moved[k, 0] - face_neutral[k, 0], face_normals[k]
+        if np.isfinite(out) and np.all(np.isfinite(normal)) and normal[0] != 0.0:
+            moved[k, 0] -= out
+            moved[k] += out * np.sign(normal[0]) * normal
+    return moved @ axes
+
+
+def deform_points(
+    name: str | None,
+    neutral: np.ndarray,
+    points: np.ndarray,
+    axes=BLENDER_FACE_AXES,
+    normals: np.ndarray | None = None,
+) -> np.ndarray:
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
-    that moves the skin or a part rather than feature points)."""
+    that moves the skin or a part rather than feature points); `normals` (84, 3): the face's outward surface
+    normals at the FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
+    if name == "cheek_puff":
+        return cheek_puff(neutral, points, normals, axes)
     if name == "whole_lip_push":
         return whole_lip_push(neutral, points, axes)
     if name == "nostril_lift":

@@ -26,7 +26,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
-from ..arkit.deformations import deform_points, jaw_hinge, jaw_turn
+from ..arkit.deformations import deform_points, jaw_hinge, jaw_turn, surface_normals
 from ..arkit.recipes import ARKIT_INDEX, ARKIT_NAMES, load_recipes
 from ..errors import Mpeg4Error
 from ..mpeg4.decode import fap_to_fp
@@ -60,7 +60,17 @@ def _face_points(
     neutral = face_data.neutral_positions(empties)
     axes = face_data.face_axes(face)
     points = fap_to_fp(neutral, shaped, fap_io.face_fapu(face), axes=axes, eye_pivots=fap_io.eye_pivots(face))[0]
-    return deform_points(deformation, neutral, points, axes)
+    normals = _rest_normals(face, neutral) if deformation == "cheek_puff" else None
+    return deform_points(deformation, neutral, points, axes, normals)
+
+
+def _rest_normals(face, neutral: np.ndarray) -> np.ndarray:
+    """(84, 3) the face mesh's outward surface normals at the FPs at rest (`deformations.surface_normals`)."""
+    mesh = face.data
+    normals = np.empty(3 * len(mesh.vertices), dtype=np.float32)
+    mesh.vertex_normals.foreach_get("vector", normals)
+    vertices = rest_shape.read_key(mesh.shape_keys.reference_key) if mesh.shape_keys else _local_vertices(face)
+    return surface_normals(neutral, np.asarray(vertices, dtype=np.float64), normals.reshape(-1, 3))
 
 
 def _pose(empties, points: np.ndarray) -> None:

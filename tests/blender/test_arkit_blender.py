@@ -99,6 +99,12 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
     assert abs(sneer[near["9.1"], 0]) < 0.001  # raised, not widened (4.8 mm out with stretch_l_nose, AU 38's)
+    # the puffed cheeks go out along the cheek's surface normal, forward (-Y) as well as out (the FAP alone: 7.2 mm
+    # straight out, none forward), each as far as puff_cheek moves it
+    puff = offsets["cheekPuff"]
+    for fp_id, side in (("5.1", 1.0), ("5.2", -1.0)):
+        cheek = puff[near[fp_id]]
+        assert cheek[1] < -0.003 and side * cheek[0] > 0.004, (fp_id, cheek)
     # the pursed lips come forward (-Y) all round, not only at their mid-points 2.2 / 2.3
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8", "8.9", "8.10"):  # 8.9 / 8.10 1 mm before

@@ -30,7 +30,7 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "mouthPucker": "whole_lip_push",
         "mouthRollLower": "whole_lip_push",
         "mouthRollUpper": "whole_lip_push",
-        "cheekPuff": "whole_lip_push",
+        "cheekPuff": "cheek_puff",
         "noseSneerLeft": "nostril_lift",
         "noseSneerRight": "nostril_lift",
         "tongueOut": "tongue_forward",
@@ -224,7 +224,7 @@ def test_the_puffed_cheeks_push_the_lips_as_far_as_they_go_out():
     for name in ("push_t_lip", "push_b_lip"):
         forward = puff[fap(name).number - 1] * FAPU.MNS0 / 1024
         assert abs(forward - out) < 0.05 * out, name
-    assert table.deformations["cheekPuff"] == "whole_lip_push"
+    assert table.deformations["cheekPuff"] == "cheek_puff"  # which pushes the whole lips, and the cheeks outward
 
 
 def test_the_upper_lip_rises_its_measured_maximum():

@@ -3,12 +3,14 @@
 import numpy as np
 
 from addon.arkit.deformations import (
+    cheek_puff,
     corner_slide,
     deform_points,
     hinge_angle,
     hinge_axis,
     jaw_hinge,
     nostril_lift,
+    surface_normals,
     whole_lip_push,
     whole_lip_shift,
 )
@@ -263,3 +265,51 @@ def test_the_lips_slide_sideways_as_far_as_both_corners_go_together():
             np.testing.assert_allclose(moved[fp_index(fp)] - slid[fp_index(fp)], [shift, 0.0, 0.0], atol=1e-12)
         others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in lips}]
         np.testing.assert_array_equal(moved[others], slid[others])  # the corners as corner_slide put them
+
+
+def test_a_puffed_cheek_goes_out_along_its_surface_normal_as_far_as_the_fap_moved_it():
+    # cheekPuff: puff_cheek moves 5.1 / 5.2 7 mm straight sideways; a pressure pushes the cheek along its normal,
+    # here 30 deg forward of sideways on each side (and a normal flipped inward is still read outward), so each
+    # cheek goes 7 mm along it: 6.06 mm out and 3.5 mm forward (before: 7 mm out, none forward); the lips' push is
+    # `whole_lip_push`'s, nothing else moves
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    a = np.radians(30.0)
+    normals = np.full((N_FEATURE_POINTS, 3), np.nan)
+    normals[fp_index("5.1")] = np.array([np.cos(a), 0.0, np.sin(a)]) @ axes
+    normals[fp_index("5.2")] = -np.array([-np.cos(a), 0.0, np.sin(a)]) @ axes  # flipped: points into the head
+    mesh = neutral @ axes
+    puffed = neutral.copy()
+    puffed[fp_index("5.1"), 0] += 0.007
+    puffed[fp_index("5.2"), 0] -= 0.007
+    puffed[fp_index("2.2"), 2] += 0.007  # push_t_lip
+    puffed[fp_index("2.3"), 2] += 0.007  # push_b_lip
+    moved = cheek_puff(mesh, puffed @ axes, normals, axes) @ axes.T
+    np.testing.assert_allclose(
+        moved[fp_index("5.1")] - neutral[fp_index("5.1")], 0.007 * np.array([np.cos(a), 0, np.sin(a)]), atol=1e-12
+    )
+    np.testing.assert_allclose(
+        moved[fp_index("5.2")] - neutral[fp_index("5.2")], 0.007 * np.array([-np.cos(a), 0, np.sin(a)]), atol=1e-12
+    )
+    lips = whole_lip_push(mesh, puffed @ axes, axes) @ axes.T
+    others = [k for k in range(N_FEATURE_POINTS) if k not in (fp_index("5.1"), fp_index("5.2"))]
+    np.testing.assert_allclose(moved[others], lips[others], atol=1e-12)
+    # without the normals the cheeks move as the FAPs say; a sucked cheek goes inward along the normal
+    np.testing.assert_allclose(cheek_puff(mesh, puffed @ axes, None, axes), whole_lip_push(mesh, puffed @ axes, axes))
+    sucked = neutral.copy()
+    sucked[fp_index("5.1"), 0] -= 0.004
+    moved = deform_points("cheek_puff", mesh, sucked @ axes, axes, normals) @ axes.T
+    np.testing.assert_allclose(
+        moved[fp_index("5.1")] - neutral[fp_index("5.1")], -0.004 * np.array([np.cos(a), 0, np.sin(a)]), atol=1e-12
+    )
+
+
+def test_the_surface_normal_at_a_point_is_the_mean_of_the_skins_normals_around_it():
+    neutral = _face()  # ES0 63 mm: normals are the mean over 6.3 mm
+    cheek = neutral[fp_index("5.1")]
+    vertices = np.array([cheek + [0.002, 0.0, 0.0], cheek + [0.0, 0.004, 0.0], cheek + [0.0, 0.0, 0.02]])
+    vertex_normals = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])  # the far one is left out
+    normals = surface_normals(neutral, vertices, vertex_normals)
+    np.testing.assert_allclose(normals[fp_index("5.1")], [np.sqrt(0.5), 0.0, np.sqrt(0.5)], atol=1e-12)
+    assert np.all(np.isfinite(normals))  # each FP has one: the nearest vertex's where none lies near
+    neutral[fp_index("3.6")] = np.nan  # no ES0
+    assert np.isnan(surface_normals(neutral, vertices, vertex_normals)).all()
