@@ -214,6 +214,16 @@ def test_the_jaw_shapes_at_1_are_the_jaws_maximal_shift_and_protrusion():
     assert 0.0082 <= thrust <= 0.0088
 
 
+def test_a_rolled_lip_goes_in_as_far_as_the_incisors_edge():
+    # ARKit's 1 is the maximum: the lip rolled in over the teeth (AU 28) takes its inner edge as far back as the
+    # incisors' edge, on the sample head 7.3 mm (2.3 in front of 9.11) and 8.5 mm (2.2 in front of 9.10); before,
+    # both lips went back 200 MNS (3.5 mm)
+    table = load_recipes()
+    for name, push, depth in (("mouthRollLower", "push_b_lip", 0.0073), ("mouthRollUpper", "push_t_lip", 0.0085)):
+        back = -table.recipe(name)[fap(push).number - 1] * FAPU.MNS0 / 1024
+        assert abs(back - depth) < 0.0003, (name, back)
+
+
 def test_the_puffed_cheeks_push_the_lips_as_far_as_they_go_out():
     # one air space behind the sealed lips and the cheeks, one pressure: the lips come forward as far as the cheeks
     # go out on the sample head's FAPU (7.2 mm); before, 60 MNS (1.1 mm)
