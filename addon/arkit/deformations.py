@@ -44,7 +44,7 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
 - `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
   (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
   pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
-  head its surface normal at 5.1 lies 36 deg forward of sideways). So each cheek point goes as far as the FAP
+  head its surface normal at 5.1 lies 38 deg forward of sideways). So each cheek point goes as far as the FAP
   moved it, along the face's outward surface normal at it (`surface_normals`, from the face's mesh at rest), and
   the lips come forward with the air behind them as in `whole_lip_push`. No size of its own: the distance is the
   FAP's, the direction the face's surface; without the mesh's normals the cheeks move sideways as the FAPs say.
