@@ -18,7 +18,8 @@ model could:
                   `phone_alignment.cmu_of_phonemes`, a pause as SIL; absolute discounting, `arpa`): "all" from
                   the 24 sequences of the 12 sentences in both voices, "own" from the take's sequence alone (the
                   tightest LM a take can have; with a discount of 0.5, and of 0.01, where the LM all but dictates the
-                  sequence); at the shipped weight lw 2 and at PocketSphinx's default 6.5
+                  sequence); at the shipped weight lw 2 and at PocketSphinx's default 6.5; the tight one also with the
+                  search's beams widened from 1e-20 to 1e-80
   (b) oracle words the words path (`recognition_steps(words=True)`: recognised words, aligned as a transcript is,
                   the phone loop's closures over them) with the wheel's word LM replaced by a word trigram of the
                   12 true sentences ("all") or of the take's sentence alone ("own"): the alignment stays free to
@@ -55,6 +56,11 @@ DISCOUNT = 0.5  # absolute discounting of every n-gram count (the oracle LMs)
 TIGHT_DISCOUNT = 0.01  # nearly all of a seen n-gram's count kept: the LM all but dictates the take's sequence
 ORDER = 3  # the wheel's phone LM is a trigram (NGramModel.size())
 LANGUAGE_WEIGHTS = (2.0, 6.5)  # the shipped phone loop's, and PocketSphinx's default
+WIDE_BEAM = 1e-80  # the search's beams (shipped: 1e-20), so that a dictated sequence is not pruned away
+OWN_SEQUENCE_ROWS = [  # (discount, lw, beams or None: the shipped ones) of the rows with the take's own sequence
+    *((d, lw, None) for d in (DISCOUNT, TIGHT_DISCOUNT) for lw in LANGUAGE_WEIGHTS),
+    *((TIGHT_DISCOUNT, lw, WIDE_BEAM) for lw in LANGUAGE_WEIGHTS),
+]
 
 
 def arpa(sentences: list[list[str]], vocabulary: set[str], order: int = ORDER, discount: float = DISCOUNT) -> str:
@@ -235,14 +241,18 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="3 sentences (a smoke run)")
     parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument("--only", help="only the rows whose name holds this text (the models of (c) left out)")
     args = parser.parse_args(argv)
     cases = takes(args.quick)
     wheel = Path(phone_alignment._pocketsphinx().get_model_path()) / "en-us"
     wheel_phones = model_phones(wheel / "en-us")
     report: dict[str, dict] = {}
 
-    def row(name: str, figures: dict) -> None:
-        report[name] = figures
+    def row(name: str, decode, options: dict | None = None, word_lm: str | None = None) -> None:
+        if args.only and args.only not in name:
+            return
+        with swapped(options, word_lm) if options or word_lm else contextlib.nullcontext():
+            figures = report[name] = score_row(cases, decode)
         print(
             f"{name}: agreement {figures['agreement']:.1%} (burst truth {figures['burst_agreement']:.1%}, speech "
             f"{figures['speech_agreement']:.1%}), closure recall {figures['closure_recall']:.1%}, precision "
@@ -250,34 +260,31 @@ def main(argv=None) -> int:
             flush=True,
         )
 
-    row("(d) the true phones in the model's phone set, at the true times (no recognition)", score_row(cases, as_cmu))
-    row("shipped phone loop", score_row(cases, phone_loop))
+    row("(d) the true phones in the model's phone set, at the true times (no recognition)", as_cmu)
+    row("shipped phone loop", phone_loop)
     with tempfile.TemporaryDirectory() as folder:
         sequences = {(c["text"], c["voice"]): true_phones(c["speech"], c["voice"]) for c in cases}
         pooled = Path(folder, "all-phones.lm")
         pooled.write_text(arpa(list(sequences.values()), wheel_phones))
         for lw in LANGUAGE_WEIGHTS:
-            with swapped({"allphone": str(pooled), "lw": lw}):
-                row(f"(a) oracle phone LM, all 24 sequences, D {DISCOUNT:g}, lw {lw:g}", score_row(cases, phone_loop))
-        for discount in (DISCOUNT, TIGHT_DISCOUNT):
-            for lw in LANGUAGE_WEIGHTS:
+            name = f"(a) oracle phone LM, all 24 sequences, D {DISCOUNT:g}, lw {lw:g}"
+            row(name, phone_loop, {"allphone": str(pooled), "lw": lw})
+        for discount, lw, beam in OWN_SEQUENCE_ROWS:
 
-                def own_phones(case: dict, lw: float = lw, discount: float = discount) -> list:
-                    path = Path(folder, "own-phones.lm")
-                    path.write_text(arpa([sequences[case["text"], case["voice"]]], wheel_phones, discount=discount))
-                    with swapped({"allphone": str(path), "lw": lw}):
-                        return phone_loop(case)
+            def own_phones(case: dict, lw: float = lw, discount: float = discount, beam: float | None = beam) -> list:
+                path = Path(folder, "own-phones.lm")
+                path.write_text(arpa([sequences[case["text"], case["voice"]]], wheel_phones, discount=discount))
+                beams = {"beam": beam, "wbeam": beam, "pbeam": beam} if beam else {}
+                with swapped({"allphone": str(path), "lw": lw, **beams}):
+                    return phone_loop(case)
 
-                row(
-                    f"(a) oracle phone LM, the take's own sequence, D {discount:g}, lw {lw:g}",
-                    score_row(cases, own_phones),
-                )
+            wide = f", beams {beam:g}" if beam else ""
+            row(f"(a) oracle phone LM, the take's own sequence, D {discount:g}, lw {lw:g}{wide}", own_phones)
         texts = sorted({c["text"] for c in cases})
         vocabulary = {w for t in texts for w in phone_alignment.transcript_words(t)}
         words_lm = Path(folder, "all-words.lm")
         words_lm.write_text(arpa([phone_alignment.transcript_words(t) for t in texts], vocabulary))
-        with swapped(word_lm=str(words_lm)):
-            row("(b) words path, word LM of the 12 true sentences", score_row(cases, words_path))
+        row("(b) words path, word LM of the 12 true sentences", words_path, word_lm=str(words_lm))
 
         def own_words(case: dict) -> list:
             path = Path(folder, "own-words.lm")
@@ -286,7 +293,9 @@ def main(argv=None) -> int:
             with swapped(word_lm=str(path)):
                 return words_path(case)
 
-        row("(b) words path, word LM of the take's own sentence", score_row(cases, own_words))
+        row("(b) words path, word LM of the take's own sentence", own_words)
+    if args.only:
+        return _write(report, args.json)
     print("(c) other PocketSphinx acoustic models (Debian: pocketsphinx-en-us, pocketsphinx-testdata):")
     for model in OTHER_MODELS:
         if not (model / "mdef").is_file():
@@ -306,9 +315,13 @@ def main(argv=None) -> int:
             continue
         print(f"  {model}: {note}; lacks {' '.join(sorted(wheel_phones - phones)) or 'none'} of the phone LM's")
         with swapped({"hmm": str(model)}):
-            row(f"(c) phone loop with {model.parent.name}/{model.name}", score_row(cases, phone_loop))
-    if args.json:
-        args.json.write_text(json.dumps(report, indent=1))
+            row(f"(c) phone loop with {model.parent.name}/{model.name}", phone_loop, {"hmm": str(model)})
+    return _write(report, args.json)
+
+
+def _write(report: dict, path: Path | None) -> int:
+    if path:
+        path.write_text(json.dumps(report, indent=1))
     return 0
 
 
