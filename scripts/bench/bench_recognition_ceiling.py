@@ -1,6 +1,11 @@
 """How far recognition without a transcript can go with PocketSphinx 5.1.1's acoustic model (docs/voice.md).
 
-    .venv/bin/python -m scripts.bench.bench_recognition_ceiling [--quick] [--json OUT.json]
+    .venv/bin/python -m scripts.bench.bench_recognition_ceiling [--quick] [--json OUT.json] [--only TEXT]
+
+(--only: the rows whose name holds TEXT, e.g. "(b)", "(c)" or "beams". Needs espeak-ng and pocketsphinx==5.1.1;
+for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`. PyPI's older bindings that bundle a model
+(pocketsphinx 0.1.15, PyPocketsphinx 0.1.20, pocketsphinx2 0.1.17, pocketsphinx-fork 1.0.0) were compared by hand,
+docs/voice.md.)
 
 On the benchmark's dev takes (scripts/bench/bench_lipsync.py: its first 12 sentences, voices en-us and en, 150
 and 200 words a minute, clean; synthesised once, every row decodes the same samples), scored as the benchmark
@@ -17,9 +22,9 @@ model could:
                   phone sequences (the text path's espeak-ng phonemes mapped to the model's phones by
                   `phone_alignment.cmu_of_phonemes`, a pause as SIL; absolute discounting, `arpa`): "all" from
                   the 24 sequences of the 12 sentences in both voices, "own" from the take's sequence alone (the
-                  tightest LM a take can have; with a discount of 0.5, and of 0.01, where the LM all but dictates the
-                  sequence); at the shipped weight lw 2 and at PocketSphinx's default 6.5; the tight one also with the
-                  search's beams widened from 1e-20 to 1e-80
+                  tightest LM a take can have; with a discount of 0.5, and of 0.01, where the LM all but
+                  dictates the sequence); at the shipped weight lw 2 and at PocketSphinx's default 6.5; the
+                  tight one also with the search's beams widened from 1e-20 to 1e-80
   (b) oracle words the words path (`recognition_steps(words=True)`: recognised words, aligned as a transcript is,
                   the phone loop's closures over them) with the wheel's word LM replaced by a word trigram of the
                   12 true sentences ("all") or of the take's sentence alone ("own"): the alignment stays free to
