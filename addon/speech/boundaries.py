@@ -16,6 +16,12 @@ the first 80 ms of the /m/, 15-22 dB below the loudest frame, aligned as silence
 a frame is sound when it is `SOUND_MARGIN_DB` above the recording's noise floor (its quietest
 `FLOOR_PERCENTILE` %: pauses and closures) and within `SOUND_RANGE_DB` of its loudest frame (so that the
 floor of digital silence does not make a faint tail sound).
+
+Where the transcript has a pause (punctuation, and its end), the aligner may not: a pause that is not silent (a
+voiced tail fading out, room noise) scores better as the phone before it than as silence, and the word's last
+phone runs through it. `pauses_at` ends that phone where its sound does: the run of frames at its end that are
+`PAUSE_DB` or more under the take's vowels (the 90th percentile of its sound frames' levels: vowels are the
+loudest sounds and most of the sounding time) is quieter than any phone, and goes to a silence.
 """
 
 from __future__ import annotations
@@ -35,6 +41,11 @@ MIN_PHONE_SECONDS = 0.010
 FLOOR_PERCENTILE = 10.0
 SOUND_MARGIN_DB = 10.0
 SOUND_RANGE_DB = 50.0
+# The weakest English phone, /th/, carries about 28 dB less power than the strongest vowel (Fletcher's phonetic
+# powers: /th/ 1, /o/ as in "talk" 680), so a frame 30 dB or more under the take's vowels is no phone: a pause.
+# Relative to the take's own level, so it holds for a recorded pause with room noise as for digital silence.
+PAUSE_DB = 30.0
+VOWEL_PERCENTILE = 90.0  # the take's vowel level: this percentile of its sound frames' levels
 BLOCK_FRAMES = 4096  # spectra computed at a time (about 10 s of sound)
 _FFT = 256
 
@@ -100,9 +111,13 @@ def spectral_change(energies: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _instants(len(energies)), change
 
 
+def _levels_db(energies: np.ndarray) -> np.ndarray:
+    return 10.0 * np.log10(np.exp(energies).sum(axis=1))
+
+
 def sound_frames(energies: np.ndarray) -> np.ndarray:
     """(frames,) True where a frame of `log_band_energies` holds sound (see the module docstring)."""
-    level = 10.0 * np.log10(np.exp(energies).sum(axis=1))
+    level = _levels_db(energies)
     floor = np.percentile(level, FLOOR_PERCENTILE)
     return level > max(floor + SOUND_MARGIN_DB, level.max() - SOUND_RANGE_DB)
 
@@ -156,4 +171,49 @@ def sound_into_silence(
         if t != first:
             moved = float(times[t])
             out[i - 1], out[i] = before._replace(end=moved), after._replace(start=moved)
+    return out
+
+
+def pauses_at(
+    phones: list[TimedLabel],
+    energies: np.ndarray,
+    breaks: list[float],
+    silent: Callable[[str], bool],
+    silence: str = "sil",
+) -> list[TimedLabel]:
+    """At each of `breaks` (times, s, where a word the transcript follows with a pause ends: the aligner's word
+    ends), the phone of speech that ends that word ends where its sound does: the run of frames at its end that
+    are PAUSE_DB or more under the take's vowel level goes to the silence after the phone (one named `silence`
+    is put in where the phone touches the next word), the phone kept at least MIN_PHONE_SECONDS long. The run is
+    read from the phone's last frame whose window it holds. `energies`: the recording's `log_band_energies`."""
+    if not phones or not len(energies):
+        return list(phones)
+    level = _levels_db(energies)
+    sound = sound_frames(energies)
+    quiet = level < np.percentile(level[sound] if sound.any() else level, VOWEL_PERCENTILE) - PAUSE_DB
+    instants = _instants(len(energies))
+    centres = instants[:-1] + HOP_SECONDS / 2
+    out = list(phones)
+    starts = [p.start for p in out]
+    for moment in sorted(breaks):
+        # the word's last phone: aligned phones last 30 ms or more, and each boundary moved by at most a frame
+        # (10 ms), so it starts over 15 ms before the word's end, and the next word's first phone after that
+        i = int(np.searchsorted(starts, moment - 0.015)) - 1
+        if i < 0 or silent(out[i].label):
+            continue
+        phone = out[i]
+        # the phone's last frame whose window it holds (the next word's onset shows in the windows over the boundary)
+        last = int(np.searchsorted(centres, phone.end - WINDOW_SECONDS / 2, "right")) - 1
+        first = last
+        while first >= 0 and quiet[first] and centres[first] > phone.start + MIN_PHONE_SECONDS:
+            first -= 1
+        if first == last:
+            continue
+        cut = float(instants[first + 1])
+        out[i] = phone._replace(end=cut)
+        if i + 1 < len(out) and silent(out[i + 1].label):
+            out[i + 1] = out[i + 1]._replace(start=cut)
+        else:
+            out.insert(i + 1, TimedLabel(cut, phone.end, silence, f"pause at {cut:.2f} s"))
+            starts.insert(i + 1, cut)
     return out

@@ -8,9 +8,11 @@ espeak-ng says it in the transcript (`_espeak_words`: its phonemes mapped to the
 fails, the CMU dictionary's pronunciations are aligned (a word missing from it pronounced by espeak-ng) and the
 phones keep their CMU names. A transcript whose alignment scores too low is refused (`MIN_SCORE_PER_FRAME`). The
 aligned boundaries next to an abrupt phone (`ABRUPT_PHONES`) are then moved, within one frame, to the strongest
-spectral change (`boundaries.refine_boundaries`), and sound the aligner gave to a silence goes to the phone next to
-it (`boundaries.sound_into_silence`). Without a transcript, phone recognition; or, on request (`words`), the words
-that PocketSphinx's general US-English language model hears are aligned as a transcript would be, and the lip
+spectral change (`boundaries.refine_boundaries`), sound the aligner gave to a silence goes to the phone next to
+it (`boundaries.sound_into_silence`), and where the transcript has a pause (punctuation, its end) the word before
+it ends with its sound (`boundaries.pauses_at`). Without a transcript, phone recognition; or, on request
+(`words`), the words that PocketSphinx's general US-English language model hears are aligned as a transcript
+would be, and the lip
 closures of phone recognition laid over them (`recognition_steps`; where no word is heard, the words do not align or
 the word language model is not installed, phone recognition alone). Phone recognition: the `allphone` search with
 the phone language model that ships with the model, giving CMU phones, where a /w/, /uw/, /uh/ or /l/ that sounds
@@ -39,6 +41,7 @@ from __future__ import annotations
 
 import bisect
 import contextlib
+import dataclasses
 import functools
 import os
 import re
@@ -50,7 +53,7 @@ import numpy as np
 from ..progress import scaled
 from . import SpeechError, espeak
 from .bilabials import bilabials_from_acoustics
-from .boundaries import log_band_energies, refine_boundaries, sound_into_silence
+from .boundaries import log_band_energies, pauses_at, refine_boundaries, sound_into_silence
 from .recording import RATE, Recording, RecordingError
 from .segments import Segment, TimedLabel, segments_from_labels
 from .tables import DATA, READ, cmu_phones
@@ -185,6 +188,25 @@ def transcript_words(text: str) -> list[str]:
     return [word for word, _ in _words_with_spans(text)]
 
 
+_PAUSE = re.compile(r"[,.;:!?()\[\]\u2013\u2014\u2026]")  # punctuation that marks a pause (espeak-ng pauses there too)
+
+
+def pauses_after_words(text: str) -> list[bool]:
+    """For each word of a transcript, whether a pause may follow it: punctuation before the next word, or the end
+    of the transcript (the end of the take)."""
+    spans = [span for _, span in _words_with_spans(text)]
+    ends = [start for start, _ in spans[1:]] + [len(text)]
+    return [
+        k == len(spans) - 1 or bool(_PAUSE.search(text, span[1], end))
+        for k, (span, end) in enumerate(zip(spans, ends, strict=True))
+    ]
+
+
+def _with_pauses(words: list[_Word], text: str) -> list[_Word]:
+    """`words` (one per transcript word, in order) marked with `pauses_after_words`."""
+    return [dataclasses.replace(w, pause_after=p) for w, p in zip(words, pauses_after_words(text), strict=True)]
+
+
 def _words_with_spans(text: str) -> list[tuple[str, tuple[int, int]]]:
     if not isinstance(text, str):
         raise AlignmentError(f"the transcript must be text, not {type(text).__name__}")
@@ -244,6 +266,7 @@ class _Word:
     key: str
     phones: tuple[str, ...]
     labels: tuple[tuple[int, str], ...] | None = None
+    pause_after: bool = False
 
 
 def _espeak_words(decoder, text: str, accent: str = DEFAULT_ACCENT) -> list[_Word]:
@@ -438,14 +461,18 @@ def _boundary_offset(frame_rate: int) -> float:
     return WINDOW_SAMPLES / 2 / RATE - 0.5 / frame_rate
 
 
+def _seconds(frame: int, offset: float, frame_rate: int) -> float:
+    """The time of the boundary before `frame` of a padded piece starting at `offset` s."""
+    return offset + _boundary_offset(frame_rate) - PAD_SECONDS + frame / frame_rate
+
+
 def _phones_of(entries, offset: float, frame_rate: int) -> list[TimedLabel]:
     """(label, first frame, frames, word: "" between words, None when recognised) of a padded piece starting
     at `offset` s, in frames of 1 / `frame_rate` s -> timed labels whose `where` names the word."""
     out = []
-    shift = offset + _boundary_offset(frame_rate) - PAD_SECONDS
     for label, first, frames, word in entries:
-        start = max(0.0, shift + first / frame_rate)
-        end = max(start, shift + (first + frames) / frame_rate)
+        start = max(0.0, _seconds(first, offset, frame_rate))
+        end = max(start, _seconds(first + frames, offset, frame_rate))
         where = "recognised phone" if word is None else f"word {word!r}" if word else "between words"
         out.append(TimedLabel(start, end, label, f"{where} at {start:.2f} s"))
     return out
@@ -456,14 +483,20 @@ def _score_per_frame(alignment) -> float:
     return sum(p.score for p in phones) / max(sum(p.duration for p in phones), 1)
 
 
+def _word_spans(alignment, words: list[_Word]) -> list[tuple[int, int, _Word]]:
+    """(first frame, end frame, word) of the transcript's words in the alignment, in order."""
+    queue = iter(words)
+    return [
+        (entry.start, entry.start + entry.duration, next(queue))
+        for entry in alignment.words()
+        if not entry.name.startswith("<") and not entry.name.startswith("+")
+    ]
+
+
 def _aligned_entries(alignment, words: list[_Word]) -> list[tuple[str, int, int, str]]:
     """The alignment's phones as (label, first frame, frames, word): an espeak-ng-pronounced word's phones
     named after its phonemes (the phones of one phoneme joined), others by their CMU names."""
-    spans = []  # (first frame, end frame, word) of the transcript's words, in order
-    queue = iter(words)
-    for entry in alignment.words():
-        if not entry.name.startswith("<") and not entry.name.startswith("+"):
-            spans.append((entry.start, entry.start + entry.duration, next(queue)))
+    spans = _word_spans(alignment, words)
     out: list[tuple[str, int, int, str]] = []
     seen: dict[int, int] = {}  # span index -> phones of it so far
     last_key = None
@@ -530,19 +563,27 @@ def alignment_steps(
     ranges, voiced = pieces(recording.samples, vad_mode)
     with _decoder("align", accuracy) as decoder:
         try:
-            spoken = _espeak_words(decoder, transcript, accent)
+            spoken = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(spoken, voiced))
         except (AlignmentError, espeak.EspeakMissingError):
-            listed = _dictionary_words(decoder, words)
+            listed = _with_pauses(_dictionary_words(decoder, words), transcript)
             results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
-    # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound
+    # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound;
+    # where the transcript pauses, the word before ends with its sound
     energies = log_band_energies(recording.samples)
-    phones = refine_boundaries(_join(results, recording.duration), energies, 1.0 / FRAME_RATES["align"], _abrupt)
-    return sound_into_silence(phones, energies, lambda label: label == "sil")
+    joined = _join([phones for phones, _ in results], recording.duration)
+    phones = refine_boundaries(joined, energies, 1.0 / FRAME_RATES["align"], _abrupt)
+    phones = sound_into_silence(phones, energies, _silent)
+    return pauses_at(phones, energies, [moment for _, breaks in results for moment in breaks], _silent)
+
+
+def _silent(label: str) -> bool:
+    return label == "sil"
 
 
 def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
-    """Align each piece with its words (a piece that fails is tried again together with the next one)."""
+    """Align each piece with its words (a piece that fails is tried again together with the next one): for each
+    piece, its timed phones and the ends (s) of its words that the transcript follows with a pause."""
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -554,7 +595,7 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
             pending_range, pending_words = (first, end), []
             continue
         pcm = _pcm(recording.samples[first:end])
-        entries = None
+        entries, breaks = None, []
         try:
             mean = _piece_mean(decoder, pcm)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
@@ -565,6 +606,7 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 alignment = decoder.get_alignment()
                 if alignment is not None and _score_per_frame(alignment) >= MIN_SCORE_PER_FRAME:
                     entries = _aligned_entries(alignment, piece_words)
+                    breaks = [b for _, b, w in _word_spans(alignment, piece_words) if w.pause_after]
         except RuntimeError:
             entries = None
         done += len(pcm)  # two passes of len(pcm) / 2 samples
@@ -577,7 +619,8 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 + (f" after {first / RATE:.1f} s" if first else "")
                 + ": check that it is what is said (every word, in order), or lip-sync without it"
             )
-        results.append(_phones_of(entries, first / RATE, FRAME_RATES["align"]))
+        rate = FRAME_RATES["align"]
+        results.append((_phones_of(entries, first / RATE, rate), [_seconds(b, first / RATE, rate) for b in breaks]))
         pending_range, pending_words = None, []
     return results
 

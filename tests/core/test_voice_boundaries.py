@@ -1,6 +1,7 @@
 """Aligned phone boundaries moved to the acoustic event within one frame (addon/speech/boundaries.py): a
 hand-made tone-then-noise signal, the limits of the move, and an espeak-ng sentence whose abrupt boundaries
-land closer to espeak-ng's own times than the aligner's whole 10 ms frames put them."""
+land closer to espeak-ng's own times than the aligner's whole 10 ms frames put them. Where the transcript marks a
+pause, the phone before it ends with its sound (a tail 30 dB under the vowels goes to a silence)."""
 
 import importlib.util
 
@@ -12,6 +13,7 @@ from addon.speech.boundaries import (
     HOP_SECONDS,
     MIN_PHONE_SECONDS,
     log_band_energies,
+    pauses_at,
     refine_boundaries,
     sound_into_silence,
     spectral_change,
@@ -146,3 +148,60 @@ def test_spectra_are_computed_in_blocks_with_the_same_result(monkeypatch):
     monkeypatch.setattr(boundaries, "BLOCK_FRAMES", 7)
     assert np.allclose(log_band_energies(x), whole, rtol=0, atol=1e-9)
     assert whole.shape == (1 + (len(x) - 160) // 40, boundaries.N_BANDS)
+
+
+# ----------------------------------------------------------------------------- pauses the transcript marks
+
+
+def loud_then_tail(tail_db: float) -> np.ndarray:
+    """0.3 s of a loud 200 Hz tone, then 0.2 s of the same tone `tail_db` dB under it (a voiced tail fading into
+    a pause, or room noise), then 0.3 s loud again."""
+    t = np.arange(int(0.8 * RATE)) / RATE
+    gain = np.where((t >= 0.3) & (t < 0.5), 10 ** (-tail_db / 20), 1.0)
+    return 0.3 * gain * np.sin(2 * np.pi * 200 * t)
+
+
+def test_a_phone_before_a_marked_pause_ends_where_its_sound_does():
+    # a tail 35 dB under the take's vowels (quieter than any phone) at the end of the word before a comma
+    energies = log_band_energies(loud_then_tail(35.0))
+    phones = [TimedLabel(0.0, 0.1, "sil"), TimedLabel(0.1, 0.5, "l"), TimedLabel(0.5, 0.8, "s")]
+    out = pauses_at(phones, energies, [0.5], is_sil)
+    assert [p.label for p in out] == ["sil", "l", "sil", "s"]
+    # the tail starts at 0.3 s; a 10 ms window holds loud sound up to a window after it
+    assert out[1].end == pytest.approx(0.3, abs=0.011) and (out[2].start, out[2].end) == (out[1].end, 0.5)
+    # a silence after the phone starts where the sound ends; the phone at the take's end ends with its sound
+    phones = [TimedLabel(0.1, 0.45, "l"), TimedLabel(0.45, 0.5, "sil"), TimedLabel(0.5, 0.8, "s")]
+    out = pauses_at(phones, energies, [0.45], is_sil)
+    assert [p.label for p in out] == ["l", "sil", "s"] and out[0].end == out[1].start == pytest.approx(0.3, abs=0.011)
+
+
+def test_sound_within_30_db_of_the_vowels_and_phones_without_a_marked_pause_stay():
+    phones = [TimedLabel(0.0, 0.1, "sil"), TimedLabel(0.1, 0.5, "l"), TimedLabel(0.5, 0.8, "s")]
+    # a weak phone (/th/ is about 28 dB under the vowels) is not a pause
+    assert pauses_at(phones, log_band_energies(loud_then_tail(20.0)), [0.5], is_sil) == phones
+    quiet_tail = log_band_energies(loud_then_tail(35.0))
+    assert pauses_at(phones, quiet_tail, [], is_sil) == phones  # no punctuation there
+    assert pauses_at(phones, quiet_tail, [0.8], is_sil) == phones  # the break of another phone ("s" stays loud)
+    # a phone keeps MIN_PHONE_SECONDS even when all of it is quiet
+    out = pauses_at([TimedLabel(0.32, 0.5, "l"), TimedLabel(0.5, 0.8, "s")], quiet_tail, [0.5], is_sil)
+    assert out[0].end - out[0].start == pytest.approx(MIN_PHONE_SECONDS, abs=HOP_SECONDS + 1e-9)
+
+
+def test_pauses_are_marked_after_punctuation_and_at_the_transcripts_end():
+    assert phone_alignment.pauses_after_words("Impossible, said the man") == [True, False, False, True]
+    assert phone_alignment.pauses_after_words("Well... (yes) no! 'Sure'?") == [True, True, True, True]
+    assert phone_alignment.pauses_after_words("don't stop-gap") == [False, False, True]
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_an_aligned_takes_last_phone_ends_with_its_sound():
+    # espeak-ng's en-us+f2 voice fades out over 50 ms under -30 dB after the last /n/; the aligner ran the /n/
+    # to the end of the recording (1.321 s against espeak-ng's 1.264 s)
+    text = "Impossible, said the man."
+    speech = espeak.synthesize(text, "en-us+f2", rate=240)
+    take = recording.from_samples(speech.samples, speech.sample_rate)
+    phones = phone_alignment.phones_from_recording(take, text)
+    last = [p for p in phones if p.label != "sil"][-1]
+    end = [p for p in speech.phonemes if not p.label.startswith("_")][-1].end
+    assert last.label == "n" and last.end == pytest.approx(end, abs=0.02)
