@@ -51,6 +51,7 @@ from . import fused
 from .inputs import DeformError, check_points
 
 STEP = 0.5  # λ of a Jacobi step: half way to the neighbours' mean (the damped Jacobi of a membrane)
+MOMENTUM = True  # each step taken from Nesterov's look-ahead point, restarted where the region grows (step 2)
 CHECK_EVERY = 5  # steps between looks at the folds
 STALL_CHECKS = 4  # looks without fewer folds before the region widens by a ring
 GUARD_ROUNDS = 6  # a guard and the membrane taking turns after a frame's first unfold (`open_folds_guarded`), at most
@@ -217,7 +218,11 @@ class Unfolded:
 
 
 def unfold(
-    mesh: SkinMesh, positions: np.ndarray, max_steps: int = MAX_STEPS, start: np.ndarray | None = None
+    mesh: SkinMesh,
+    positions: np.ndarray,
+    max_steps: int = MAX_STEPS,
+    start: np.ndarray | None = None,
+    momentum: bool | None = None,
 ) -> Unfolded:
     """Open the folds of the (N, 3) deformed `positions` (float32 or float64), in place. With `start` (vertex
     indices), whose caller vouches that every turned-over triangle has a corner among them, only the triangles at
@@ -225,6 +230,7 @@ def unfold(
     folds, not the mesh)."""
     if positions.shape != mesh.rest.shape:
         raise DeformError(f"positions have shape {positions.shape}, the mesh {mesh.rest.shape}")
+    momentum = MOMENTUM if momentum is None else momentum
     points = positions.astype(np.float64)
     watched = None if start is None else _at_vertices(mesh, np.asarray(start, dtype=np.int64))
     bad = _watched_turned(mesh, points, watched)
@@ -236,19 +242,31 @@ def unfold(
     degree = np.diff(mesh.neighbour_start)
     moved = np.zeros(n, bool)
     displacement = np.zeros((n + 1, 3))  # the padding's row n stays 0
-    rings, steps, best, stall = 1, 0, count, 0
+    last = np.zeros((n, 3))  # each region vertex's position before the last step (the momentum's)
+    before = np.zeros(n, bool)  # the last batch's region
+    rings, steps, best, stall, since = 1, 0, count, 0, 0
     while count and steps < max_steps:
         region = np.zeros(n, bool)
         region[mesh.triangles[bad].reshape(-1)] = True
         for _ in range(rings):
             region = _grow(mesh, region)
         region &= degree > 0
+        if np.any(region & ~before):  # the region grew: the momentum starts again
+            since = 0
+        before = region
         moved |= region
         if watched is not None:
             watched |= _at_vertices(mesh, np.flatnonzero(region))
         inside = np.flatnonzero(region)
         padded, weights = mesh.padded[inside], mesh.padded_weights[inside]
         for _ in range(min(CHECK_EVERY, max_steps - steps)):
+            if momentum:  # the step from y = x + β (x − x_last), β = k / (k + 3) after k steps since the restart
+                ahead = points[inside]
+                if since:
+                    ahead = ahead + since / (since + 3) * (ahead - last[inside])
+                last[inside] = points[inside]
+                points[inside] = ahead
+                since += 1
             displacement[:n] = points - rest
             total = weights[:, :1] * displacement[padded[:, 0]]
             for column in range(1, padded.shape[1]):
@@ -395,7 +413,8 @@ def open_folds(
         start = look.turned_corners(positions)
         if not len(start):
             return Unfolded(np.zeros(0, np.int32), 0, 0)
-    done = fused.unfold(mesh, positions, start, max_steps, STEP, CHECK_EVERY, STALL_CHECKS, BISECTIONS, MARGIN)
+    steps = (max_steps, STEP, CHECK_EVERY, STALL_CHECKS, BISECTIONS, MARGIN, MOMENTUM)
+    done = fused.unfold(mesh, positions, start, *steps)
     if done is None:
         return unfold(mesh, positions, max_steps, start)
     return Unfolded(*done)

@@ -113,10 +113,10 @@ def test_max_steps_bounds_the_work_and_reports_what_is_left():
     assert done.left == inverted_faces(rest, positions, triangles).sum()
 
 
-def _kernel_unfold(mesh, positions, start=None, max_steps=unfold.MAX_STEPS):
+def _kernel_unfold(mesh, positions, start=None, max_steps=unfold.MAX_STEPS, momentum=unfold.MOMENTUM):
     return fused.unfold(
         mesh, positions, start, max_steps, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, unfold.BISECTIONS,
-        unfold.MARGIN,
+        unfold.MARGIN, momentum,
     )  # fmt: skip
 
 
@@ -436,7 +436,7 @@ def test_a_budget_that_ends_with_no_fewer_folds_leaves_the_frame_as_it_came(seed
     assert done.steps == 50 and done.left == found and len(done.moved) == 0
     assert np.array_equal(positions, folded)
     compiled = folded.astype(np.float32)
-    got = fused.unfold(plain, compiled, None, 50, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, 16, 1e-6)
+    got = _kernel_unfold(plain, compiled, None, 50)
     if got is not None:
         assert len(got[0]) == 0 and got[1:3] == (50, found) and np.array_equal(compiled, folded.astype(np.float32))
 
@@ -453,7 +453,7 @@ def test_a_frames_budget_is_work_so_a_small_fold_on_a_large_mesh_opens():
     folded[block.ravel(), 0] += 10e-3  # a 9 x 9 block pushed 10 spacings sideways, over its neighbours
     full = unfold.open_folds(mesh, folded.copy())
     assert full.left == 0 and full.steps > 10
-    few = full.steps - 10  # what a mesh of many more vertices would give the frame
+    few = full.steps - unfold.CHECK_EVERY  # one batch short: what a mesh of many more vertices would give the frame
     positions = folded.copy()
     short = unfold.open_folds(mesh, positions, max_steps=few)
     assert short.left > 0 and len(short.moved)  # the step count alone leaves some of it
