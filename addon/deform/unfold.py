@@ -17,7 +17,15 @@ limits in places. The Planar Bones paper does not treat fold-overs. This pass re
    1/degree) has that only on a regular mesh: on an irregular one it moves a linear displacement itself, and
    where a fold compresses the skin those moves turned other triangles over (a subdivided face with its new
    vertices jittered, the lips at demo frame 120: 565 steps over 3,645 vertices with the plain mean, the fold
-   spreading to 78 triangles on the way; 25 steps over 12 vertices with these weights);
+   spreading to 78 triangles on the way; 25 steps over 12 vertices with these weights). With ``MOMENTUM`` each
+   step is taken from Nesterov's look-ahead point y = x + k / (k + 3) (x − x_last) instead of x (Nesterov 1983;
+   k counts the steps since the momentum last started again, which it does whenever the region takes in a vertex
+   it did not have, that vertex having no last step). A fold that needs its region grown by many rings needs the
+   change carried far, which plain Jacobi steps do in about the square of the distance: the Lee Perry-Smith
+   scan's sealed lip line in the demo (frames 16-24, a frame's first opening) took 515-655 steps over 2,400-3,200
+   vertices, with the momentum 340-375 over 1,130-1,140 (3.5-5.0x fewer vertex-steps); without the restarts,
+   1,410-1,565 steps over all 8,838. The momentum lives within one call, so a frame still depends on its own
+   positions alone;
 3. look again; stop once no triangle is turned over, or after ``MAX_STEPS`` steps (what is left then stays, and
    where the steps have not left fewer triangles turned over than they found, the positions stay as they were
    found: the subdivided variant's lip fold, 25 faces, became 65 when a frame's budget ended mid-way).
