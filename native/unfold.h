@@ -42,23 +42,24 @@ static inline int unfold_nearly_turned_f32(const float *p, const int32_t *tri, c
 
 /* The work space of pbk_unfold on a mesh of n vertices and k triangles, zeroed once by the caller and kept:
  * the stamp counter, then per vertex its region, loaded and moved stamps, per triangle its seen stamp, the
- * positions in double and the next step's, the region's list and the bad triangles. */
+ * positions in double, the next step's and those before the last step (the momentum's), the region's list and
+ * the bad triangles. */
 typedef struct {
     int64_t *counter, *region, *loaded, *marked, *seen;
-    double *p, *next;
+    double *p, *next, *last;
     int32_t *list, *bad;
 } UnfoldWork;
 
 PBK_EXPORT int64_t pbk_unfold_work_bytes(int64_t n, int64_t k) {
-    return (int64_t)sizeof(int64_t) * (1 + 3 * n + k) + (int64_t)sizeof(double) * 6 * n + (int64_t)sizeof(int32_t) * (n + k);
+    return (int64_t)sizeof(int64_t) * (1 + 3 * n + k) + (int64_t)sizeof(double) * 9 * n + (int64_t)sizeof(int32_t) * (n + k);
 }
 
 static UnfoldWork unfold_work(void *work, int64_t n, int64_t k) {
     UnfoldWork w;
     w.counter = (int64_t *)work;
     w.region = w.counter + 1, w.loaded = w.region + n, w.marked = w.loaded + n, w.seen = w.marked + n;
-    w.p = (double *)(w.seen + k), w.next = w.p + 3 * n;
-    w.list = (int32_t *)(w.next + 3 * n), w.bad = w.list + n;
+    w.p = (double *)(w.seen + k), w.next = w.p + 3 * n, w.last = w.next + 3 * n;
+    w.list = (int32_t *)(w.last + 3 * n), w.bad = w.list + n;
     return w;
 }
 
@@ -76,7 +77,8 @@ static int unfold_ascending(const void *a, const void *b) {
 
 /* positions (n x 3 float32) in place. The first look is at the triangles at the n_start vertices `start` (at
  * every triangle when n_start < 0): the caller vouches that no other triangle is turned over. work: the mesh's
- * work space (pbk_unfold_work_bytes). moved (n) receives the vertices it may have moved, ascending, and result[0]
+ * work space (pbk_unfold_work_bytes). momentum: each step from Nesterov's look-ahead point x + k / (k + 3)
+ * (x - x_last), k the steps since the region last grew (unfold.unfold). moved (n) receives the vertices it may have moved, ascending, and result[0]
  * their count, result[1] the steps made, result[2] the triangles left turned over (where the steps ended with no
  * fewer than they found, none moved and that many are left); share[0] the share of the membrane's change
  * kept. Returns 0. */
@@ -85,12 +87,12 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
                           const double *weights, const int32_t *corner_start, const int32_t *corner_triangles, float *positions,
                           int64_t n_start, const int32_t *start, void *work, int32_t max_steps, double step,
                           int32_t check_every, int32_t stall_checks, int32_t bisections, double margin,
-                          int32_t *moved, int64_t *result, double *share) {
+                          int32_t momentum, int32_t *moved, int64_t *result, double *share) {
     result[0] = result[1] = result[2] = 0;
     share[0] = 1.0;
     UnfoldWork w = unfold_work(work, n, k);
     int64_t *region = w.region, *seen = w.seen;
-    double *p = w.p, *next = w.next;
+    double *p = w.p, *next = w.next, *last = w.last;
     int32_t *list = w.list, *bad = w.bad;
     const int64_t call = ++*w.counter;
     int64_t n_bad = 0;
@@ -111,23 +113,27 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
     const int64_t found = n_bad;
     int64_t count = n_bad;
     if (count == 0) return 0;
-    int64_t rings = 1, steps = 0, best = count, stall = 0, n_moved = 0;
+    int64_t rings = 1, steps = 0, best = count, stall = 0, n_moved = 0, since = 0, before = -1;
     while (count && steps < max_steps) {
-        /* the region: the bad triangles' corners, then `rings` rings of neighbours (a stamp marks membership) */
+        /* the region: the bad triangles' corners, then `rings` rings of neighbours (a stamp marks membership;
+         * `before` the last batch's, so that a vertex new to the region is seen: the momentum starts again) */
         const int64_t stamp = ++*w.counter;
-        int64_t size = 0;
+        int64_t size = 0, grew = 0;
         for (int64_t b = 0; b < n_bad; ++b)
             for (int c = 0; c < 3; ++c) {
                 int32_t v = triangles[3 * (int64_t)bad[b] + c];
-                if (region[v] != stamp) region[v] = stamp, list[size++] = v;
+                if (region[v] != stamp) grew |= region[v] != before, region[v] = stamp, list[size++] = v;
             }
         for (int64_t r = 0, from = 0; r < rings; ++r) {
             int64_t to = size;
             for (int64_t m = from; m < to; ++m)
-                for (int32_t e = neighbour_start[list[m]]; e < neighbour_start[list[m] + 1]; ++e)
-                    if (region[neighbours[e]] != stamp) region[neighbours[e]] = stamp, list[size++] = neighbours[e];
+                for (int32_t e = neighbour_start[list[m]]; e < neighbour_start[list[m] + 1]; ++e) {
+                    int32_t v = neighbours[e];
+                    if (region[v] != stamp) grew |= region[v] != before, region[v] = stamp, list[size++] = v;
+                }
             from = to;
         }
+        before = stamp;
         int64_t kept = 0; /* the numpy drops vertices without neighbours (in no triangle: none of a bad one's) */
         for (int64_t m = 0; m < size; ++m) {
             int32_t v = list[m];
@@ -139,8 +145,20 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
                 unfold_load(&w, call, positions, neighbours[e]);
         }
         size = kept;
+        if (grew) since = 0;
         int64_t batch = max_steps - steps < check_every ? max_steps - steps : check_every;
         for (int64_t s = 0; s < batch; ++s, ++steps) {
+            if (momentum) { /* the step is taken from y = x + beta (x - x_last), in p; x_last <- x */
+                const double beta = (double)since / (double)(since + 3);
+                for (int64_t m = 0; m < size; ++m)
+                    for (int c = 0; c < 3; ++c) {
+                        const int64_t at = 3 * (int64_t)list[m] + c;
+                        const double x = p[at];
+                        if (since) p[at] = x + beta * (x - last[at]);
+                        last[at] = x;
+                    }
+                ++since;
+            }
             for (int64_t m = 0; m < size; ++m) {
                 int32_t v = list[m];
                 int32_t first = neighbour_start[v], last = neighbour_start[v + 1];

@@ -48,7 +48,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 12  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 13  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -75,7 +75,7 @@ _COLLECT_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 4, *[ctypes.c_double] * 4, *
 _FOLD_FREE_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int32, ctypes.c_double, ctypes.c_double]
 _UNFOLD_ARGUMENTS = [ctypes.c_int64, ctypes.c_int64, *[_POINTER] * 9, ctypes.c_int64, _POINTER, _POINTER]
 _UNFOLD_ARGUMENTS += [ctypes.c_int32, ctypes.c_double, ctypes.c_int32, ctypes.c_int32, ctypes.c_int32, ctypes.c_double]
-_UNFOLD_ARGUMENTS += [_POINTER, _POINTER, _POINTER]
+_UNFOLD_ARGUMENTS += [ctypes.c_int32, _POINTER, _POINTER, _POINTER]
 
 
 @dataclass(frozen=True, eq=False)
@@ -709,9 +709,10 @@ def fold_free_sweeps(classes, faces, g, gf, norm, lower, upper, w, sweeps, omega
 
 
 def unfold(mesh, positions: np.ndarray, start: np.ndarray | None, max_steps: int, step: float, check_every: int,
-           stall_checks: int, bisections: int, margin: float):  # fmt: skip
+           stall_checks: int, bisections: int, margin: float, momentum: bool):  # fmt: skip
     """`unfold.unfold` by the kernel, in place on ``positions`` ((N, 3) C-contiguous float32 of the `unfold.SkinMesh`
-    ``mesh``), first looking at the triangles at the ``start`` vertices (at all where None): (moved vertices, steps,
+    ``mesh``), first looking at the triangles at the ``start`` vertices (at all where None), with Nesterov's momentum
+    where ``momentum``: (moved vertices, steps,
     triangles left, share kept), or None (``positions`` untouched) where the kernel is unavailable or the positions
     are not float32. The kernel's work space is the mesh's (`unfold.SkinMesh.work`), kept between calls."""
     kernel = _kernel() if available() else None
@@ -735,8 +736,8 @@ def unfold(mesh, positions: np.ndarray, start: np.ndarray | None, max_steps: int
     kernel.pbk_unfold(
         len(positions), len(mesh.triangles), *(a.ctypes.data for a in arrays),
         -1 if start is None else len(start), None if start is None else start.ctypes.data, work.ctypes.data,
-        max_steps, step, check_every, stall_checks, bisections, margin, moved.ctypes.data, result.ctypes.data,
-        share.ctypes.data,
+        max_steps, step, check_every, stall_checks, bisections, margin, int(momentum), moved.ctypes.data,
+        result.ctypes.data, share.ctypes.data,
     )  # fmt: skip
     return moved[: result[0]].copy(), int(result[1]), int(result[2]), float(share[0])
 

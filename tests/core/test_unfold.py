@@ -113,10 +113,10 @@ def test_max_steps_bounds_the_work_and_reports_what_is_left():
     assert done.left == inverted_faces(rest, positions, triangles).sum()
 
 
-def _kernel_unfold(mesh, positions, start=None, max_steps=unfold.MAX_STEPS):
+def _kernel_unfold(mesh, positions, start=None, max_steps=unfold.MAX_STEPS, momentum=unfold.MOMENTUM):
     return fused.unfold(
         mesh, positions, start, max_steps, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, unfold.BISECTIONS,
-        unfold.MARGIN,
+        unfold.MARGIN, momentum,
     )  # fmt: skip
 
 
@@ -436,7 +436,7 @@ def test_a_budget_that_ends_with_no_fewer_folds_leaves_the_frame_as_it_came(seed
     assert done.steps == 50 and done.left == found and len(done.moved) == 0
     assert np.array_equal(positions, folded)
     compiled = folded.astype(np.float32)
-    got = fused.unfold(plain, compiled, None, 50, unfold.STEP, unfold.CHECK_EVERY, unfold.STALL_CHECKS, 16, 1e-6)
+    got = _kernel_unfold(plain, compiled, None, 50)
     if got is not None:
         assert len(got[0]) == 0 and got[1:3] == (50, found) and np.array_equal(compiled, folded.astype(np.float32))
 
@@ -453,7 +453,7 @@ def test_a_frames_budget_is_work_so_a_small_fold_on_a_large_mesh_opens():
     folded[block.ravel(), 0] += 10e-3  # a 9 x 9 block pushed 10 spacings sideways, over its neighbours
     full = unfold.open_folds(mesh, folded.copy())
     assert full.left == 0 and full.steps > 10
-    few = full.steps - 10  # what a mesh of many more vertices would give the frame
+    few = full.steps - unfold.CHECK_EVERY  # one batch short: what a mesh of many more vertices would give the frame
     positions = folded.copy()
     short = unfold.open_folds(mesh, positions, max_steps=few)
     assert short.left > 0 and len(short.moved)  # the step count alone leaves some of it
@@ -470,3 +470,40 @@ def test_a_frames_budget_is_work_so_a_small_fold_on_a_large_mesh_opens():
         mesh, positions, None, unfold.FrameBudget(len(rest), few, (few + 4) * len(short.moved))
     )
     assert small.steps == few and small.left == short.left
+
+
+@pytest.mark.parametrize("kernel", [False, True])
+def test_momentum_opens_a_fold_that_needs_the_region_grown_in_fewer_steps_to_the_same_bounds(kernel):
+    """A 5 x 5 block pushed 15 spacings sideways over its neighbours: the membrane opens it only once its region
+    has grown by rings (the Lee Perry-Smith scan's sealed lip line in the demo: 655 steps over 3,215 vertices at
+    frame 24). Each step taken from Nesterov's look-ahead point, restarted where the region grows, opens it in 25
+    steps over 103 vertices where the plain Jacobi steps took 45 over 106, and to the same bounds: no triangle
+    turned over, the change kept near the fold and as large. The kernel equals the numpy bit for bit, with the
+    momentum and without."""
+    size = 51
+    rest, triangles = grid(size)
+    mesh = unfold.prepare(rest, triangles)
+    middle = (size // 2) * size + size // 2
+    block = middle + (np.arange(-2, 3)[:, None] * size + np.arange(-2, 3)[None]).ravel()
+    folded = rest.astype(np.float32)
+    folded[block, 0] += 15e-3
+    assert unfold.turned_over(mesh, folded.astype(np.float64)).sum() >= 10
+    results = {}
+    for momentum in (False, True):
+        positions = folded.copy()
+        done = unfold.unfold(mesh, positions, momentum=momentum)
+        assert done.left == 0 and not inverted_faces(rest, positions, triangles).any()
+        assert np.linalg.norm(rest[done.moved] - rest[middle], axis=1).max() < 9e-3
+        if kernel:
+            if not fused.available():
+                pytest.skip("compiled kernel not installed")
+            compiled = folded.copy()
+            got = _kernel_unfold(mesh, compiled, momentum=momentum)
+            assert np.array_equal(got[0], done.moved) and got[1:] == (done.steps, done.left, done.share)
+            assert np.array_equal(compiled, positions)
+        results[momentum] = done, np.abs(positions - folded).max()
+    (plain, plain_change), (fast, fast_change) = results[False], results[True]
+    assert (plain.steps, fast.steps) == (45, 25)
+    assert fast.steps * len(fast.moved) < 0.6 * plain.steps * len(plain.moved)
+    assert abs(fast_change - plain_change) < 0.1 * plain_change
+    assert unfold.MOMENTUM and unfold.open_folds(mesh, folded.copy()).steps == fast.steps
