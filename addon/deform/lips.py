@@ -22,7 +22,6 @@ import heapq
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..mpeg4.feature_points import fp_index
@@ -388,47 +387,41 @@ def _inward(normals: np.ndarray, up: float) -> np.ndarray:
 
 
 def _along(
-    points: np.ndarray, direction: np.ndarray, tris: np.ndarray, reach: float | np.ndarray, behind: bool = False
+    points: np.ndarray, direction: np.ndarray, tris: np.ndarray, reach: float, behind: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Along each of the (P, 3) unit `direction` from the (P, 3) `points` (face frame), the first of the (T, 3, 3)
     `tris` (the other lip's skin) within `reach`: (P,) its distance where it faces along the direction (the point is in
     the other lip's flesh, as deep; +inf where none faces so or none is met), and with `behind`, (P,) the distance back
-    to the nearest one behind that faces along it (the clearance; +inf where none). A point looks only at the triangles
-    whose centres are within `reach` and their own size of the stretch it looks along (all of them at an unbounded
-    reach)."""
+    within `reach` to the nearest one behind that faces along it (the clearance; +inf where none). Only the (point,
+    triangle) pairs whose boxes meet are looked at (the stretch looked along, the triangle's), found through the
+    triangles' centres within `reach` and their own size of that stretch: on ICT's head about 3,000 of 2.7 million."""
     ahead = np.full(len(points), np.inf)
     back = np.full(len(points), np.inf)
-    if not len(points) or not len(tris):
+    if not len(points) or not len(tris) or not np.isfinite(reach) or not np.isfinite(points).all():
         return ahead, back
-    reach = np.broadcast_to(np.asarray(reach, dtype=np.float64), (len(points),))
-    centres = tris.mean(axis=1)
-    size = np.linalg.norm(tris - centres[:, None], axis=2).max(axis=1)
-    if np.isfinite(reach).all():  # the stretch ahead, or with `behind` as far back too
-        middle = points if behind else points + 0.5 * reach[:, None] * direction
-        found = cKDTree(centres).query_ball_point(middle, (1.0 if behind else 0.5) * reach + size.max())
-        counts = np.fromiter(map(len, found), np.intp, len(found))
-        point = np.repeat(np.arange(len(points)), counts)
-        tri = np.fromiter((t for f in found for t in f), np.intp, int(counts.sum()))
-    else:
-        point, tri = np.divmod(np.arange(len(points) * len(tris)), len(tris))
+    reach_box = (reach if behind else 0.5 * reach) * np.abs(direction)  # the stretch ahead, or with `behind` as far
+    middle = points if behind else points + 0.5 * reach * direction  # back too
+    point, tri = _boxes_meeting(middle - reach_box, middle + reach_box, tris.min(axis=1), tris.max(axis=1))
     if not len(point):
         return ahead, back
-    a = tris[tri, 0]
-    e1, e2 = tris[tri, 1] - a, tris[tri, 2] - a
-    d = direction[point]
-    h = np.cross(d, e2)
-    det = np.einsum("ij,ij->i", e1, h)  # e1 . (d x e2) = -d . (e1 x e2): less than 0 where it faces along d
-    ok = np.abs(det) > EDGE_ON * np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1)  # else seen edge-on
+    ax, ay, az = tris[tri, 0].T
+    e1x, e1y, e1z = tris[tri, 1].T - (ax, ay, az)
+    e2x, e2y, e2z = tris[tri, 2].T - (ax, ay, az)
+    dx, dy, dz = direction[point].T
+    hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x  # d x e2
+    det = e1x * hx + e1y * hy + e1z * hz  # e1 . (d x e2) = -d . (e1 x e2): less than 0 where it faces along d
+    square = (e1x * e1x + e1y * e1y + e1z * e1z) * (e2x * e2x + e2y * e2y + e2z * e2z)
+    ok = det * det > EDGE_ON * EDGE_ON * square  # else seen edge-on
     inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
-    s = points[point] - a
-    u = inv * np.einsum("ij,ij->i", s, h)
-    q = np.cross(s, e1)
-    v = inv * np.einsum("ij,ij->i", d, q)
-    t = inv * np.einsum("ij,ij->i", e2, q)
+    sx, sy, sz = points[point].T - (ax, ay, az)
+    u = inv * (sx * hx + sy * hy + sz * hz)
+    qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x  # s x e1
+    v = inv * (dx * qx + dy * qy + dz * qz)
+    t = inv * (e2x * qx + e2y * qy + e2z * qz)
     hit = ok & (u >= -EDGE_SLACK) & (v >= -EDGE_SLACK) & (u + v <= 1.0 + EDGE_SLACK)  # an edge is both triangles'
     along = det < 0.0  # faces along the direction
     first = np.full(len(points), np.inf)
-    forward = hit & (t >= 0.0) & (t <= reach[point])
+    forward = hit & (t >= 0.0) & (t <= reach)
     np.minimum.at(first, point[forward], t[forward])
     # the nearest surface ahead decides: the flesh's when it faces along the direction
     facing = np.full(len(points), np.inf)
@@ -436,9 +429,41 @@ def _along(
     np.minimum.at(facing, point[decides], t[decides])
     ahead = np.where(facing <= first, facing, np.inf)
     if behind:
-        backward = hit & (t < 0.0) & (-t <= reach[point]) & along
+        backward = hit & (t < 0.0) & (-t <= reach) & along
         np.minimum.at(back, point[backward], -t[backward])
     return ahead, back
+
+
+def _boxes_meeting(low: np.ndarray, high: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> tuple:
+    """(K,) rows of the (P, 3) boxes `low`-`high` and (K,) rows of the (T, 3) boxes `box_low`-`box_high` that meet, each
+    pair once: found through bins of x as wide as the median box (at least the span over T: T^2 pairs at most, as every
+    pair), each pair in the first bin both cover, then kept where the boxes meet (on ICT's head about 700 pairs of
+    620,000; the pairs sharing a bin, some 50,000, are most of the contact's cost; cells of x and z cost more, the
+    stretches looked along being longer than the triangles are wide)."""
+    origin = min(low[:, 0].min(), box_low[:, 0].min())
+    span = max(high[:, 0].max(), box_high[:, 0].max()) - origin
+    width = max(float(np.median(box_high[:, 0] - box_low[:, 0])), span / len(box_low), 1e-300)
+
+    def spread(lo: np.ndarray, hi: np.ndarray) -> tuple:
+        first = ((lo[:, 0] - origin) // width).astype(np.int64)
+        count = ((hi[:, 0] - origin) // width).astype(np.int64) - first + 1
+        bins = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+        return bins, np.repeat(np.arange(len(lo)), count), first
+
+    box_bins, box_of, box_first = spread(box_low, box_high)
+    order = np.argsort(box_bins, kind="stable")
+    box_bins, box_of = box_bins[order], box_of[order]
+    bins, of, first = spread(low, high)
+    begin, end = np.searchsorted(box_bins, bins, "left"), np.searchsorted(box_bins, bins, "right")
+    found = end - begin
+    point, shared = np.repeat(of, found), np.repeat(bins, found)
+    tri = box_of[np.repeat(begin - np.cumsum(found) + found, found) + np.arange(found.sum())]
+    once = shared == np.maximum(first[point], box_first[tri])
+    point, tri = point[once], tri[once]
+    for axis in (1, 2, 0):  # one axis at a time, on what is left (a column each: 3x faster than the boxes at once)
+        meet = (low[point, axis] <= box_high[tri, axis]) & (high[point, axis] >= box_low[tri, axis])
+        point, tri = point[meet], tri[meet]
+    return point, tri
 
 
 def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> tuple:
