@@ -171,17 +171,22 @@ class Contact:
     bumpy, the Lee Perry-Smith scan), every vertex of the contact past the seam keeps its rest offset as slack, and
     a slack says nothing of where the other lip is: lips sliding on each other in depth or across passed through
     each other there, both sides held at their bounds (session 11). These vertices, and the other lip's at the same
-    seam knots, are kept out of the other lip's flesh as `lip_penetration` measures it, on the other lip's own
-    triangles as they are deformed, and where they touch it at rest (closer than TOUCH_GAP: ICT's closed lips 0.1-0.4
-    mm apart at the corners) no closer than at rest: kept only out of the other lip, the edges between crossed it."""
+    seam knots, are kept out of the other lip's flesh, on the other lip's own triangles as they are deformed, and where
+    they touch it at rest (closer than TOUCH_GAP: ICT's closed lips 0.1-0.4 mm apart at the corners) no closer than at
+    rest: kept only out of the other lip, the edges between crossed it. The depth is taken square to the contact, along
+    the skin's own normal into its lip (session 12): straight up or down, a contact that turns steep (the Rocketbox's
+    corners in the smile) gave depths at rest that were the slope's, not the lips' (a vertical column grazing the other
+    lip), kept as allowances. And it is taken at the vertices and midway along the edges between them: crossings
+    between vertices each out of the other lip were most of what was left. Lips that pass into each other at rest by
+    less than a touch are parted to touching once they move (kept as deep, the overlap slid along and crossed anew)."""
 
     rows: np.ndarray  # (P,) rows into `LipGuard.vertices`: the upper lip's in the contact, then the lower lip's
     vertices: np.ndarray  # (P,) their mesh vertices
-    look: np.ndarray  # (P,) 1 on the upper lip (the lower lip is looked for above it), -1 on the lower
-    keep: np.ndarray  # (P,) each one's depth into the other lip at rest along `direction` (< 0: a clearance kept)
+    look: np.ndarray  # (S,) per sample (`ends`): 1 on the upper lip (looking at the lower lip's triangles), -1 lower
+    keep: np.ndarray  # (S,) each sample's depth into the other lip at rest along `direction` (< 0: a clearance kept)
     triangles: np.ndarray  # (T, 3) the lower lip's triangles, then the upper lip's: the other lip's skin
     facing: np.ndarray  # (T,) 1 on the lower lip (looked at from the upper), -1 on the upper
-    direction: np.ndarray  # (P, 3) unit, face frame: into the vertex's own lip at rest (minus its skin's normal)
+    direction: np.ndarray  # (S, 3) unit, face frame: into the sample's own lip at rest (minus the skin's normal)
     reach: float  # how far along `direction` the other lip is looked for (mesh units): CONTACT_REACH, and the keeps
     ends: np.ndarray  # (S, 2) the samples: midway between these two of `vertices` (a vertex: itself twice)
 
@@ -517,11 +522,11 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
 
 
 def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
-    """Keep the vertices of `guard.contact` out of the other lip's flesh (`lip_penetration`'s depth, less what they
-    had at rest) and as far from it as at rest where they touched it, in place on the deformed (N, 3) `out`, after
-    `guard_lips`: each moves straight up or down by what it lacks, the skin beside it following as it follows the
-    seam's push. True when it moved any. Pushes only part the lips (the upper lip up, the lower down), so no vertex
-    of the contact is left inside the other lip as that lip stood (a second pass changed no count on the heads)."""
+    """Keep the vertices of `guard.contact`, and the middles of the edges between them, out of the other lip's flesh
+    (the depth square to the contact, `_along`, less what they had at rest beyond a touch) and as far from it as at rest
+    where they touched it, in place on the deformed (N, 3) `out`, after `guard_lips`: each vertex moves into its own
+    lip by the most any of its samples lacks, the skin beside it following as it follows the seam's push (`_push_along`).
+    True when it moved any. Pushes only part the lips (each into its own lip, away from the other)."""
     contact = guard.contact
     if contact is None or not len(contact.triangles):
         return False
