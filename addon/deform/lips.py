@@ -526,8 +526,7 @@ def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
     (the depth square to the contact, `_along`, less what they had at rest beyond a touch) and as far from it as at rest
     where they touched it, in place on the deformed (N, 3) `out`, after `guard_lips`: each vertex moves into its own
     lip by the most any of its samples lacks, the skin beside it following as it follows the seam's push
-    (`_push_along`).
-    True when it moved any. Pushes only part the lips (each into its own lip, away from the other)."""
+    (`_push_along`). True when it moved any. Pushes only part the lips (each into its own lip, away from the other)."""
     contact = guard.contact
     if contact is None or not len(contact.triangles):
         return False
