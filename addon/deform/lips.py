@@ -158,6 +158,8 @@ NO_PAIRS = np.zeros((0, 2), np.intp)  # `_carry` with no (vertex, guarded vertex
 # rounds and Unfold Skin's fought to the frame's budget, leaving 2 faces turned over in joy.fap)
 SLIVER = 0.25
 TOUCH_GAP = 5e-4  # m: lips this close at rest touch (`Contact.keep`); the mesh's own gaps there are kept
+EDGE_ON = 1e-9  # a triangle whose normal is this near square to the way a vertex looks is seen edge-on
+CONTACT_REACH = 2e-3  # m: how far into the other lip a vertex of the contact is looked for (`press_apart`)
 
 
 @dataclass(frozen=True)
@@ -169,17 +171,24 @@ class Contact:
     bumpy, the Lee Perry-Smith scan), every vertex of the contact past the seam keeps its rest offset as slack, and
     a slack says nothing of where the other lip is: lips sliding on each other in depth or across passed through
     each other there, both sides held at their bounds (session 11). These vertices, and the other lip's at the same
-    seam knots, are kept out of the other lip's flesh as `lip_penetration` measures it, on the other lip's own
-    triangles as they are deformed, and where they touch it at rest (closer than TOUCH_GAP: ICT's closed lips 0.1-0.4
-    mm apart at the corners) no closer than at rest: kept only out of the other lip, the edges between crossed it."""
+    seam knots, are kept out of the other lip's flesh, on the other lip's own triangles as they are deformed, and where
+    they touch it at rest (closer than TOUCH_GAP: ICT's closed lips 0.1-0.4 mm apart at the corners) no closer than at
+    rest: kept only out of the other lip, the edges between crossed it. The depth is taken square to the contact, along
+    the skin's own normal into its lip (session 12): straight up or down, a contact that turns steep (the Rocketbox's
+    corners in the smile) gave depths at rest that were the slope's, not the lips' (a vertical column grazing the other
+    lip), kept as allowances. And it is taken at the vertices and midway along the edges between them: crossings
+    between vertices each out of the other lip were most of what was left. Lips that pass into each other at rest by
+    less than a touch are parted to touching once they move (kept as deep, the overlap slid along and crossed anew)."""
 
     rows: np.ndarray  # (P,) rows into `LipGuard.vertices`: the upper lip's in the contact, then the lower lip's
     vertices: np.ndarray  # (P,) their mesh vertices
-    look: np.ndarray  # (P,) 1 on the upper lip (the lower lip is looked for above it), -1 on the lower
-    keep: np.ndarray  # (P,) each one's `_depth` into the other lip at rest (< 0: a clearance kept; 0: none)
+    look: np.ndarray  # (S,) per sample (`ends`): 1 on the upper lip (looking at the lower lip's triangles), -1 lower
+    keep: np.ndarray  # (S,) each sample's depth into the other lip at rest along `direction` (< 0: a clearance kept)
     triangles: np.ndarray  # (T, 3) the lower lip's triangles, then the upper lip's: the other lip's skin
     facing: np.ndarray  # (T,) 1 on the lower lip (looked at from the upper), -1 on the upper
-    width: float  # the median triangle's width across (face x) at rest: `_depths_ahead`'s bins
+    direction: np.ndarray  # (S, 3) unit, face frame: into the sample's own lip at rest (minus the skin's normal)
+    reach: float  # how far along `direction` the other lip is looked for (mesh units): CONTACT_REACH, and the keeps
+    ends: np.ndarray  # (S, 2) the samples: midway between these two of `vertices` (a vertex: itself twice)
 
 
 @dataclass(frozen=True)
@@ -322,21 +331,144 @@ def _contact(
     # the clearance kept is a touch: closer than TOUCH_GAP at rest (ICT's corners 0.1-0.4 mm); farther (the sample's
     # lower lip 3.8 mm under the upper at a corner), the lips may come closer as they press, as the seam lets them
     touch = TOUCH_GAP * unit
-    keep = []
-    for r, t, up in zip(rows, other, (1.0, -1.0), strict=True):
-        depth = np.nan_to_num(_depth(face[vertices[r]], face[t], up), nan=0.0)
-        keep.append(np.where(depth > -touch, depth, 0.0))
-    tris = np.concatenate(other)
-    width = np.ptp(face[tris, 0], axis=1)
+    normals = _vertex_normals(face, triangles)
+    look = np.repeat([1.0, -1.0], [len(rows[0]), len(rows[1])])
+    chosen = vertices[np.concatenate(rows)]
+    direction = np.concatenate([_inward(normals[chosen[look == up]], up) for up in (1.0, -1.0)])
+    # where the vertices are, and midway along the mesh's edges between two of them on one lip: an edge between two
+    # vertices each out of the other lip crossed it (the Rocketbox's corners in the smile, ICT's)
+    local = np.full(len(face), -1, np.intp)
+    local[chosen] = np.arange(len(chosen))
+    edges = np.sort(local[np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])], axis=1)
+    edges = np.unique(edges[(edges[:, 0] >= 0) & (look[edges[:, 0]] == look[edges[:, 1]])], axis=0)
+    ends = np.concatenate([np.repeat(np.arange(len(chosen))[:, None], 2, axis=1), edges])
+    ends = ends[np.argsort(-look[ends[:, 0]], kind="stable")]  # the upper lip's first
+    sample_look = look[ends[:, 0]]
+    towards = direction[ends].sum(axis=1)
+    towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-300)
+    at = face[chosen][ends].mean(axis=1)
+    keep = np.zeros(len(ends))
+    for up, t in zip((1.0, -1.0), other, strict=True):
+        mine = sample_look == up
+        ahead, behind = _along(at[mine], towards[mine], face[t], CONTACT_REACH * unit, behind=True)
+        keep[mine] = np.where(np.isfinite(ahead), ahead, np.where(behind < touch, -behind, 0.0))
+    # lips that pass into each other at rest by less than a touch (the Rocketbox's corners, 0.1 mm) touch there: they
+    # are parted to touching once the lips move, as an overlap kept slid along with them and crossed anew (the
+    # Rocketbox's demo: 19 pairs kept as deep as at rest, 5 parted); deeper, the lips are one there (the scan's sealed
+    # crease: pushed apart, they tore it)
+    keep[(keep > 0.0) & (keep < touch)] = 0.0
     return Contact(
         rows=np.concatenate(rows),
-        vertices=vertices[np.concatenate(rows)],
-        look=np.repeat([1.0, -1.0], [len(rows[0]), len(rows[1])]),
-        keep=np.concatenate(keep),
-        triangles=tris,
+        vertices=chosen,
+        look=sample_look,
+        keep=keep,
+        triangles=np.concatenate(other),
         facing=np.repeat([1.0, -1.0], [len(other[0]), len(other[1])]),
-        width=float(np.median(width)) if len(width) else 0.0,
+        direction=towards,
+        reach=float(CONTACT_REACH * unit + np.abs(keep).max(initial=0.0)),
+        ends=ends,
     )
+
+
+def _vertex_normals(face: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(N, 3) the area-weighted normals of the (K, 3) `triangles` about each vertex of `face` (not unit; 0 off them)."""
+    corners = face[triangles]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    summed = np.zeros_like(face)
+    for k in range(3):
+        np.add.at(summed, triangles[:, k], normal)
+    return summed
+
+
+def _inward(normals: np.ndarray, up: float) -> np.ndarray:
+    """(P, 3) unit: into the lip's flesh at each vertex, away from the other lip (minus the skin's `normals`); where
+    the skin has no normal or its normal faces the lip's own side (a flap turned into the mouth), straight along its
+    side (`up` 1: the upper lip's, -1: the lower's): the seam's own direction."""
+    length = np.linalg.norm(normals, axis=1, keepdims=True)
+    inward = -normals / np.maximum(length, 1e-300)
+    straight = (length[:, 0] <= 0.0) | (up * inward[:, 1] <= 0.0)
+    inward[straight] = (0.0, up, 0.0)
+    return inward
+
+
+def _along(
+    points: np.ndarray, direction: np.ndarray, tris: np.ndarray, reach: float, behind: bool = False
+) -> tuple[np.ndarray, np.ndarray]:
+    """Along each of the (P, 3) unit `direction` from the (P, 3) `points` (face frame), the first of the (T, 3, 3)
+    `tris` (the other lip's skin) within `reach`: (P,) its distance where it faces along the direction (the point is in
+    the other lip's flesh, as deep; +inf where none faces so or none is met), and with `behind`, (P,) the distance back
+    within `reach` to the nearest one behind that faces along it (the clearance; +inf where none). Only the (point,
+    triangle) pairs whose boxes meet are looked at (the stretch looked along, the triangle's), found through the
+    triangles' centres within `reach` and their own size of that stretch: on ICT's head about 3,000 of 2.7 million."""
+    ahead = np.full(len(points), np.inf)
+    back = np.full(len(points), np.inf)
+    if not len(points) or not len(tris) or not np.isfinite(reach) or not np.isfinite(points).all():
+        return ahead, back
+    reach_box = (reach if behind else 0.5 * reach) * np.abs(direction)  # the stretch ahead, or with `behind` as far
+    middle = points if behind else points + 0.5 * reach * direction  # back too
+    point, tri = _boxes_meeting(middle - reach_box, middle + reach_box, tris.min(axis=1), tris.max(axis=1))
+    if not len(point):
+        return ahead, back
+    ax, ay, az = tris[tri, 0].T
+    e1x, e1y, e1z = tris[tri, 1].T - (ax, ay, az)
+    e2x, e2y, e2z = tris[tri, 2].T - (ax, ay, az)
+    dx, dy, dz = direction[point].T
+    hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x  # d x e2
+    det = e1x * hx + e1y * hy + e1z * hz  # e1 . (d x e2) = -d . (e1 x e2): less than 0 where it faces along d
+    square = (e1x * e1x + e1y * e1y + e1z * e1z) * (e2x * e2x + e2y * e2y + e2z * e2z)
+    ok = det * det > EDGE_ON * EDGE_ON * square  # else seen edge-on
+    inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+    sx, sy, sz = points[point].T - (ax, ay, az)
+    u = inv * (sx * hx + sy * hy + sz * hz)
+    qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x  # s x e1
+    v = inv * (dx * qx + dy * qy + dz * qz)
+    t = inv * (e2x * qx + e2y * qy + e2z * qz)
+    hit = ok & (u >= -EDGE_SLACK) & (v >= -EDGE_SLACK) & (u + v <= 1.0 + EDGE_SLACK)  # an edge is both triangles'
+    along = det < 0.0  # faces along the direction
+    first = np.full(len(points), np.inf)
+    forward = hit & (t >= 0.0) & (t <= reach)
+    np.minimum.at(first, point[forward], t[forward])
+    # the nearest surface ahead decides: the flesh's when it faces along the direction
+    facing = np.full(len(points), np.inf)
+    decides = forward & along & (t <= first[point])
+    np.minimum.at(facing, point[decides], t[decides])
+    ahead = np.where(facing <= first, facing, np.inf)
+    if behind:
+        backward = hit & (t < 0.0) & (-t <= reach) & along
+        np.minimum.at(back, point[backward], -t[backward])
+    return ahead, back
+
+
+def _boxes_meeting(low: np.ndarray, high: np.ndarray, box_low: np.ndarray, box_high: np.ndarray) -> tuple:
+    """(K,) rows of the (P, 3) boxes `low`-`high` and (K,) rows of the (T, 3) boxes `box_low`-`box_high` that meet, each
+    pair once: found through bins of x as wide as the median box (at least the span over T: T^2 pairs at most, as every
+    pair), each pair in the first bin both cover, then kept where the boxes meet (on ICT's head about 700 pairs of
+    620,000; the pairs sharing a bin, some 50,000, are most of the contact's cost; cells of x and z cost more, the
+    stretches looked along being longer than the triangles are wide)."""
+    origin = min(low[:, 0].min(), box_low[:, 0].min())
+    span = max(high[:, 0].max(), box_high[:, 0].max()) - origin
+    width = max(float(np.median(box_high[:, 0] - box_low[:, 0])), span / len(box_low), 1e-300)
+
+    def spread(lo: np.ndarray, hi: np.ndarray) -> tuple:
+        first = ((lo[:, 0] - origin) // width).astype(np.int64)
+        count = ((hi[:, 0] - origin) // width).astype(np.int64) - first + 1
+        bins = np.repeat(first - np.cumsum(count) + count, count) + np.arange(count.sum())
+        return bins, np.repeat(np.arange(len(lo)), count), first
+
+    box_bins, box_of, box_first = spread(box_low, box_high)
+    order = np.argsort(box_bins, kind="stable")
+    box_bins, box_of = box_bins[order], box_of[order]
+    bins, of, first = spread(low, high)
+    begin, end = np.searchsorted(box_bins, bins, "left"), np.searchsorted(box_bins, bins, "right")
+    found = end - begin
+    point, shared = np.repeat(of, found), np.repeat(bins, found)
+    tri = box_of[np.repeat(begin - np.cumsum(found) + found, found) + np.arange(found.sum())]
+    once = shared == np.maximum(first[point], box_first[tri])
+    point, tri = point[once], tri[once]
+    for axis in (1, 2, 0):  # one axis at a time, on what is left (a column each: 3x faster than the boxes at once)
+        meet = (low[point, axis] <= box_high[tri, axis]) & (high[point, axis] >= box_low[tri, axis])
+        point, tri = point[meet], tri[meet]
+    return point, tri
 
 
 def _shadowed(face: np.ndarray, triangles: np.ndarray, lip: np.ndarray, toward: float) -> tuple:
@@ -390,89 +522,52 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
 
 
 def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
-    """Keep the vertices of `guard.contact` out of the other lip's flesh (`lip_penetration`'s depth, less what they
-    had at rest) and as far from it as at rest where they touched it, in place on the deformed (N, 3) `out`, after
-    `guard_lips`: each moves straight up or down by what it lacks, the skin beside it following as it follows the
-    seam's push. True when it moved any. Pushes only part the lips (the upper lip up, the lower down), so no vertex
-    of the contact is left inside the other lip as that lip stood (a second pass changed no count on the heads)."""
+    """Keep the vertices of `guard.contact`, and the middles of the edges between them, out of the other lip's flesh
+    (the depth square to the contact, `_along`, less what they had at rest beyond a touch) and as far from it as at rest
+    where they touched it, in place on the deformed (N, 3) `out`, after `guard_lips`: each vertex moves into its own
+    lip by the most any of its samples lacks, the skin beside it following as it follows the seam's push
+    (`_push_along`). True when it moved any. Pushes only part the lips (each into its own lip, away from the other)."""
     contact = guard.contact
     if contact is None or not len(contact.triangles):
         return False
     axes = guard.axes
-    points = out.take(contact.vertices, axis=0).astype(np.float64) @ axes.T
+    points = (out.take(contact.vertices, axis=0).astype(np.float64) @ axes.T)[contact.ends].mean(axis=1)
     corners = (out.take(contact.triangles.ravel(), axis=0).astype(np.float64) @ axes.T).reshape(-1, 3, 3)
-    # heights along the way each looks (the upper lip up, the lower down), a clearance at rest looked from that far back
-    height = contact.look * points[:, 1] + np.minimum(contact.keep, 0.0)
-    depth = _depths_ahead(points, height, contact.look > 0.0, corners, contact.facing, contact.width)
-    push = np.zeros(len(guard.vertices))
-    push[contact.rows] = np.maximum(depth - np.maximum(contact.keep, 0.0), 0.0)
-    if push.max(initial=0.0) <= 0.0:
+    # a clearance at rest is looked from that far back toward the other lip
+    start = points + np.minimum(contact.keep, 0.0)[:, None] * contact.direction
+    depth = np.zeros(len(points))
+    for look in (1.0, -1.0):
+        rows = np.flatnonzero(contact.look == look)
+        ahead, _ = _along(start[rows], contact.direction[rows], corners[contact.facing == look], contact.reach)
+        depth[rows] = np.where(np.isfinite(ahead), ahead, 0.0)
+    lacks = np.maximum(depth - np.maximum(contact.keep, 0.0), 0.0)
+    if lacks.max(initial=0.0) <= 0.0:
         return False
-    _push(guard, out, push)
+    # each vertex moves by the most any of its samples lacks (an edge's two ends both: its middle moves as far), along
+    # the samples' mean direction weighted by what each lacks
+    moves = np.zeros((len(contact.vertices), 3))
+    push = np.zeros(len(contact.vertices))
+    for k in range(2):
+        np.maximum.at(push, contact.ends[:, k], lacks)
+        np.add.at(moves, contact.ends[:, k], lacks[:, None] * contact.direction)
+    along = moves / np.maximum(np.linalg.norm(moves, axis=1, keepdims=True), 1e-300)
+    pushes = np.zeros(len(guard.vertices))
+    pushes[contact.rows] = push
+    directions = np.zeros((len(guard.vertices), 3))
+    directions[contact.rows] = along
+    _push_along(guard, out, pushes, directions)
     return True
 
 
-def _depths_ahead(
-    points: np.ndarray, height: np.ndarray, first: np.ndarray, tris: np.ndarray, facing: np.ndarray, width: float
-) -> np.ndarray:
-    """(P,) `_depth` where positive (else 0) of each of the (P, 3) `points` (face frame), at `height` along the way it
-    looks, into the flesh under the (T, 3, 3) `tris` of the other group (`first` (P,) bool: the points that look at
-    the triangles with `facing` 1; the others at those with -1; a triangle's height along the way it is looked at is
-    `facing` x its y). Only the (point, triangle) pairs that can decide are looked at: the triangle's x range holds the
-    point's x (its column meets no other) and a corner of it lies ahead of the point (no other is a surface ahead),
-    found through bins of x `width` wide (at least the span over T: T^2 pairs at most, as every pair). On ICT's head a
-    hundred pairs of 360,000 decide; looking at every pair made its frames 20x the median."""
-    depth = np.zeros(len(points))
-    a, b, c = tris[:, 0], tris[:, 1], tris[:, 2]
-    normal_y = (b[:, 2] - a[:, 2]) * (c[:, 0] - a[:, 0]) - (b[:, 0] - a[:, 0]) * (c[:, 2] - a[:, 2])
-    usable = np.abs(normal_y) > 2.0 * MIN_PROJECTED_AREA  # seen edge-on from above: no height to give
-    if not len(points) or not usable.any():
-        return depth
-    slack = EDGE_SLACK * (1.0 + np.abs(points[:, 0]).max())  # a column on a triangle's edge goes through it
-    low, high = tris[:, :, 0].min(axis=1) - slack, tris[:, :, 0].max(axis=1) + slack
-    top = (facing[:, None] * tris[:, :, 1]).max(axis=1)
-    origin = min(low.min(), points[:, 0].min())
-    span = max(high.max(), points[:, 0].max()) - origin
-    if not np.isfinite(span):  # a position not a number: no depth to give (and no bins to count)
-        return depth
-    width = max(width, span / len(tris), 1e-300)
-    group = int(span // width) + 2  # the bins of the triangles with facing -1 come after the others'
-    start = ((low - origin) // width).astype(np.int64) + np.where(facing > 0.0, 0, group)
-    counts = np.where(usable, ((high - origin) // width).astype(np.int64) - ((low - origin) // width) + 1, 0)
-    counts = counts.astype(np.int64)
-    tri_of = np.repeat(np.arange(len(tris)), counts)
-    bin_of = np.repeat(start - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
-    order = np.argsort(bin_of, kind="stable")
-    bins, tri_of = bin_of[order], tri_of[order]
-    if not len(bins):
-        return depth
-    where = ((points[:, 0] - origin) // width).astype(np.int64) + np.where(first, 0, group)
-    # a point under no corner ahead in its bin has no surface ahead
-    runs = np.flatnonzero(np.r_[True, bins[1:] != bins[:-1]])
-    run = np.minimum(np.searchsorted(bins[runs], where), len(runs) - 1)
-    reach = np.maximum.reduceat(top[tri_of], runs)
-    look = np.flatnonzero((bins[runs][run] == where) & (reach[run] >= height))
-    begin, end = np.searchsorted(bins, where[look], "left"), np.searchsorted(bins, where[look], "right")
-    found = end - begin
-    point = np.repeat(look, found)
-    tri = tri_of[np.repeat(begin - np.cumsum(found) + found, found) + np.arange(found.sum())]
-    x = points[point, 0]
-    keep = (low[tri] <= x) & (high[tri] >= x) & (top[tri] >= height[point])
-    point, tri = point[keep], tri[keep]
-    a, b, c, ny = a[tri], b[tri], c[tri], normal_y[tri]
-    px, pz = points[point, 0], points[point, 2]
-    wb = ((pz - a[:, 2]) * (c[:, 0] - a[:, 0]) - (px - a[:, 0]) * (c[:, 2] - a[:, 2])) / ny
-    wc = ((b[:, 2] - a[:, 2]) * (px - a[:, 0]) - (b[:, 0] - a[:, 0]) * (pz - a[:, 2])) / ny
-    wa = 1.0 - wb - wc
-    offset = facing[tri] * (wa * a[:, 1] + wb * b[:, 1] + wc * c[:, 1]) - height[point]
-    ahead = (wa >= -EDGE_SLACK) & (wb >= -EDGE_SLACK) & (wc >= -EDGE_SLACK) & (offset >= 0.0)
-    point, offset, toward = point[ahead], offset[ahead], facing[tri[ahead]] * ny[ahead] > 0.0
-    order = np.lexsort((offset, point))  # each point's nearest surface ahead first
-    point, offset, toward = point[order], offset[order], toward[order]
-    nearest = np.r_[True, point[1:] != point[:-1]]
-    inside = nearest & toward & (offset > 0.0)
-    depth[point[inside]] = offset[inside]
-    return depth
+def _push_along(guard: LipGuard, out: np.ndarray, push: np.ndarray, directions: np.ndarray) -> None:
+    """`_push`, each guarded vertex moved by its (V,) `push` along its (V, 3) unit `directions` (face frame) instead
+    of straight along its side, and the skin beside the lips by its shares of those moves, in place on `out`."""
+    weight = np.abs(guard.shares) * push.take(guard.sources)  # (k, V + C)
+    step = np.einsum("kr,krc->rc", weight, directions.take(guard.sources, axis=0))
+    n = len(guard.vertices)
+    short = push - np.einsum("rc,rc->r", step[:n], directions)  # its own push, where the shared move falls short
+    step[:n] += directions * np.maximum(short, 0.0)[:, None]
+    out[guard.skin] += (step @ guard.axes).astype(out.dtype)
 
 
 def _push(guard: LipGuard, out: np.ndarray, push: np.ndarray) -> None:

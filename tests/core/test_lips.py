@@ -5,7 +5,7 @@ import pytest
 
 from addon.deform.folds import count_inverted
 from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration, press_apart
-from addon.deform.overlaps import crossings
+from addon.deform.overlaps import crossing_pairs, crossings
 
 FACE = np.eye(3)  # the test mesh is built in the face frame
 XS = np.linspace(-0.025, 0.025, 11)  # 5 mm apart, mirror-symmetric about x = 0
@@ -245,7 +245,11 @@ def test_lips_sliding_on_a_sloping_contact_are_kept_out_of_each_other(apart, kep
     assert np.all(guard.slack[guard.side < 0][rest[guard.vertices[guard.side < 0], 2] < ZS[-1]] < 0.0)
     assert guard.contact is not None  # every seam knot has lower vertices past it: every lip vertex is in the contact
     np.testing.assert_array_equal(np.sort(guard.contact.rows), np.arange(len(guard.vertices)))
-    np.testing.assert_allclose(guard.contact.keep, -kept, atol=1e-15)
+    contact = guard.contact
+    z = rest[contact.vertices][contact.ends].mean(axis=1)[:, 2]  # the samples': vertices, edges' middles
+    behind = (z > ZS[0]) & (z < ZS[-1])
+    np.testing.assert_allclose(contact.keep[behind], -kept / np.sqrt(2.0), atol=1e-15)  # square to the contact
+    assert np.all(contact.keep[~behind] <= 0.0)  # at the edges the other lip may not be behind: nothing kept then
     out = rest.copy()
     guard_lips(guard, out, fps)
     press_apart(guard, out)
@@ -259,8 +263,10 @@ def test_lips_sliding_on_a_sloping_contact_are_kept_out_of_each_other(apart, kep
     assert press_apart(guard, out)
     assert crossings(out, triangles) == 0
     assert depth(out, triangles, upper, lower) <= -kept + 1e-12  # out of it, and a touch kept
-    np.testing.assert_array_equal(out[:, [0, 2]], slid[:, [0, 2]])  # only up and down
-    assert np.all(out[lower, 1] <= seamed[lower, 1]) and np.all(out[upper, 1] >= seamed[upper, 1])
+    moved = out - seamed  # square to the contact, into each one's own lip: the upper up and forward, the lower down
+    np.testing.assert_array_equal(moved[:, 0], 0.0)  # and back
+    np.testing.assert_allclose(moved[:, 1], moved[:, 2], rtol=1e-9, atol=1e-15)
+    assert np.all(moved[lower, 1] <= 0.0) and np.all(moved[upper, 1] >= 0.0) and moved[lower, 1].min() < 0.0
 
 
 def test_a_mouth_whose_seam_parts_its_lips_at_rest_has_no_contact():
@@ -270,3 +276,21 @@ def test_a_mouth_whose_seam_parts_its_lips_at_rest_has_no_contact():
     out = rest.copy()
     out[upper, 1] -= 0.003
     assert not press_apart(guard, out)
+
+
+def test_lips_overlapping_at_rest_by_less_than_a_touch_are_parted_as_they_slide():
+    """The sloping contact with the lips passing 0.1 mm into each other at rest (under TOUCH_GAP: the Rocketbox's
+    corners; parallel, no pair crosses), the lower lip slid forward as above. Kept as deep as at rest (the vertical
+    depth, its allowance), the contact pushed the lips into 20 crossing pairs; parted to touching, square to the
+    contact, none."""
+    rest, triangles, upper, lower, fps = tucked_mouth(apart=-0.0001)
+    at_rest = crossing_pairs(rest, triangles)  # none: each sheet lies in the other's flesh, parallel to it
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    assert guard.contact is not None and np.all(guard.contact.keep <= 0.0)  # no depth allowed
+    slid = rest.copy()
+    slid[lower, 2] += 0.002 * np.cos(np.pi * rest[lower, 0] / 0.05) ** 2
+    out = slid.copy()
+    guard_lips(guard, out, fps)
+    assert press_apart(guard, out)
+    assert crossings(out, triangles, None, at_rest) == 0
+    assert depth(out, triangles, upper, lower) <= 1e-12
