@@ -83,6 +83,12 @@ def _rig(face, binding: Binding) -> EyelidRig | None:
     return cached[1]
 
 
+def current(face) -> EyelidRig | None:
+    """The lids' rig playback last used for `face`, or None (not played yet, or no lids' turn: an eye's FPs missing)."""
+    cached = _rigs.get(face.session_uid)
+    return None if cached is None else cached[1]
+
+
 def hold(face, binding: Binding, control_ids, points: np.ndarray) -> np.ndarray:
     """The control points for the deformer: the mid-lid FPs at rest when the lids are rigged (`apply` turns them)."""
     return points if _rig(face, binding) is None else hold_lids(control_ids, points, binding.control_rest)

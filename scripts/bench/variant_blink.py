@@ -52,7 +52,7 @@ def full_blink(face) -> np.ndarray:
 
 def seen_gaps(face, points: np.ndarray, triangles: np.ndarray, eye: int) -> list[float]:
     """The seen gap (m) of `eye` (0 left, 1 right) at `points`, from each of `PITCHES`."""
-    rig = eyelid_rig._rigs[face.session_uid][1]
+    rig = eyelid_rig.current(face)
     empties = face_data.fp_empties(face)
     inner, outer, pupil = EYES[eye]
     centre = rig.centres[eye] @ rig.axes
@@ -77,7 +77,7 @@ def measure(face) -> list[dict]:
     edges = lid_edges(face, rest, ~parts)
     margins = lid_margins(face, rest, skin)
     closed = full_blink(face)
-    rig = eyelid_rig._rigs[face.session_uid][1]
+    rig = eyelid_rig.current(face)
     turned = inverted_faces(rest, closed, triangles)
     at_rest = crossing_pairs(rest, skin)
     rows = []

@@ -79,7 +79,7 @@ def lid_margins(face, rest: np.ndarray, skin: np.ndarray) -> list[tuple[np.ndarr
     triangles, the rig's eyeball: its centre, its radius to the pupil FP): (P, 3) corners and (P, 3) barycentric
     weights of points on the skin, evenly along the eye; `lid_edges`' vertices nearest the FP line are not the
     margin where it curves away from that line (the sample's inner corners)."""
-    rig = eyelid_rig._rigs.get(face.session_uid, (None, None))[1]
+    rig = eyelid_rig.current(face)
     if rig is None:  # no lids' turn (an eye's FPs missing)
         return []
     neutral = face_data.neutral_positions(face_data.fp_empties(face)) @ rig.axes.T

@@ -163,7 +163,7 @@ def test_a_blink_closes_the_lid_in_playback_and_gaze_moves_the_lids():
     head = unset_sample()
     assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
     empties = face_data.fp_empties(head)
-    rig = eyelid_rig._rigs[head.session_uid][1]
+    rig = eyelid_rig.current(head)
     assert rig is not None
     upper, lower = (np.array(empties[f].location) for f in ("3.1", "3.3"))
     rest = positions(head.data).copy()

@@ -419,7 +419,7 @@ def test_what_a_rebind_does_not_change_is_not_made_again_on_the_main_thread(monk
     monkeypatch.setattr(binding_store, "REBIND_DELAY", 0.0)
     guard, old_key = live._states[head.session_uid].lip_guard, binding_store.stored_key(head)
     assert guard is not None
-    lids = eyelid_rig._rigs[head.session_uid][1]
+    lids = eyelid_rig.current(head)
     assert lids is not None
     head.mpeg4_face.radius_fraction = 1.5
     deadline = time.monotonic() + 30
@@ -432,13 +432,13 @@ def test_what_a_rebind_does_not_change_is_not_made_again_on_the_main_thread(monk
     state = live._states[head.session_uid]
     assert state.key == binding_store.stored_key(head) != old_key
     assert state.lip_guard is guard
-    assert eyelid_rig._rigs[head.session_uid][1] is lids  # the lids' fold-free weights were not made again
+    assert eyelid_rig.current(head) is lids  # the lids' fold-free weights were not made again
     head.mpeg4_face.keep_lips_apart = False
     head.mpeg4_face.keep_lips_apart = True
     assert live._states[head.session_uid].lip_guard is guard  # switched off and on: the same inputs
     live.forget()  # as an undo does: the same inputs, the same weights
     assert live.apply_face(head, force=True)
-    assert eyelid_rig._rigs[head.session_uid][1] is lids
+    assert eyelid_rig.current(head) is lids
     live.on_load_post()  # another file: nothing kept
     assert not eyelid_rig._made and not eyelid_rig._rigs
 
