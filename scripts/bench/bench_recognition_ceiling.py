@@ -42,10 +42,14 @@ import contextlib
 import hashlib
 import json
 import math
+import struct
+import subprocess
 import tempfile
 import time
 from collections import Counter
 from pathlib import Path
+
+import numpy as np
 
 from addon.speech import espeak, phone_alignment, recording
 from addon.speech.segments import TimedLabel
@@ -242,6 +246,170 @@ def md5(path: Path) -> str:
     return hashlib.md5(path.read_bytes()).hexdigest()
 
 
+# ----------------------------------------------------------------------------- (e) speaker adaptation (MLLR)
+
+SPHINXTRAIN = Path("/usr/lib/sphinxtrain")  # Debian's sphinxtrain: bw, mllr_solve
+SPHINX_FE = Path("/usr/bin/sphinx_fe")  # Debian's sphinxbase-utils
+MDEF_CONVERT = Path("/usr/bin/pocketsphinx_mdef_convert")  # Debian's pocketsphinx
+LOG_BASE_SHIFT = 1024 * math.log(1.0001)  # a sendump byte v is P = 1.0001 ** -(v << 10) (logmath, SENSCR_SHIFT)
+
+
+def adaptation_tools() -> list[Path]:
+    """The programs row (e) needs that are missing (`apt-get install sphinxtrain sphinxbase-utils pocketsphinx`)."""
+    tools = (SPHINXTRAIN / "bw", SPHINXTRAIN / "mllr_solve", SPHINX_FE, MDEF_CONVERT)
+    return [t for t in tools if not t.is_file()]
+
+
+def mixture_weights(sendump: Path) -> bytes:
+    """The model's mixture weights as sphinxtrain reads them (s3 float32, senone x stream x density) from the
+    wheel's quantised `sendump` (which bw cannot read): after its header strings, #codewords and #pdfs (int32),
+    then per stream and codeword one byte per senone (cluster_count 0)."""
+    data = sendump.read_bytes()
+    offset = 0
+    while length := int.from_bytes(data[offset : offset + 4], "little"):
+        offset += 4 + length
+    densities, senones = struct.unpack_from("<2i", data, offset + 4)
+    quantised = np.frombuffer(data, np.uint8, offset=offset + 12).reshape(-1, densities, senones)
+    weights = np.exp(-quantised.astype(np.float64) * LOG_BASE_SHIFT).transpose(2, 0, 1)
+    weights /= weights.sum(axis=2, keepdims=True)  # the quantisation's rounding
+    header = b"s3\nversion 1.0\n" + b" " * 5 + b"endhdr\n"  # 28 bytes: the data 4-byte aligned
+    dims = struct.pack("<I4i", 0x11223344, *weights.shape, weights.size)
+    return header + dims + weights.astype("<f4").tobytes()
+
+
+def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, wheel: Path) -> Path:
+    """MLLR of the wheel's model on `cases` (CMUSphinx's adaptation steps): features with the model's
+    feat.params (sphinx_fe), Baum-Welch statistics (bw) against each take's phone sequence in `sequences` (the
+    model's phones, SIL for a pause; a dictionary whose words are the phones, a pause as the filler <sil>), one
+    global mean transform (mllr_solve). Returns the mllr_matrix path."""
+    model = folder / "model"
+    model.mkdir(parents=True)
+    for name in ("means", "variances", "transition_matrices", "feat.params", "noisedict"):
+        (model / name).symlink_to(wheel / name)
+    (model / "mixture_weights").write_bytes(mixture_weights(wheel / "sendump"))
+    run = lambda *command: subprocess.run([str(c) for c in command], capture_output=True, check=True)  # noqa: E731
+    run(MDEF_CONVERT, "-text", wheel / "mdef", model / "mdef.txt")
+    ids, lines = [], []
+    for k, (case, sequence) in enumerate(zip(cases, sequences, strict=True)):
+        pcm = np.clip(case["take"].samples, -1.0, 1.0) * 32767
+        pcm.astype("<i2").tofile(folder / f"take{k}.raw")
+        ids.append(f"take{k}")
+        words = ["<sil>" if p == "SIL" else p.lower() for p in sequence]
+        lines.append(f"<s> {' '.join(words)} </s> (take{k})")
+    (folder / "ids").write_text("\n".join(ids) + "\n")
+    (folder / "transcription").write_text("\n".join(lines) + "\n")
+    phones = model_phones(wheel) - {"SIL"}
+    (folder / "dictionary").write_text("".join(f"{p.lower()} {p}\n" for p in sorted(phones)))
+    run(
+        SPHINX_FE,
+        "-argfile",
+        wheel / "feat.params",
+        "-samprate",
+        recording.RATE,
+        "-c",
+        folder / "ids",
+        "-di",
+        folder,
+        "-do",
+        folder,
+        "-ei",
+        "raw",
+        "-eo",
+        "mfc",
+        "-raw",
+        "yes",
+        "-input_endian",
+        "little",
+    )
+    run(
+        SPHINXTRAIN / "bw",
+        "-hmmdir",
+        model,
+        "-moddeffn",
+        model / "mdef.txt",
+        "-ts2cbfn",
+        ".ptm.",
+        "-feat",
+        "1s_c_d_dd",
+        "-svspec",
+        "0-12/13-25/26-38",
+        "-cmn",
+        "batch",
+        "-agc",
+        "none",
+        "-varnorm",
+        "no",
+        "-dictfn",
+        folder / "dictionary",
+        "-fdictfn",
+        wheel / "noisedict",
+        "-ctlfn",
+        folder / "ids",
+        "-lsnfn",
+        folder / "transcription",
+        "-cepdir",
+        folder,
+        "-cepext",
+        "mfc",
+        "-accumdir",
+        folder,
+    )
+    matrix = folder / "mllr_matrix"
+    run(
+        SPHINXTRAIN / "mllr_solve",
+        "-meanfn",
+        wheel / "means",
+        "-varfn",
+        wheel / "variances",
+        "-outmllrfn",
+        matrix,
+        "-accumdir",
+        folder,
+    )
+    return matrix
+
+
+def spoken(phones: list[str]) -> list[str]:
+    """A phone sequence as bw's transcript takes it: the model's phones, one SIL per pause, none at the ends."""
+    out: list[str] = []
+    for phone in phones:
+        if not (phone == "SIL" and (not out or out[-1] == "SIL")):
+            out.append(phone)
+    return out[:-1] if out and out[-1] == "SIL" else out
+
+
+def adapted_rows(cases: list[dict], row, folder: Path, wheel: Path) -> None:
+    """Rows (e): the shipped phone loop with the model adapted by MLLR, on the voice's takes or the take alone,
+    against the true phones (supervised: the best case) or the phone loop's own phones (unsupervised)."""
+    missing = adaptation_tools()
+    if missing:
+        names = " ".join(str(m) for m in missing)
+        print(f"(e) skipped: {names} missing (apt-get install sphinxtrain sphinxbase-utils pocketsphinx)")
+        return
+    phones = model_phones(wheel)
+    truth = {id(c): spoken(true_phones(c["speech"], c["voice"])) for c in cases}
+    for supervised in (True, False):
+        if not supervised:
+            found = {id(c): [p.label.upper() for p in phone_loop(c)] for c in cases}
+            hypothesis = {k: spoken([p for p in v if p in phones]) for k, v in found.items()}
+        sequences = truth if supervised else hypothesis
+        for scope in ("voice", "take"):
+            transforms: dict = {}
+
+            def adapted(case: dict, scope: str = scope, sequences: dict = sequences, transforms: dict = transforms):
+                key = case["voice"] if scope == "voice" else id(case)
+                if key not in transforms:
+                    group = [c for c in cases if (c["voice"] if scope == "voice" else id(c)) == key]
+                    where = Path(tempfile.mkdtemp(dir=folder))
+                    transforms[key] = mllr_transform(group, [sequences[id(c)] for c in group], where, wheel)
+                with swapped({"mllr": str(transforms[key])}):
+                    return phone_loop(case)
+
+            kind = "supervised (the true phones)" if supervised else "unsupervised (the phone loop's own phones)"
+            group = "the voice's takes" if scope == "voice" else "the take alone"
+            row(f"(e) phone loop, model adapted by MLLR, {kind}, on {group}", adapted)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="3 sentences (a smoke run)")
@@ -299,6 +467,8 @@ def main(argv=None) -> int:
                 return words_path(case)
 
         row("(b) words path, word LM of the take's own sentence", own_words)
+        if not args.only or "(e)" in args.only:
+            adapted_rows(cases, row, Path(folder), wheel / "en-us")
     if args.only and "(c)" not in args.only:
         return _write(report, args.json)
     print("(c) other PocketSphinx acoustic models (Debian: pocketsphinx-en-us, pocketsphinx-testdata):")
