@@ -251,6 +251,7 @@ def md5(path: Path) -> str:
 SPHINXTRAIN = Path("/usr/lib/sphinxtrain")  # Debian's sphinxtrain: bw, mllr_solve
 SPHINX_FE = Path("/usr/bin/sphinx_fe")  # Debian's sphinxbase-utils
 MDEF_CONVERT = Path("/usr/bin/pocketsphinx_mdef_convert")  # Debian's pocketsphinx
+BW_BEAM = "1e-300"  # bw's alpha and beta beams (its default 1e-100 drops takes of the dev set: final state not reached)
 LOG_BASE_SHIFT = 1024 * math.log(1.0001)  # a sendump byte v is P = 1.0001 ** -(v << 10) (logmath, SENSCR_SHIFT)
 
 
@@ -321,7 +322,7 @@ def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, 
         "-input_endian",
         "little",
     )
-    run(
+    statistics = run(
         SPHINXTRAIN / "bw",
         "-hmmdir",
         model,
@@ -353,7 +354,13 @@ def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, 
         "mfc",
         "-accumdir",
         folder,
+        "-abeam",
+        BW_BEAM,
+        "-bbeam",
+        BW_BEAM,
     )
+    if dropped := statistics.stderr.count(b" ignored"):
+        print(f"  bw could not align {dropped} of {len(cases)} takes (left out of the statistics)")
     matrix = folder / "mllr_matrix"
     run(
         SPHINXTRAIN / "mllr_solve",
