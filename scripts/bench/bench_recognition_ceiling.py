@@ -251,7 +251,9 @@ def md5(path: Path) -> str:
 SPHINXTRAIN = Path("/usr/lib/sphinxtrain")  # Debian's sphinxtrain: bw, mllr_solve
 SPHINX_FE = Path("/usr/bin/sphinx_fe")  # Debian's sphinxbase-utils
 MDEF_CONVERT = Path("/usr/bin/pocketsphinx_mdef_convert")  # Debian's pocketsphinx
-BW_BEAM = "1e-300"  # bw's alpha and beta beams (its default 1e-100 drops takes of the dev set: final state not reached)
+BW_BEAM = (
+    "1e-200"  # bw's alpha and beta beams: its default 1e-100 drops more takes (final state not reached), 1e-300 aborts
+)
 LOG_BASE_SHIFT = 1024 * math.log(1.0001)  # a sendump byte v is P = 1.0001 ** -(v << 10) (logmath, SENSCR_SHIFT)
 
 
