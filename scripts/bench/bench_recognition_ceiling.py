@@ -410,7 +410,13 @@ def adapted_rows(cases: list[dict], row, folder: Path, wheel: Path) -> None:
                 if key not in transforms:
                     group = [c for c in cases if (c["voice"] if scope == "voice" else id(c)) == key]
                     where = Path(tempfile.mkdtemp(dir=folder))
-                    transforms[key] = mllr_transform(group, [sequences[id(c)] for c in group], where, wheel)
+                    try:
+                        transforms[key] = mllr_transform(group, [sequences[id(c)] for c in group], where, wheel)
+                    except subprocess.CalledProcessError as exc:  # bw aligned none of the group's takes
+                        print(f"  no transform ({Path(exc.cmd[0]).name} failed): {case['voice']} decoded unadapted")
+                        transforms[key] = None
+                if transforms[key] is None:
+                    return phone_loop(case)
                 with swapped({"mllr": str(transforms[key])}):
                     return phone_loop(case)
 
