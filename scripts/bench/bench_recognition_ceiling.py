@@ -280,101 +280,47 @@ def mixture_weights(sendump: Path) -> bytes:
     return header + dims + weights.astype("<f4").tobytes()
 
 
-def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, wheel: Path) -> Path:
+def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, wheel: Path) -> Path | None:
     """MLLR of the wheel's model on `cases` (CMUSphinx's adaptation steps): features with the model's
-    feat.params (sphinx_fe), Baum-Welch statistics (bw) against each take's phone sequence in `sequences` (the
-    model's phones, SIL for a pause; a dictionary whose words are the phones, a pause as the filler <sil>), one
-    global mean transform (mllr_solve). Returns the mllr_matrix path."""
+    feat.params (sphinx_fe), Baum-Welch statistics (bw) of each take against its phone sequence in `sequences`
+    (the model's phones, SIL for a pause; a dictionary whose words are the phones, a pause as the filler <sil>),
+    one global mean transform from the statistics of the takes bw could align (mllr_solve). Returns the
+    mllr_matrix path, or None when bw aligned none of them."""
     model = folder / "model"
     model.mkdir(parents=True)
     for name in ("means", "variances", "transition_matrices", "feat.params", "noisedict"):
         (model / name).symlink_to(wheel / name)
     (model / "mixture_weights").write_bytes(mixture_weights(wheel / "sendump"))
-    run = lambda *command: subprocess.run([str(c) for c in command], capture_output=True, check=True)  # noqa: E731
-    run(MDEF_CONVERT, "-text", wheel / "mdef", model / "mdef.txt")
-    ids, lines = [], []
-    for k, (case, sequence) in enumerate(zip(cases, sequences, strict=True)):
-        pcm = np.clip(case["take"].samples, -1.0, 1.0) * 32767
-        pcm.astype("<i2").tofile(folder / f"take{k}.raw")
-        ids.append(f"take{k}")
-        words = ["<sil>" if p == "SIL" else p.lower() for p in sequence]
-        lines.append(f"<s> {' '.join(words)} </s> (take{k})")
-    (folder / "ids").write_text("\n".join(ids) + "\n")
-    (folder / "transcription").write_text("\n".join(lines) + "\n")
+    run = lambda *command: subprocess.run([str(c) for c in command], capture_output=True)  # noqa: E731
+    run(MDEF_CONVERT, "-text", wheel / "mdef", model / "mdef.txt").check_returncode()
     phones = model_phones(wheel) - {"SIL"}
     (folder / "dictionary").write_text("".join(f"{p.lower()} {p}\n" for p in sorted(phones)))
-    run(
-        SPHINX_FE,
-        "-argfile",
-        wheel / "feat.params",
-        "-samprate",
-        recording.RATE,
-        "-c",
-        folder / "ids",
-        "-di",
-        folder,
-        "-do",
-        folder,
-        "-ei",
-        "raw",
-        "-eo",
-        "mfc",
-        "-raw",
-        "yes",
-        "-input_endian",
-        "little",
-    )
-    statistics = run(
-        SPHINXTRAIN / "bw",
-        "-hmmdir",
-        model,
-        "-moddeffn",
-        model / "mdef.txt",
-        "-ts2cbfn",
-        ".ptm.",
-        "-feat",
-        "1s_c_d_dd",
-        "-svspec",
-        "0-12/13-25/26-38",
-        "-cmn",
-        "batch",
-        "-agc",
-        "none",
-        "-varnorm",
-        "no",
-        "-dictfn",
-        folder / "dictionary",
-        "-fdictfn",
-        wheel / "noisedict",
-        "-ctlfn",
-        folder / "ids",
-        "-lsnfn",
-        folder / "transcription",
-        "-cepdir",
-        folder,
-        "-cepext",
-        "mfc",
-        "-accumdir",
-        folder,
-        "-abeam",
-        BW_BEAM,
-        "-bbeam",
-        BW_BEAM,
-    )
-    if dropped := statistics.stderr.count(b" ignored"):
-        print(f"  bw could not align {dropped} of {len(cases)} takes (left out of the statistics)")
+    for k, case in enumerate(cases):
+        (np.clip(case["take"].samples, -1.0, 1.0) * 32767).astype("<i2").tofile(folder / f"take{k}.raw")
+    (folder / "ids").write_text("".join(f"take{k}\n" for k in range(len(cases))))
+    fe = ("-argfile", wheel / "feat.params", "-samprate", recording.RATE, "-c", folder / "ids", "-di", folder)
+    run(SPHINX_FE, *fe, "-do", folder, "-ei", "raw", "-eo", "mfc", "-raw", "yes", "-input_endian", "little")
+    bw = (SPHINXTRAIN / "bw", "-hmmdir", model, "-moddeffn", model / "mdef.txt", "-ts2cbfn", ".ptm.")
+    bw += ("-feat", "1s_c_d_dd", "-svspec", "0-12/13-25/26-38", "-cmn", "batch", "-agc", "none", "-varnorm", "no")
+    bw += ("-dictfn", folder / "dictionary", "-fdictfn", wheel / "noisedict", "-cepdir", folder, "-cepext", "mfc")
+    bw += ("-abeam", BW_BEAM, "-bbeam", BW_BEAM)
+    aligned = []
+    for k, sequence in enumerate(sequences):  # one take at a time: bw aborts on some, and drops others
+        take = folder / f"stats{k}"
+        take.mkdir()
+        (take / "ids").write_text(f"take{k}\n")
+        words = ["<sil>" if p == "SIL" else p.lower() for p in sequence]
+        (take / "transcription").write_text(f"<s> {' '.join(words)} </s> (take{k})\n")
+        done = run(*bw, "-ctlfn", take / "ids", "-lsnfn", take / "transcription", "-accumdir", take)
+        if done.returncode == 0 and b" ignored" not in done.stderr:
+            aligned.append(take)
+    if len(aligned) < len(cases):
+        print(f"  bw could not align {len(cases) - len(aligned)} of {len(cases)} takes (left out)", flush=True)
+    if not aligned:
+        return None
     matrix = folder / "mllr_matrix"
-    run(
-        SPHINXTRAIN / "mllr_solve",
-        "-meanfn",
-        wheel / "means",
-        "-varfn",
-        wheel / "variances",
-        "-outmllrfn",
-        matrix,
-        "-accumdir",
-        folder,
-    )
+    solve = (SPHINXTRAIN / "mllr_solve", "-meanfn", wheel / "means", "-varfn", wheel / "variances")
+    run(*solve, "-outmllrfn", matrix, "-accumdir", ",".join(map(str, aligned))).check_returncode()
     return matrix
 
 
@@ -410,12 +356,8 @@ def adapted_rows(cases: list[dict], row, folder: Path, wheel: Path) -> None:
                 if key not in transforms:
                     group = [c for c in cases if (c["voice"] if scope == "voice" else id(c)) == key]
                     where = Path(tempfile.mkdtemp(dir=folder))
-                    try:
-                        transforms[key] = mllr_transform(group, [sequences[id(c)] for c in group], where, wheel)
-                    except subprocess.CalledProcessError as exc:  # bw aligned none of the group's takes
-                        print(f"  no transform ({Path(exc.cmd[0]).name} failed): {case['voice']} decoded unadapted")
-                        transforms[key] = None
-                if transforms[key] is None:
+                    transforms[key] = mllr_transform(group, [sequences[id(c)] for c in group], where, wheel)
+                if transforms[key] is None:  # the take decoded unadapted (said above)
                     return phone_loop(case)
                 with swapped({"mllr": str(transforms[key])}):
                     return phone_loop(case)
