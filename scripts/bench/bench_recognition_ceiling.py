@@ -275,7 +275,7 @@ def mixture_weights(sendump: Path) -> bytes:
     quantised = np.frombuffer(data, np.uint8, offset=offset + 12).reshape(-1, densities, senones)
     weights = np.exp(-quantised.astype(np.float64) * LOG_BASE_SHIFT).transpose(2, 0, 1)
     weights /= weights.sum(axis=2, keepdims=True)  # the quantisation's rounding
-    header = b"s3\nversion 1.0\n" + b" " * 5 + b"endhdr\n"  # 28 bytes: the data 4-byte aligned
+    header = b"s3\nversion 1.0\n" + b" " * 6 + b"endhdr\n"  # 28 bytes: the data 4-byte aligned
     dims = struct.pack("<I4i", 0x11223344, *weights.shape, weights.size)
     return header + dims + weights.astype("<f4").tobytes()
 
