@@ -3,7 +3,8 @@
     .venv/bin/python -m scripts.bench.bench_recognition_ceiling [--quick] [--json OUT.json] [--only TEXT]
 
 (--only: the rows whose name holds TEXT, e.g. "(b)", "(c)" or "beams". Needs espeak-ng and pocketsphinx==5.1.1;
-for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`. PyPI's older bindings that bundle a model
+for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`; for (e), `apt-get install sphinxtrain
+sphinxbase-utils pocketsphinx` (measurement tools, not dependencies: without them (e) says so and is skipped). PyPI's older bindings that bundle a model
 (pocketsphinx 0.1.15, PyPocketsphinx 0.1.20, pocketsphinx2 0.1.17, pocketsphinx-fork 1.0.0) were compared by hand,
 docs/voice.md.)
 
@@ -33,6 +34,12 @@ model could:
                   model directory found in Debian's pocketsphinx-en-us and pocketsphinx-testdata (installed with
                   apt-get) is listed with whether its files are the wheel's model byte for byte; each that is not,
                   and reads 16 kHz speech with phones the phone LM names, is decoded
+  (e) adapted     the shipped phone loop with the wheel's model adapted to the speaker by MLLR (one global mean
+                  transform, PocketSphinx's `mllr` option), estimated with Debian's sphinxtrain as CMUSphinx's
+                  adaptation tutorial does (sphinx_fe, bw, mllr_solve; the mixture weights bw needs read from the
+                  wheel's sendump): supervised (bw given each take's true phone sequence, `true_phones`: the best
+                  case) or unsupervised (given the phone loop's own phones), on all takes of the voice or on the
+                  take alone; a take bw cannot align is left out of the statistics (said)
 """
 
 from __future__ import annotations
