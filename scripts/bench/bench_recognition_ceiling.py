@@ -2,11 +2,11 @@
 
     .venv/bin/python -m scripts.bench.bench_recognition_ceiling [--quick] [--json OUT.json] [--only TEXT]
 
-(--only: the rows whose name holds TEXT, e.g. "(b)", "(c)" or "beams". Needs espeak-ng and pocketsphinx==5.1.1;
-for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`; for (e), `apt-get install sphinxtrain
-sphinxbase-utils pocketsphinx` (measurement tools, not dependencies: without them (e) says so and is skipped). PyPI's older bindings that bundle a model
-(pocketsphinx 0.1.15, PyPocketsphinx 0.1.20, pocketsphinx2 0.1.17, pocketsphinx-fork 1.0.0) were compared by hand,
-docs/voice.md.)
+(--only: the rows whose name holds TEXT, e.g. "(b)", "(c)", "(e)" or "beams". Needs espeak-ng and
+pocketsphinx==5.1.1; for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`; for (e), `apt-get install
+sphinxtrain sphinxbase-utils pocketsphinx` (measurement tools, not dependencies: without them (e) says so and is
+skipped). PyPI's older bindings that bundle a model (pocketsphinx 0.1.15, PyPocketsphinx 0.1.20, pocketsphinx2
+0.1.17, pocketsphinx-fork 1.0.0) were compared by hand, docs/voice.md.)
 
 On the benchmark's dev takes (scripts/bench/bench_lipsync.py: its first 12 sentences, voices en-us and en, 150
 and 200 words a minute, clean; synthesised once, every row decodes the same samples), scored as the benchmark
@@ -258,9 +258,8 @@ def md5(path: Path) -> str:
 SPHINXTRAIN = Path("/usr/lib/sphinxtrain")  # Debian's sphinxtrain: bw, mllr_solve
 SPHINX_FE = Path("/usr/bin/sphinx_fe")  # Debian's sphinxbase-utils
 MDEF_CONVERT = Path("/usr/bin/pocketsphinx_mdef_convert")  # Debian's pocketsphinx
-BW_BEAM = (
-    "1e-200"  # bw's alpha and beta beams: its default 1e-100 drops more takes (final state not reached), 1e-300 aborts
-)
+BW_BEAMS = ("1e-200", "1e-300")  # bw's alpha and beta beams, tried in turn: its default 1e-100 leaves more takes
+# unaligned ("final state not reached"), 1e-300 aborts on some (an assertion) but aligns others
 LOG_BASE_SHIFT = 1024 * math.log(1.0001)  # a sendump byte v is P = 1.0001 ** -(v << 10) (logmath, SENSCR_SHIFT)
 
 
@@ -310,7 +309,6 @@ def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, 
     bw = (SPHINXTRAIN / "bw", "-hmmdir", model, "-moddeffn", model / "mdef.txt", "-ts2cbfn", ".ptm.")
     bw += ("-feat", "1s_c_d_dd", "-svspec", "0-12/13-25/26-38", "-cmn", "batch", "-agc", "none", "-varnorm", "no")
     bw += ("-dictfn", folder / "dictionary", "-fdictfn", wheel / "noisedict", "-cepdir", folder, "-cepext", "mfc")
-    bw += ("-abeam", BW_BEAM, "-bbeam", BW_BEAM)
     aligned = []
     for k, sequence in enumerate(sequences):  # one take at a time: bw aborts on some, and drops others
         take = folder / f"stats{k}"
@@ -318,9 +316,12 @@ def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, 
         (take / "ids").write_text(f"take{k}\n")
         words = ["<sil>" if p == "SIL" else p.lower() for p in sequence]
         (take / "transcription").write_text(f"<s> {' '.join(words)} </s> (take{k})\n")
-        done = run(*bw, "-ctlfn", take / "ids", "-lsnfn", take / "transcription", "-accumdir", take)
-        if done.returncode == 0 and b" ignored" not in done.stderr:
-            aligned.append(take)
+        for beam in BW_BEAMS:
+            files = ("-ctlfn", take / "ids", "-lsnfn", take / "transcription", "-accumdir", take)
+            done = run(*bw, *files, "-abeam", beam, "-bbeam", beam)
+            if done.returncode == 0 and b" ignored" not in done.stderr:
+                aligned.append(take)
+                break
     if len(aligned) < len(cases):
         print(f"  bw could not align {len(cases) - len(aligned)} of {len(cases)} takes (left out)", flush=True)
     if not aligned:
