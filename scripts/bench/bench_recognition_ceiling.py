@@ -2,10 +2,11 @@
 
     .venv/bin/python -m scripts.bench.bench_recognition_ceiling [--quick] [--json OUT.json] [--only TEXT]
 
-(--only: the rows whose name holds TEXT, e.g. "(b)", "(c)" or "beams". Needs espeak-ng and pocketsphinx==5.1.1;
-for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`. PyPI's older bindings that bundle a model
-(pocketsphinx 0.1.15, PyPocketsphinx 0.1.20, pocketsphinx2 0.1.17, pocketsphinx-fork 1.0.0) were compared by hand,
-docs/voice.md.)
+(--only: the rows whose name holds TEXT, e.g. "(b)", "(c)", "(e)" or "beams". Needs espeak-ng and
+pocketsphinx==5.1.1; for (c), `apt-get install pocketsphinx-en-us pocketsphinx-testdata`; for (e), `apt-get install
+sphinxtrain sphinxbase-utils pocketsphinx` (measurement tools, not dependencies: without them (e) says so and is
+skipped). PyPI's older bindings that bundle a model (pocketsphinx 0.1.15, PyPocketsphinx 0.1.20, pocketsphinx2
+0.1.17, pocketsphinx-fork 1.0.0) were compared by hand, docs/voice.md.)
 
 On the benchmark's dev takes (scripts/bench/bench_lipsync.py: its first 12 sentences, voices en-us and en, 150
 and 200 words a minute, clean; synthesised once, every row decodes the same samples), scored as the benchmark
@@ -33,6 +34,12 @@ model could:
                   model directory found in Debian's pocketsphinx-en-us and pocketsphinx-testdata (installed with
                   apt-get) is listed with whether its files are the wheel's model byte for byte; each that is not,
                   and reads 16 kHz speech with phones the phone LM names, is decoded
+  (e) adapted     the shipped phone loop with the wheel's model adapted to the speaker by MLLR (one global mean
+                  transform, PocketSphinx's `mllr` option), estimated with Debian's sphinxtrain as CMUSphinx's
+                  adaptation tutorial does (sphinx_fe, bw, mllr_solve; the mixture weights bw needs read from the
+                  wheel's sendump): supervised (bw given each take's true phone sequence, `true_phones`: the best
+                  case) or unsupervised (given the phone loop's own phones), on all takes of the voice or on the
+                  take alone; a take bw cannot align is left out of the statistics (said)
 """
 
 from __future__ import annotations
@@ -42,10 +49,14 @@ import contextlib
 import hashlib
 import json
 import math
+import struct
+import subprocess
 import tempfile
 import time
 from collections import Counter
 from pathlib import Path
+
+import numpy as np
 
 from addon.speech import espeak, phone_alignment, recording
 from addon.speech.segments import TimedLabel
@@ -242,6 +253,128 @@ def md5(path: Path) -> str:
     return hashlib.md5(path.read_bytes()).hexdigest()
 
 
+# ----------------------------------------------------------------------------- (e) speaker adaptation (MLLR)
+
+SPHINXTRAIN = Path("/usr/lib/sphinxtrain")  # Debian's sphinxtrain: bw, mllr_solve
+SPHINX_FE = Path("/usr/bin/sphinx_fe")  # Debian's sphinxbase-utils
+MDEF_CONVERT = Path("/usr/bin/pocketsphinx_mdef_convert")  # Debian's pocketsphinx
+BW_BEAMS = ("1e-200", "1e-300")  # bw's alpha and beta beams, tried in turn: its default 1e-100 leaves more takes
+# unaligned ("final state not reached"), 1e-300 aborts on some (an assertion) but aligns others
+LOG_BASE_SHIFT = 1024 * math.log(1.0001)  # a sendump byte v is P = 1.0001 ** -(v << 10) (logmath, SENSCR_SHIFT)
+
+
+def adaptation_tools() -> list[Path]:
+    """The programs row (e) needs that are missing (`apt-get install sphinxtrain sphinxbase-utils pocketsphinx`)."""
+    tools = (SPHINXTRAIN / "bw", SPHINXTRAIN / "mllr_solve", SPHINX_FE, MDEF_CONVERT)
+    return [t for t in tools if not t.is_file()]
+
+
+def mixture_weights(sendump: Path) -> bytes:
+    """The model's mixture weights as sphinxtrain reads them (s3 float32, senone x stream x density) from the
+    wheel's quantised `sendump` (which bw cannot read): after its header strings, #codewords and #pdfs (int32),
+    then per stream and codeword one byte per senone (cluster_count 0)."""
+    data = sendump.read_bytes()
+    offset = 0
+    while length := int.from_bytes(data[offset : offset + 4], "little"):
+        offset += 4 + length
+    densities, senones = struct.unpack_from("<2i", data, offset + 4)
+    quantised = np.frombuffer(data, np.uint8, offset=offset + 12).reshape(-1, densities, senones)
+    weights = np.exp(-quantised.astype(np.float64) * LOG_BASE_SHIFT).transpose(2, 0, 1)
+    weights /= weights.sum(axis=2, keepdims=True)  # the quantisation's rounding
+    header = b"s3\nversion 1.0\n" + b" " * 6 + b"endhdr\n"  # 28 bytes: the data 4-byte aligned
+    dims = struct.pack("<I4i", 0x11223344, *weights.shape, weights.size)
+    return header + dims + weights.astype("<f4").tobytes()
+
+
+def mllr_transform(cases: list[dict], sequences: list[list[str]], folder: Path, wheel: Path) -> Path | None:
+    """MLLR of the wheel's model on `cases` (CMUSphinx's adaptation steps): features with the model's
+    feat.params (sphinx_fe), Baum-Welch statistics (bw) of each take against its phone sequence in `sequences`
+    (the model's phones, SIL for a pause; a dictionary whose words are the phones, a pause as the filler <sil>),
+    one global mean transform from the statistics of the takes bw could align (mllr_solve). Returns the
+    mllr_matrix path, or None when bw aligned none of them."""
+    model = folder / "model"
+    model.mkdir(parents=True)
+    for name in ("means", "variances", "transition_matrices", "feat.params", "noisedict"):
+        (model / name).symlink_to(wheel / name)
+    (model / "mixture_weights").write_bytes(mixture_weights(wheel / "sendump"))
+    run = lambda *command: subprocess.run([str(c) for c in command], capture_output=True)  # noqa: E731
+    run(MDEF_CONVERT, "-text", wheel / "mdef", model / "mdef.txt").check_returncode()
+    phones = model_phones(wheel) - {"SIL"}
+    (folder / "dictionary").write_text("".join(f"{p.lower()} {p}\n" for p in sorted(phones)))
+    for k, case in enumerate(cases):
+        (np.clip(case["take"].samples, -1.0, 1.0) * 32767).astype("<i2").tofile(folder / f"take{k}.raw")
+    (folder / "ids").write_text("".join(f"take{k}\n" for k in range(len(cases))))
+    fe = ("-argfile", wheel / "feat.params", "-samprate", recording.RATE, "-c", folder / "ids", "-di", folder)
+    run(SPHINX_FE, *fe, "-do", folder, "-ei", "raw", "-eo", "mfc", "-raw", "yes", "-input_endian", "little")
+    bw = (SPHINXTRAIN / "bw", "-hmmdir", model, "-moddeffn", model / "mdef.txt", "-ts2cbfn", ".ptm.")
+    bw += ("-feat", "1s_c_d_dd", "-svspec", "0-12/13-25/26-38", "-cmn", "batch", "-agc", "none", "-varnorm", "no")
+    bw += ("-dictfn", folder / "dictionary", "-fdictfn", wheel / "noisedict", "-cepdir", folder, "-cepext", "mfc")
+    aligned = []
+    for k, sequence in enumerate(sequences):  # one take at a time: bw aborts on some, and drops others
+        take = folder / f"stats{k}"
+        take.mkdir()
+        (take / "ids").write_text(f"take{k}\n")
+        words = ["<sil>" if p == "SIL" else p.lower() for p in sequence]
+        (take / "transcription").write_text(f"<s> {' '.join(words)} </s> (take{k})\n")
+        for beam in BW_BEAMS:
+            files = ("-ctlfn", take / "ids", "-lsnfn", take / "transcription", "-accumdir", take)
+            done = run(*bw, *files, "-abeam", beam, "-bbeam", beam)
+            if done.returncode == 0 and b" ignored" not in done.stderr:
+                aligned.append(take)
+                break
+    if len(aligned) < len(cases):
+        print(f"  bw could not align {len(cases) - len(aligned)} of {len(cases)} takes (left out)", flush=True)
+    if not aligned:
+        return None
+    matrix = folder / "mllr_matrix"
+    solve = (SPHINXTRAIN / "mllr_solve", "-meanfn", wheel / "means", "-varfn", wheel / "variances")
+    run(*solve, "-outmllrfn", matrix, "-accumdir", ",".join(map(str, aligned))).check_returncode()
+    return matrix
+
+
+def spoken(phones: list[str]) -> list[str]:
+    """A phone sequence as bw's transcript takes it: the model's phones, one SIL per pause, none at the ends."""
+    out: list[str] = []
+    for phone in phones:
+        if not (phone == "SIL" and (not out or out[-1] == "SIL")):
+            out.append(phone)
+    return out[:-1] if out and out[-1] == "SIL" else out
+
+
+def adapted_rows(cases: list[dict], row, folder: Path, wheel: Path) -> None:
+    """Rows (e): the shipped phone loop with the model adapted by MLLR, on the voice's takes or the take alone,
+    against the true phones (supervised: the best case) or the phone loop's own phones (unsupervised)."""
+    missing = adaptation_tools()
+    if missing:
+        names = " ".join(str(m) for m in missing)
+        print(f"(e) skipped: {names} missing (apt-get install sphinxtrain sphinxbase-utils pocketsphinx)")
+        return
+    phones = model_phones(wheel)
+    truth = {id(c): spoken(true_phones(c["speech"], c["voice"])) for c in cases}
+    for supervised in (True, False):
+        if not supervised:
+            found = {id(c): [p.label.upper() for p in phone_loop(c)] for c in cases}
+            hypothesis = {k: spoken([p for p in v if p in phones]) for k, v in found.items()}
+        sequences = truth if supervised else hypothesis
+        for scope in ("voice", "take"):
+            transforms: dict = {}
+
+            def adapted(case: dict, scope: str = scope, sequences: dict = sequences, transforms: dict = transforms):
+                key = case["voice"] if scope == "voice" else id(case)
+                if key not in transforms:
+                    group = [c for c in cases if (c["voice"] if scope == "voice" else id(c)) == key]
+                    where = Path(tempfile.mkdtemp(dir=folder))
+                    transforms[key] = mllr_transform(group, [sequences[id(c)] for c in group], where, wheel)
+                if transforms[key] is None:  # the take decoded unadapted (said above)
+                    return phone_loop(case)
+                with swapped({"mllr": str(transforms[key])}):
+                    return phone_loop(case)
+
+            kind = "supervised (the true phones)" if supervised else "unsupervised (the phone loop's own phones)"
+            group = "the voice's takes" if scope == "voice" else "the take alone"
+            row(f"(e) phone loop, model adapted by MLLR, {kind}, on {group}", adapted)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true", help="3 sentences (a smoke run)")
@@ -299,6 +432,8 @@ def main(argv=None) -> int:
                 return words_path(case)
 
         row("(b) words path, word LM of the take's own sentence", own_words)
+        if not args.only or "(e)" in args.only:
+            adapted_rows(cases, row, Path(folder), wheel / "en-us")
     if args.only and "(c)" not in args.only:
         return _write(report, args.json)
     print("(c) other PocketSphinx acoustic models (Debian: pocketsphinx-en-us, pocketsphinx-testdata):")

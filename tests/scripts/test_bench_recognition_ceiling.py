@@ -2,11 +2,14 @@
 bench_recognition_ceiling.py), worked by hand and read back by PocketSphinx."""
 
 import importlib.util
+import math
+import struct
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from scripts.bench.bench_recognition_ceiling import arpa, model_phones
+from scripts.bench.bench_recognition_ceiling import arpa, mixture_weights, model_phones, spoken
 
 needs_pocketsphinx = pytest.mark.skipif(importlib.util.find_spec("pocketsphinx") is None, reason="no pocketsphinx")
 
@@ -47,3 +50,41 @@ def test_the_phones_of_a_binary_and_a_text_mdef(tmp_path):
         "AA - - - n/a 0 0 1 2 N\nSIL - - - filler 1 3 4 5 N\n"
     )
     assert model_phones(tmp_path) == {"AA", "SIL"}
+
+
+def _s3(data: bytes) -> np.ndarray:
+    header, body = data.split(b"endhdr\n", 1)
+    assert len(header) + 7 == 28  # the floats 4-byte aligned
+    magic, *shape, total = struct.unpack_from("<I4i", body)
+    assert magic == 0x11223344 and total == math.prod(shape) and len(body) == 20 + 4 * total
+    return np.frombuffer(body, "<f4", offset=20).reshape(shape)
+
+
+def test_mixture_weights_from_a_sendump_by_hand(tmp_path):
+    # header strings, their end, 2 codewords, 3 senones; stream 0: codeword 0's byte per senone, then codeword 1's
+    title = b"cluster_count 0\0"
+    codewords = bytes([0, 7, 0]) + bytes([7, 0, 255])
+    (tmp_path / "sendump").write_bytes(struct.pack("<i", len(title)) + title + struct.pack("<3i", 0, 2, 3) + codewords)
+    weights = _s3(mixture_weights(tmp_path / "sendump"))
+    low = 1.0001 ** -(7 << 10)  # a byte v is P = 1.0001 ** -(v << 10) before normalising
+    tiny = 1.0001 ** -(255 << 10)
+    expected = [
+        [[1 / (1 + low), low / (1 + low)]],
+        [[low / (1 + low), 1 / (1 + low)]],
+        [[1 / (1 + tiny), tiny / (1 + tiny)]],
+    ]
+    assert weights == pytest.approx(np.array(expected), rel=1e-6)
+
+
+@needs_pocketsphinx
+def test_mixture_weights_of_the_wheels_model():
+    import pocketsphinx
+
+    weights = _s3(mixture_weights(Path(pocketsphinx.get_model_path()) / "en-us" / "en-us" / "sendump"))
+    assert weights.shape == (5126, 3, 128)  # senones (mdef's n_tied_state), streams, densities
+    assert weights.sum(axis=2) == pytest.approx(np.ones((5126, 3)), abs=1e-5)
+
+
+def test_a_transcript_for_bw_has_one_sil_per_pause_and_none_at_the_ends():
+    assert spoken(["SIL", "M", "AY", "SIL", "SIL", "B", "SIL"]) == ["M", "AY", "SIL", "B"]
+    assert spoken(["SIL"]) == []
