@@ -398,8 +398,8 @@ def _along(
     `tris` (the other lip's skin) within `reach`: (P,) its distance where it faces along the direction (the point is in
     the other lip's flesh, as deep; +inf where none faces so or none is met), and with `behind`, (P,) the distance back
     within `reach` to the nearest one behind that faces along it (the clearance; +inf where none). Only the (point,
-    triangle) pairs whose boxes meet are looked at (the stretch looked along, the triangle's), found through the
-    triangles' centres within `reach` and their own size of that stretch: on ICT's head about 3,000 of 2.7 million."""
+    triangle) pairs whose boxes meet are looked at (the stretch looked along, the triangle's), found through bins of x
+    (`_boxes_meeting`): on ICT's head about 700 of 620,000."""
     ahead = np.full(len(points), np.inf)
     back = np.full(len(points), np.inf)
     if not len(points) or not len(tris) or not np.isfinite(reach) or not np.isfinite(points).all():
