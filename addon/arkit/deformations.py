@@ -288,10 +288,13 @@ def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLE
     return moved
 
 
-def surface_normals(neutral: np.ndarray, vertices: np.ndarray, vertex_normals: np.ndarray) -> np.ndarray:
-    """(84, 3) the face's unit outward surface normal at each FP at rest (mesh coordinates; NaN where the FP is
-    missing, the face has no ES0 or no vertex lies near): the mean of the (N, 3) `vertex_normals` of the rest
-    `vertices` within NORMAL_RADIUS_PER_ES0 x ES0 of it (the nearest vertex's alone when none lies that near)."""
+def surface_normals(
+    neutral: np.ndarray, vertices: np.ndarray, vertex_normals: np.ndarray, fps: tuple[str, ...] = CHEEKS
+) -> np.ndarray:
+    """(84, 3) the face's unit outward surface normal at each of the `fps` at rest (mesh coordinates; NaN at the
+    other FPs, where the FP is missing, the face has no ES0 or no vertex lies near): the mean of the (N, 3)
+    `vertex_normals` of the rest `vertices` within NORMAL_RADIUS_PER_ES0 x ES0 of it (the nearest vertex's alone
+    when none lies that near). The cheeks' by default: `cheek_puff` uses no other."""
     neutral = np.asarray(neutral, dtype=np.float64)
     vertices = np.asarray(vertices, dtype=np.float64)
     vertex_normals = np.asarray(vertex_normals, dtype=np.float64)
@@ -299,7 +302,9 @@ def surface_normals(neutral: np.ndarray, vertices: np.ndarray, vertex_normals: n
     es0 = np.linalg.norm(neutral[fp_index(PUPILS[0])] - neutral[fp_index(PUPILS[1])])
     if not (np.isfinite(es0) and es0 > 0.0) or len(vertices) == 0:
         return out
-    for k in np.flatnonzero(np.all(np.isfinite(neutral), axis=1)):
+    for k in (fp_index(fp) for fp in fps):
+        if not np.all(np.isfinite(neutral[k])):
+            continue
         distance = np.linalg.norm(vertices - neutral[k], axis=1)
         near = distance <= NORMAL_RADIUS_PER_ES0 * es0
         mean = vertex_normals[near].sum(axis=0) if near.any() else vertex_normals[np.argmin(distance)]

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
+from ..geometry.normals import vertex_normals
 from ..mpeg4.feature_points import fp_index
 from . import fused
 
@@ -331,7 +332,7 @@ def _contact(
     # the clearance kept is a touch: closer than TOUCH_GAP at rest (ICT's corners 0.1-0.4 mm); farther (the sample's
     # lower lip 3.8 mm under the upper at a corner), the lips may come closer as they press, as the seam lets them
     touch = TOUCH_GAP * unit
-    normals = _vertex_normals(face, triangles)
+    normals = vertex_normals(face, triangles)
     look = np.repeat([1.0, -1.0], [len(rows[0]), len(rows[1])])
     chosen = vertices[np.concatenate(rows)]
     direction = np.concatenate([_inward(normals[chosen[look == up]], up) for up in (1.0, -1.0)])
@@ -368,16 +369,6 @@ def _contact(
         reach=float(CONTACT_REACH * unit + np.abs(keep).max(initial=0.0)),
         ends=ends,
     )
-
-
-def _vertex_normals(face: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(N, 3) the area-weighted normals of the (K, 3) `triangles` about each vertex of `face` (not unit; 0 off them)."""
-    corners = face[triangles]
-    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    summed = np.zeros_like(face)
-    for k in range(3):
-        np.add.at(summed, triangles[:, k], normal)
-    return summed
 
 
 def _inward(normals: np.ndarray, up: float) -> np.ndarray:

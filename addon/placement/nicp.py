@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry.normals import vertex_normals
 from .scipy_modules import coo_matrix, csr_matrix, diags, factorized, kron
-from .surface import Surface, vertex_normals
+from .surface import Surface
 
 STIFFNESS = (10.0, 5.0, 2.0, 1.0, 0.5)
 INNER_STEPS = 2

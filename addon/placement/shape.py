@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .surface import Surface, vertex_normals
+from ..geometry.normals import vertex_normals
+from .surface import Surface
 
 SHAPE_STEPS = 8
 SPREAD = 0.002  # template metres: sigma, how far a correspondence may lie from where it belongs

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..deform.loose_parts import loose_parts as edge_pieces
+from ..geometry.normals import vertex_normals
 from .scipy_modules import cKDTree
 
 NEAR_VERTICES = 6  # vertices whose triangles are searched for a closest point
@@ -27,17 +28,6 @@ def loose_parts(n_vertices: int, triangles: np.ndarray) -> np.ndarray:
 def triangle_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     a, b, c = (vertices[triangles[:, j]] for j in range(3))
     return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-
-
-def vertex_normals(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """Area-weighted unit vertex normals (zero for vertices in no triangle)."""
-    a, b, c = (vertices[triangles[:, j]] for j in range(3))
-    face = np.cross(b - a, c - a)
-    normals = np.zeros_like(vertices)
-    for j in range(3):
-        np.add.at(normals, triangles[:, j], face)
-    length = np.linalg.norm(normals, axis=1, keepdims=True)
-    return normals / np.where(length > 0, length, 1.0)
 
 
 def closest_on_triangles(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:

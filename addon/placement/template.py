@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .surface import vertex_normals
+from ..geometry.normals import vertex_normals
 
 TEMPLATE_FILE = Path(__file__).with_name("template.npz")
 

@@ -493,10 +493,10 @@ def _word_spans(alignment, words: list[_Word]) -> list[tuple[int, int, _Word]]:
     ]
 
 
-def _aligned_entries(alignment, words: list[_Word]) -> list[tuple[str, int, int, str]]:
-    """The alignment's phones as (label, first frame, frames, word): an espeak-ng-pronounced word's phones
-    named after its phonemes (the phones of one phoneme joined), others by their CMU names."""
-    spans = _word_spans(alignment, words)
+def _aligned_entries(alignment, spans: list[tuple[int, int, _Word]]) -> list[tuple[str, int, int, str]]:
+    """The alignment's phones as (label, first frame, frames, word), given its words' `_word_spans`: an
+    espeak-ng-pronounced word's phones named after its phonemes (the phones of one phoneme joined), others by their
+    CMU names."""
     out: list[tuple[str, int, int, str]] = []
     seen: dict[int, int] = {}  # span index -> phones of it so far
     last_key = None
@@ -605,8 +605,9 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 yield from _decode_pass(decoder, pcm, mean, done + len(pcm) / 2, total)
                 alignment = decoder.get_alignment()
                 if alignment is not None and _score_per_frame(alignment) >= MIN_SCORE_PER_FRAME:
-                    entries = _aligned_entries(alignment, piece_words)
-                    breaks = [b for _, b, w in _word_spans(alignment, piece_words) if w.pause_after]
+                    spans = _word_spans(alignment, piece_words)
+                    entries = _aligned_entries(alignment, spans)
+                    breaks = [b for _, b, w in spans if w.pause_after]
         except RuntimeError:
             entries = None
         done += len(pcm)  # two passes of len(pcm) / 2 samples

@@ -28,8 +28,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from addon.geometry.normals import vertex_normals
 from addon.mpeg4.feature_points import FP_IDS, fp_index
-from addon.placement.surface import vertex_normals
 from addon.placement.template import load_template
 from scripts.bench.placement_heads import MACRO, SHAPES, shape_weights
 from scripts.sample import build_placement_template as builder

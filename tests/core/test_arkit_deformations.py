@@ -17,7 +17,7 @@ from addon.arkit.deformations import (
 from addon.arkit.recipes import load_recipes
 from addon.mpeg4.decode import JAW_RIDERS
 from addon.mpeg4.fap_groups import shape_faps
-from addon.mpeg4.feature_points import N_FEATURE_POINTS, fp_index
+from addon.mpeg4.feature_points import FP_IDS, N_FEATURE_POINTS, fp_index
 
 FACE_FRAME = np.eye(3)  # x left, y up, z forward: mesh coordinates are the face frame
 
@@ -310,6 +310,9 @@ def test_the_surface_normal_at_a_point_is_the_mean_of_the_skins_normals_around_i
     vertex_normals = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])  # the far one is left out
     normals = surface_normals(neutral, vertices, vertex_normals)
     np.testing.assert_allclose(normals[fp_index("5.1")], [np.sqrt(0.5), 0.0, np.sqrt(0.5)], atol=1e-12)
-    assert np.all(np.isfinite(normals))  # each FP has one: the nearest vertex's where none lies near
+    cheeks = [fp_index(fp) for fp in ("5.1", "5.2")]
+    assert np.all(np.isfinite(normals[cheeks]))  # the nearest vertex's where none lies near (5.2)
+    assert np.isnan(np.delete(normals, cheeks, axis=0)).all()  # only the cheeks' are asked for by default
+    assert np.all(np.isfinite(surface_normals(neutral, vertices, vertex_normals, fps=FP_IDS)))
     neutral[fp_index("3.6")] = np.nan  # no ES0
     assert np.isnan(surface_normals(neutral, vertices, vertex_normals)).all()
