@@ -58,7 +58,10 @@ def blink_rows(files: list[Path], out: Path) -> None:
             face.data.attributes["position"].data.foreach_set("vector", closed.astype(np.float32).ravel())
             face.data.update()
             for ob in scene.objects:  # the FP empties and the control mesh stay out of the pictures
-                ob.hide_render = ob.type == "EMPTY" or ob == face.mpeg4_face.control_object
+                # only hidden, never shown: the sample's hidden rest copy ("Head Reference"), shown, showed through
+                # the closed lids as patches (sessions 9-12 took them for the made lids' skin)
+                if ob.type == "EMPTY" or ob == face.mpeg4_face.control_object:
+                    ob.hide_render = True
             empties = face_data.fp_empties(face)
             pupils = [empties[k].matrix_world.translation.copy() for k in ("3.5", "3.6")]
             camera = closeup_camera(scene, face, TILE, 0.6 * (pupils[0] - pupils[1]).length)
