@@ -99,6 +99,14 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
     assert abs(sneer[near["9.1"], 0]) < 0.001  # raised, not widened (4.8 mm out with stretch_l_nose, AU 38's)
+    # the lifted upper lip raises the nose's bottom edge beside it (9.5: the lip's upper edge; no FAP moves it,
+    # and it stayed before), not the nostril's border 9.1 (AU 9's) nor the other side's 9.4
+    upper = offsets["mouthUpperUpLeft"]
+    assert upper[near["9.5"], 2] > 0.003 and abs(upper[near["9.4"], 2]) < 0.0005, (
+        upper[near["9.5"]],
+        upper[near["9.4"]],
+    )
+    assert upper[near["9.1"], 2] < 0.5 * upper[near["9.5"], 2], upper[near["9.1"]]
     # the puffed cheeks go out along the cheek's surface normal, forward (-Y) as well as out (the FAP alone: 7.2 mm
     # straight out, none forward), each as far as puff_cheek moves it
     puff = offsets["cheekPuff"]

@@ -33,6 +33,8 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "cheekPuff": "cheek_puff",
         "noseSneerLeft": "nostril_lift",
         "noseSneerRight": "nostril_lift",
+        "mouthUpperUpLeft": "nose_base_lift",
+        "mouthUpperUpRight": "nose_base_lift",
         "tongueOut": "tongue_forward",
         **{
             f"mouth{shape}{side}": "corner_slide"

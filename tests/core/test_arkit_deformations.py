@@ -9,6 +9,7 @@ from addon.arkit.deformations import (
     hinge_angle,
     hinge_axis,
     jaw_hinge,
+    nose_base_lift,
     nostril_lift,
     surface_normals,
     whole_lip_push,
@@ -239,6 +240,23 @@ def test_the_nostril_rises_with_the_upper_lip_beside_it():
     np.testing.assert_array_equal(
         deform_points("nostril_lift", neutral, sneer, FACE_FRAME)[fp_index("9.5")],
         neutral[fp_index("9.5")] + [0.0, 0.003, 0.0],
+    )
+
+
+def test_the_nose_base_rises_with_the_upper_lip_below_it_and_the_nostril_stays():
+    # AU 10 lifts the upper lip, whose upper edge is the nose's bottom edge: 9.5 rises with 8.5, 9.1 (the ala,
+    # AU 9's) and the midline's 9.15 stay; a lip that comes down leaves its side's nose base where it was
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    lifted = neutral.copy()
+    lifted[fp_index("8.5"), 1] += 0.005  # the left upper lip rises (lower_t_lip_lm_o < 0)
+    lifted[fp_index("8.1"), 1] += 0.0025  # its middle half as far
+    lifted[fp_index("8.6"), 1] -= 0.002  # the right one comes down
+    moved = nose_base_lift(neutral @ axes, lifted @ axes, axes) @ axes.T
+    np.testing.assert_allclose(moved[fp_index("9.5")], neutral[fp_index("9.5")] + [0.0, 0.005, 0.0], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k != fp_index("9.5")]
+    np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)  # 9.1, 9.4, 9.15 among them
+    np.testing.assert_array_equal(
+        deform_points("nose_base_lift", neutral, lifted, FACE_FRAME), nose_base_lift(neutral, lifted, FACE_FRAME)
     )
 
 
