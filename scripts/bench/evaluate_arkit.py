@@ -155,7 +155,7 @@ def summary(face: evaluate.SampleFace, results: dict) -> dict:
         "below_1": sum(s.e < 1.0 for s in scored.values()),
         "count": len(scored),
         "regions": evaluate.region_e(scored, face.region),
-        "breakdown": reach_breakdown({name: r["offsets"] for name, r in results.items()}),
+        "breakdown": reach_breakdown({name: r["offsets"] for name, r in results.items()}, face.rest, face.control_rest),
         "per_shape": {
             name: {
                 "sculpt": r["sculpt"],
