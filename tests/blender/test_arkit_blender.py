@@ -107,6 +107,13 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
         upper[near["9.4"]],
     )
     assert upper[near["9.1"], 2] < 0.5 * upper[near["9.5"], 2], upper[near["9.1"]]
+    # the Cupid's bow's peaks (no FAP moves them) go with the upper lip's outer contour either side of them: the
+    # rolled upper lip takes them down with it (they stayed up, standing out of the rolled lip; the roll's push
+    # took them back already)
+    roll = offsets["mouthRollUpper"]
+    for peak, side in (("8.10", "8.5"), ("8.9", "8.6")):
+        beside = 0.5 * (roll[near["8.1"], 2] + roll[near[side], 2])
+        assert roll[near[peak], 2] < 0.5 * beside < -0.001, (peak, roll[near[peak]], beside)
     # the puffed cheeks go out along the cheek's surface normal, forward (-Y) as well as out (the FAP alone: 7.2 mm
     # straight out, none forward), each as far as puff_cheek moves it
     puff = offsets["cheekPuff"]
