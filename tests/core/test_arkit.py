@@ -253,6 +253,17 @@ def test_the_upper_lip_rises_its_measured_maximum():
             assert np.isclose(2.0 * middle, lift), (name, suffix)
 
 
+def test_both_lowered_sides_lower_the_lower_lips_middle_as_far():
+    # the rule mouthUpperUp's middle follows: a lip pulled on both sides moves at its middle as far as at its sides,
+    # each side's shape giving the middle half (mouthLowerDown's middle 100 of 250 each before: 200 with both)
+    table = load_recipes()
+    for name, side in (("mouthLowerDownLeft", "lm"), ("mouthLowerDownRight", "rm")):
+        recipe = table.recipe(name)
+        for suffix in ("", "_o"):
+            drop = recipe[fap(f"raise_b_lip_{side}{suffix}").number - 1]
+            assert drop == -250.0 and recipe[fap(f"raise_b_midlip{suffix}").number - 1] == drop / 2, (name, suffix)
+
+
 def test_weights_add_their_recipes():
     table = load_recipes()
     weights = np.zeros((2, 52))
