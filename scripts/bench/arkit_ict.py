@@ -2,6 +2,7 @@
 (another face, another topology, other sculptors), never tuned to.
 
     .venv/bin/python -m scripts.bench.arkit_ict --ict DIR [--engine planar|elastic] [--json OUT] [--blend OUT.blend]
+        [--held-fps]
     .venv/bin/python -m scripts.bench.arkit_ict --ict DIR --fp-motion [--engine planar|elastic] [--json OUT]
 
 DIR is ICT FaceKit's `FaceXModel` folder (github.com/ICT-VGL/ICT-FaceKit, MIT licence; read in place, nothing of
@@ -17,7 +18,8 @@ adds cheekRaiser and the pupils' dilation, which are not ARKit's: those are list
 compared like the others (in both it is the lips' closing made to be added to jawOpen; alone it presses the lips
 through each other). Under the table, where the pooled error lies (`reach_breakdown`): on skin no key moves, on
 skin the key under-reaches (and how far that skin lies from the nearest control FP the key moves), on eyeLookIn /
-Out, and the pooled E each shape would have at its own best weight.
+Out, and the pooled E each shape would have at its own best weight; with `--held-fps`, per shape the control FPs
+the sculpt moves over 1.5 mm and the key less than 40 % as far (`held_fps`; always in the JSON).
 
 `--fp-motion` drives the face by each expression's own motion at the feature points instead (each FP empty moved
 as ICT's vertex nearest it moves, eyeballs included; as `scripts.bench.evaluate` drives the add-on by a sculpt's
@@ -168,6 +170,38 @@ def reach_breakdown(pairs: dict[str, tuple[np.ndarray, np.ndarray]], rest=None, 
     }
 
 
+HELD_SCULPT_M, HELD_SHARE = 1.5e-3, 0.4  # an FP the sculpt moves over 1.5 mm and the key less than 40 % as far
+
+
+def held_fps(pairs: dict[str, tuple[np.ndarray, np.ndarray]], rest, fps, fp_ids) -> dict[str, list]:
+    """For each name, the FPs (ids `fp_ids`, rest positions (M, 3) `fps`) whose nearest of the (V, 3) `rest`
+    vertices the sculpt moves over 1.5 mm and the key less than 40 % as far: [fp id, the sculpt's motion there
+    (x, y, z mm, the mesh's axes), the key's (mm)], largest first. Feature points no FAP moves stay in the keys
+    (Planar Bones holds a control FP still), and these are the ones the sculpt moves."""
+    rest, fps = np.asarray(rest, dtype=np.float64), np.asarray(fps, dtype=np.float64)
+    known = np.all(np.isfinite(fps), axis=1)
+    at = np.linalg.norm(rest[:, None] - fps[known][None], axis=2).argmin(axis=0)
+    ids = [fp_id for fp_id, ok in zip(fp_ids, known, strict=True) if ok]
+    out = {}
+    for name, (generated, sculpted) in pairs.items():
+        sculpt, key = sculpted[at], np.linalg.norm(generated[at], axis=1)
+        size = np.linalg.norm(sculpt, axis=1)
+        held = np.flatnonzero((size > HELD_SCULPT_M) & (key < HELD_SHARE * size))
+        out[name] = [
+            [ids[k], np.round(1000 * sculpt[k], 1).tolist(), round(1000 * float(key[k]), 1)]
+            for k in held[np.argsort(-size[held])]
+        ]
+    return out
+
+
+def print_held_fps(held: dict[str, list]) -> None:
+    print("\nFPs the sculpt moves over 1.5 mm and the key less than 40 % as far (sculpt x, y, z mm / key mm):")
+    for name, rows in held.items():
+        if rows:
+            listed = (f"{fp_id} ({', '.join(f'{c:+.1f}' for c in v)}) / {k:.1f}" for fp_id, v, k in rows)
+            print(f"- {name}: " + ", ".join(listed))
+
+
 def print_breakdown(breakdown: dict) -> None:
     print(
         f"error on skin no key moves ({breakdown['vertices_no_key_moves']} vertices) "
@@ -204,7 +238,8 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
     base = _key(head.data.shape_keys.reference_key)
     face = slice(0, FACE_AREA)
     empties = face_data.fp_empties(head)  # the control mesh's FPs (the head stands at the origin, in world axes)
-    fp_list = [empties[fp_id] for fp_id in control_fp_ids(FP_IDS) if fp_id in empties]
+    fp_ids = [fp_id for fp_id in control_fp_ids(FP_IDS) if fp_id in empties]
+    fp_rest = [empties[fp_id].matrix_world.translation for fp_id in fp_ids]
     sculpts, skipped = {}, []
     for path in sorted(folder.glob("*.obj")):
         name = arkit_name(path.stem)
@@ -241,7 +276,8 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
         "missing": [n for n in ARKIT_NAMES if n not in rows],
         "skipped": skipped,
         "per_shape": rows,
-        "breakdown": reach_breakdown(pairs, neutral[face], [empty.matrix_world.translation for empty in fp_list]),
+        "breakdown": reach_breakdown(pairs, neutral[face], fp_rest),
+        "held_fps": held_fps(pairs, neutral[face], fp_rest, fp_ids),
     }
 
 
@@ -310,7 +346,7 @@ def print_fp_motion(report: dict, command: str) -> None:
         print(f"- {group}: {e:.3f} ({100 * spill:.0f} %)")
 
 
-def print_report(report: dict, command: str) -> None:
+def print_report(report: dict, command: str, held: bool = False) -> None:
     print(f"`{command}`\n")
     print(
         "| ARKit shape | E at weight 1 | share of error | sculpt's largest move (mm) | ours (mm) | best weight "
@@ -332,6 +368,8 @@ def print_report(report: dict, command: str) -> None:
         f"left out: {', '.join(report['skipped'])}"
     )
     print_breakdown(report["breakdown"])
+    if held:
+        print_held_fps(report["held_fps"])
 
 
 def main(argv=None) -> int:
@@ -342,6 +380,7 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--blend", type=Path, help="save the set-up head with its keys here (to look at)")
     parser.add_argument("--fp-motion", action="store_true", help="drive the engine by each expression's FP motion")
+    parser.add_argument("--held-fps", action="store_true", help="list the FPs each sculpt moves and its key holds")
     args = parser.parse_args(argv)
     if not (args.ict / "generic_neutral_mesh.obj").is_file():
         raise SystemExit(f"{args.ict}: no generic_neutral_mesh.obj (give ICT FaceKit's FaceXModel folder)")
@@ -352,7 +391,7 @@ def main(argv=None) -> int:
         print_fp_motion(report, command)
     else:
         report = evaluate(args.ict, args.engine, args.blend)
-        print_report(report, command)
+        print_report(report, command, args.held_fps)
     if args.json:
         args.json.write_text(json.dumps(report, indent=2) + "\n")
     return 0

@@ -72,3 +72,16 @@ def test_the_under_reached_error_is_split_by_distance_from_a_moved_fp():
     np.testing.assert_allclose(breakdown["share_under_reached"], 1.0)
     np.testing.assert_allclose(breakdown["share_under_reached_by_distance_from_a_moved_fp"], [1 / 3, 1 / 3, 0, 1 / 3])
     assert "share_under_reached_by_distance_from_a_moved_fp" not in reach_breakdown({"x": (generated, sculpted)})
+
+
+def test_held_fps_lists_the_fps_the_sculpt_moves_and_the_key_holds():
+    # three FPs on three vertices: the sculpt moves all 2 mm; the key the first 2 mm (followed), the second 0.5 mm
+    # (held: under 40 %), the third 1 mm (50 %: not held); a fourth FP is unknown (NaN) and left out
+    from scripts.bench.arkit_ict import held_fps
+
+    rest = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.02, 0.0, 0.0]])
+    sculpted = np.tile([0.0, 0.0, 0.002], (3, 1))
+    generated = np.array([[0.0, 0.0, 0.002], [0.0, 0.0, 0.0005], [0.0, 0.0, 0.001]])
+    fps = np.vstack([rest + 1e-4, np.full((1, 3), np.nan)])
+    held = held_fps({"mouthSmileLeft": (generated, sculpted)}, rest, fps, ["8.3", "5.1", "9.5", "2.10"])
+    assert held == {"mouthSmileLeft": [["5.1", [0.0, 0.0, 2.0], 0.5]]}
