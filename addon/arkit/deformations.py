@@ -41,6 +41,18 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
   9.3: each side's nostril points (9.1 and the nose's bottom edge 9.5 on the left; 9.2, 9.4 on the right)
   rise as far as the recipe lifted the upper lip's outer point beside them (8.5, 8.6), no size of their own.
+- `nose_base_lift` (mouthUpperUp*): levator labii superioris lifts the upper lip (AU 10), and the lip's upper
+  edge is the nose's bottom edge: where the lip meets the nose beside the nostril (9.5 on the left, 9.4 on the
+  right) it rises with the lip, as far as the recipe lifted the lip's outer point below it (8.5, 8.6). No FAP
+  moves 9.5 / 9.4, so with the FAPs alone the lifted lip was squeezed against a nose base that stayed. The
+  nostril's border 9.1 / 9.2 stays (raising the ala is AU 9's, `nostril_lift`), and so does the midline's 9.15
+  (the columella's base, on the nasal spine). No size of its own.
+- `bow_follow` (every recipe, after its own deformation): the Cupid's bow's peaks 8.9 / 8.10 lie on the upper
+  lip's outer contour between its mid-point 8.1 and the side points 8.5 / 8.6, and no FAP moves them, so with the
+  FAPs alone every recipe that moved the upper lip bent its contour to two pinned points (a rolled upper lip
+  left the peaks standing: looked at). Each peak moves as the contour does where it lies: the motions of 8.1 and
+  of the side point beside it, blended by how far across from 8.1 to that point the peak lies at rest (face x).
+  No size of its own; a uniform motion of the lip stays uniform.
 - `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
   (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
   pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
@@ -90,12 +102,24 @@ CORNER_SLIDES = {
 # each side's nostril points (the ala's border and its base on the nose's bottom edge), with the upper lip's
 # outer point beside them that the same muscle lifts
 NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
+# each side's point on the nose's bottom edge, where the upper lip meets the nose, with the lip's outer point below it
+NOSE_BASES = {"8.5": ("9.5",), "8.6": ("9.4",)}
+# the Cupid's bow's peaks (no FAP moves them), with the upper lip's outer contour points either side of each
+BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
 # the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
 CHEEKS = ("5.1", "5.2")
 # how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
 # direction at 5.1, not a scan's pores (0.1 ES0, about 6 mm on an adult)
 NORMAL_RADIUS_PER_ES0 = 0.1
-FP_DEFORMATIONS = ("whole_lip_push", "mid_lip_push", "corner_slide", "whole_lip_shift", "nostril_lift", "cheek_puff")
+FP_DEFORMATIONS = (
+    "whole_lip_push",
+    "mid_lip_push",
+    "corner_slide",
+    "whole_lip_shift",
+    "nostril_lift",
+    "nose_base_lift",
+    "cheek_puff",
+)
 SKIN_DEFORMATIONS = ("jaw_hinge",)
 PART_DEFORMATIONS = ("tongue_forward",)
 
@@ -279,12 +303,24 @@ def whole_lip_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = 
 def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with each side's nostril points raised as far as the upper lip's
     outer point beside them rose (not lowered when it came down)."""
+    return _rise_with_lip(neutral, points, axes, NOSTRILS)
+
+
+def nose_base_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each side's point on the nose's bottom edge (9.5, 9.4) raised
+    as far as the upper lip's outer point beside it rose (not lowered when it came down); the nostril's border
+    9.1 / 9.2 stays."""
+    return _rise_with_lip(neutral, points, axes, NOSE_BASES)
+
+
+def _rise_with_lip(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray, riders) -> np.ndarray:
+    """`points` with the FPs `riders` names for each upper lip's outer point raised as far as that point rose."""
     up = np.asarray(axes, dtype=np.float64)[1]
     moved = np.array(points, dtype=np.float64)
-    for lip, nostril in NOSTRILS.items():
+    for lip, raised in riders.items():
         rise = (moved[fp_index(lip)] - np.asarray(neutral, dtype=np.float64)[fp_index(lip)]) @ up
         if np.isfinite(rise) and rise > 0.0:
-            moved[[fp_index(fp) for fp in nostril]] += rise * up
+            moved[[fp_index(fp) for fp in raised]] += rise * up
     return moved
 
 
@@ -336,6 +372,25 @@ def cheek_puff(
     return moved @ axes
 
 
+def bow_follow(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each Cupid's bow peak moved as the upper lip's outer contour
+    moves where it lies: the motions of the contour's mid-point 8.1 and the side point beside it (8.5 / 8.6),
+    blended by how far across from 8.1 to that point the peak lies at rest (face x)."""
+    axes = np.asarray(axes, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    moved = np.array(points, dtype=np.float64)
+    for peak, (mid, side) in BOW_PEAKS.items():
+        k, m, q = fp_index(peak), fp_index(mid), fp_index(side)
+        if not np.all(np.isfinite(neutral[[k, m, q]])) or not np.all(np.isfinite(moved[[m, q]])):
+            continue
+        across = (neutral[q] - neutral[m]) @ axes[0]
+        if abs(across) <= 0.0:
+            continue
+        t = float(np.clip((neutral[k] - neutral[m]) @ axes[0] / across, 0.0, 1.0))
+        moved[k] = neutral[k] + (1.0 - t) * (moved[m] - neutral[m]) + t * (moved[q] - neutral[q])
+    return moved
+
+
 def deform_points(
     name: str | None,
     neutral: np.ndarray,
@@ -344,14 +399,21 @@ def deform_points(
     normals: np.ndarray | None = None,
 ) -> np.ndarray:
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
-    that moves the skin or a part rather than feature points); `normals` (84, 3): the face's outward surface
-    normals at the FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
+    that moves the skin or a part rather than feature points), the Cupid's bow's peaks then following the upper
+    lip's outer contour (`bow_follow`, every recipe); `normals` (84, 3): the face's outward surface normals at the
+    FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
+    return bow_follow(neutral, _named(name, neutral, points, axes, normals), axes)
+
+
+def _named(name, neutral, points, axes, normals) -> np.ndarray:
     if name == "cheek_puff":
         return cheek_puff(neutral, points, normals, axes)
     if name == "whole_lip_push":
         return whole_lip_push(neutral, points, axes)
     if name == "nostril_lift":
         return nostril_lift(neutral, points, axes)
+    if name == "nose_base_lift":
+        return nose_base_lift(neutral, points, axes)
     if name == "mid_lip_push":
         return mid_lip_push(neutral, points, axes)
     if name == "corner_slide":

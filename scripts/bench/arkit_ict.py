@@ -2,6 +2,7 @@
 (another face, another topology, other sculptors), never tuned to.
 
     .venv/bin/python -m scripts.bench.arkit_ict --ict DIR [--engine planar|elastic] [--json OUT] [--blend OUT.blend]
+        [--held-fps]
     .venv/bin/python -m scripts.bench.arkit_ict --ict DIR --fp-motion [--engine planar|elastic] [--json OUT]
 
 DIR is ICT FaceKit's `FaceXModel` folder (github.com/ICT-VGL/ICT-FaceKit, MIT licence; read in place, nothing of
@@ -16,7 +17,9 @@ compared with our key: E = Σ‖generated − sculpted‖ / Σ‖sculpted − ne
 adds cheekRaiser and the pupils' dilation, which are not ARKit's: those are listed and left out. mouthClose is
 compared like the others (in both it is the lips' closing made to be added to jawOpen; alone it presses the lips
 through each other). Under the table, where the pooled error lies (`reach_breakdown`): on skin no key moves, on
-skin the key under-reaches, on eyeLookIn / Out, and the pooled E each shape would have at its own best weight.
+skin the key under-reaches (and how far that skin lies from the nearest control FP the key moves), on eyeLookIn /
+Out, and the pooled E each shape would have at its own best weight; with `--held-fps`, per shape the control FPs
+the sculpt moves over 1.5 mm and the key less than 40 % as far (`held_fps`; always in the JSON).
 
 `--fp-motion` drives the face by each expression's own motion at the feature points instead (each FP empty moved
 as ICT's vertex nearest it moves, eyeballs included; as `scripts.bench.evaluate` drives the add-on by a sculpt's
@@ -28,6 +31,7 @@ upper face's (eye*, brow*, cheekSquint).
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import sys
 from pathlib import Path
@@ -37,6 +41,9 @@ import numpy as np
 
 import addon
 from addon.arkit.recipes import ARKIT_INDEX, ARKIT_NAMES
+from addon.blender import face_data
+from addon.mpeg4.control_mesh import control_fp_ids
+from addon.mpeg4.feature_points import FP_IDS
 
 SKIN = range(
     0, 14062
@@ -118,22 +125,39 @@ def e_of(generated: np.ndarray, sculpted: np.ndarray) -> tuple[float, float, flo
 
 STILL_KEY_M = 5e-5  # a vertex no key moves more than this (metres) is beyond the engine's reach
 UNDER_SCULPT_M, UNDER_SHARE = 1e-3, 0.3  # skin the sculpt moves over 1 mm and the key less than 30 % as far
+MOVED_FP_M = 1e-3  # an FP the key moves: the vertex nearest it moves more than this
+UNDER_BANDS_M = (0.01, 0.02, 0.03)  # the under-reached skin's distance from the nearest FP the key moves
 
 
-def reach_breakdown(pairs: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict:
+def reach_breakdown(pairs: dict[str, tuple[np.ndarray, np.ndarray]], rest=None, fps=None) -> dict:
     """Where the pooled error of (generated, sculpted) (V, 3) offset pairs by name lies, as shares of it: on skin no
     key moves at all (beyond the engine's reach: the cover and the fades), on skin the sculpt moves over 1 mm and
     the key less than 30 % as far (the key under-reaching), on the four eyeLookIn / Out; and the pooled E with each
-    shape at its own best weight (0..2), what sizes alone could reach."""
+    shape at its own best weight (0..2), what sizes alone could reach. With the (V, 3) `rest` vertices and the
+    (M, 3) rest FP positions `fps`, the under-reached share is also split by each vertex's distance from the
+    nearest FP the key moves (its nearest vertex more than 1 mm): under 10 mm, 10-20, 20-30, beyond (or none
+    moved): skin beside a moving FP the engine's falloff leaves behind, against skin no moving FP is near."""
     reach = np.max([np.linalg.norm(g, axis=1) for g, _ in pairs.values()], axis=0)
     still = reach < STILL_KEY_M
     error = motion = on_still = under = gaze = best = 0.0
+    bands = np.zeros(len(UNDER_BANDS_M) + 1)
+    if fps is not None:
+        fps = np.asarray(fps, dtype=np.float64)
+        fps = fps[np.all(np.isfinite(fps), axis=1)]
+        to_fp = np.linalg.norm(np.asarray(rest)[:, None] - fps[None], axis=2)  # (V, M)
+        at_fp = to_fp.argmin(axis=0)
     for name, (generated, sculpted) in pairs.items():
         errors = np.linalg.norm(generated - sculpted, axis=1)
         moved, sculpt = np.linalg.norm(generated, axis=1), np.linalg.norm(sculpted, axis=1)
         error, motion = error + errors.sum(), motion + sculpt.sum()
         on_still += errors[still].sum()
-        under += errors[(sculpt > UNDER_SCULPT_M) & (moved < UNDER_SHARE * sculpt)].sum()
+        short = (sculpt > UNDER_SCULPT_M) & (moved < UNDER_SHARE * sculpt)
+        under += errors[short].sum()
+        if fps is not None:
+            moving = moved[at_fp] > MOVED_FP_M
+            distance = to_fp[:, moving].min(axis=1) if moving.any() else np.full(len(errors), np.inf)
+            band = np.searchsorted(UNDER_BANDS_M, distance, side="right")
+            bands += np.bincount(band[short], errors[short], minlength=len(bands))
         gaze += errors.sum() if name.startswith(("eyeLookIn", "eyeLookOut")) else 0.0
         best += min(np.linalg.norm(w * generated - sculpted, axis=1).sum() for w in BEST_WEIGHTS)
     return {
@@ -142,7 +166,40 @@ def reach_breakdown(pairs: dict[str, tuple[np.ndarray, np.ndarray]]) -> dict:
         "share_under_reached": under / error,
         "share_eye_look_in_out": gaze / error,
         "e_pooled_at_best_weights": best / motion,
+        **({"share_under_reached_by_distance_from_a_moved_fp": (bands / error).tolist()} if fps is not None else {}),
     }
+
+
+HELD_SCULPT_M, HELD_SHARE = 1.5e-3, 0.4  # an FP the sculpt moves over 1.5 mm and the key less than 40 % as far
+
+
+def held_fps(pairs: dict[str, tuple[np.ndarray, np.ndarray]], rest, fps, fp_ids) -> dict[str, list]:
+    """For each name, the FPs (ids `fp_ids`, rest positions (M, 3) `fps`) whose nearest of the (V, 3) `rest`
+    vertices the sculpt moves over 1.5 mm and the key less than 40 % as far: [fp id, the sculpt's motion there
+    (x, y, z mm, the mesh's axes), the key's (mm)], largest first. Feature points no FAP moves stay in the keys
+    (Planar Bones holds a control FP still), and these are the ones the sculpt moves."""
+    rest, fps = np.asarray(rest, dtype=np.float64), np.asarray(fps, dtype=np.float64)
+    known = np.all(np.isfinite(fps), axis=1)
+    at = np.linalg.norm(rest[:, None] - fps[known][None], axis=2).argmin(axis=0)
+    ids = [fp_id for fp_id, ok in zip(fp_ids, known, strict=True) if ok]
+    out = {}
+    for name, (generated, sculpted) in pairs.items():
+        sculpt, key = sculpted[at], np.linalg.norm(generated[at], axis=1)
+        size = np.linalg.norm(sculpt, axis=1)
+        held = np.flatnonzero((size > HELD_SCULPT_M) & (key < HELD_SHARE * size))
+        out[name] = [
+            [ids[k], np.round(1000 * sculpt[k], 1).tolist(), round(1000 * float(key[k]), 1)]
+            for k in held[np.argsort(-size[held])]
+        ]
+    return out
+
+
+def print_held_fps(held: dict[str, list]) -> None:
+    print("\nFPs the sculpt moves over 1.5 mm and the key less than 40 % as far (sculpt x, y, z mm / key mm):")
+    for name, rows in held.items():
+        if rows:
+            listed = (f"{fp_id} ({', '.join(f'{c:+.1f}' for c in v)}) / {k:.1f}" for fp_id, v, k in rows)
+            print(f"- {name}: " + ", ".join(listed))
 
 
 def print_breakdown(breakdown: dict) -> None:
@@ -153,6 +210,13 @@ def print_breakdown(breakdown: dict) -> None:
         f"{100 * breakdown['share_eye_look_in_out']:.1f} %; pooled E at each shape's best weight "
         f"{breakdown['e_pooled_at_best_weights']:.3f}"
     )
+    bands = breakdown.get("share_under_reached_by_distance_from_a_moved_fp")
+    if bands is not None:
+        edges = [f"{1000 * a:.0f}" for a in UNDER_BANDS_M]
+        between = [f"{a}-{b} mm" for a, b in itertools.pairwise(edges)]
+        names = [f"under {edges[0]} mm", *between, "further (or none moved)"]
+        shares = ", ".join(f"{name} {100 * share:.1f} %" for name, share in zip(names, bands, strict=True))
+        print(f"the under-reached share by distance from the nearest FP the key moves: {shares}")
 
 
 def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
@@ -173,6 +237,9 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
     blocks = head.data.shape_keys.key_blocks
     base = _key(head.data.shape_keys.reference_key)
     face = slice(0, FACE_AREA)
+    empties = face_data.fp_empties(head)  # the control mesh's FPs (the head stands at the origin, in world axes)
+    fp_ids = [fp_id for fp_id in control_fp_ids(FP_IDS) if fp_id in empties]
+    fp_rest = [empties[fp_id].matrix_world.translation for fp_id in fp_ids]
     sculpts, skipped = {}, []
     for path in sorted(folder.glob("*.obj")):
         name = arkit_name(path.stem)
@@ -209,7 +276,8 @@ def evaluate(folder: Path, engine: str, blend: Path | None = None) -> dict:
         "missing": [n for n in ARKIT_NAMES if n not in rows],
         "skipped": skipped,
         "per_shape": rows,
-        "breakdown": reach_breakdown(pairs),
+        "breakdown": reach_breakdown(pairs, neutral[face], fp_rest),
+        "held_fps": held_fps(pairs, neutral[face], fp_rest, fp_ids),
     }
 
 
@@ -219,7 +287,7 @@ STILL_MM = 0.1
 
 def fp_motion(folder: Path, engine: str) -> dict:
     """E and spill of the engine driven by each ICT expression's own FP motion (`--fp-motion`)."""
-    from addon.blender import face_data, live
+    from addon.blender import live
 
     head, neutral = build_head(folder)
     for label, op in (
@@ -278,7 +346,7 @@ def print_fp_motion(report: dict, command: str) -> None:
         print(f"- {group}: {e:.3f} ({100 * spill:.0f} %)")
 
 
-def print_report(report: dict, command: str) -> None:
+def print_report(report: dict, command: str, held: bool = False) -> None:
     print(f"`{command}`\n")
     print(
         "| ARKit shape | E at weight 1 | share of error | sculpt's largest move (mm) | ours (mm) | best weight "
@@ -300,6 +368,8 @@ def print_report(report: dict, command: str) -> None:
         f"left out: {', '.join(report['skipped'])}"
     )
     print_breakdown(report["breakdown"])
+    if held:
+        print_held_fps(report["held_fps"])
 
 
 def main(argv=None) -> int:
@@ -310,6 +380,7 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path)
     parser.add_argument("--blend", type=Path, help="save the set-up head with its keys here (to look at)")
     parser.add_argument("--fp-motion", action="store_true", help="drive the engine by each expression's FP motion")
+    parser.add_argument("--held-fps", action="store_true", help="list the FPs each sculpt moves and its key holds")
     args = parser.parse_args(argv)
     if not (args.ict / "generic_neutral_mesh.obj").is_file():
         raise SystemExit(f"{args.ict}: no generic_neutral_mesh.obj (give ICT FaceKit's FaceXModel folder)")
@@ -320,7 +391,7 @@ def main(argv=None) -> int:
         print_fp_motion(report, command)
     else:
         report = evaluate(args.ict, args.engine, args.blend)
-        print_report(report, command)
+        print_report(report, command, args.held_fps)
     if args.json:
         args.json.write_text(json.dumps(report, indent=2) + "\n")
     return 0

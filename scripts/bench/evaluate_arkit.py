@@ -2,7 +2,7 @@
 the ARKit bridge's speed and round trip.
 
     .venv/bin/python -m scripts.bench.evaluate_arkit --targets DIR [--json OUT] [--engine planar|elastic]
-    .venv/bin/python -m scripts.bench.evaluate_arkit --makehuman-units [DIR] [--json OUT]     (the development set)
+    .venv/bin/python -m scripts.bench.evaluate_arkit --makehuman-units [DIR] [--json OUT] [--held-fps]  (development)
     .venv/bin/python -m scripts.bench.evaluate_arkit --speed-and-round-trip [--json OUT]
 
 `--targets DIR`: every `.target` / `.target.gz` in DIR named like an ARKit shape (`jawOpen.target.gz`; MakeHuman
@@ -46,7 +46,7 @@ from addon.mpeg4.fap_file import read_fap, write_fap
 from addon.mpeg4.fapu import AU
 from scripts import convert
 from scripts.bench import evaluate
-from scripts.bench.arkit_ict import print_breakdown, reach_breakdown
+from scripts.bench.arkit_ict import held_fps, print_breakdown, print_held_fps, reach_breakdown
 from scripts.sample.makehuman.targets import target_name
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -155,7 +155,10 @@ def summary(face: evaluate.SampleFace, results: dict) -> dict:
         "below_1": sum(s.e < 1.0 for s in scored.values()),
         "count": len(scored),
         "regions": evaluate.region_e(scored, face.region),
-        "breakdown": reach_breakdown({name: r["offsets"] for name, r in results.items()}),
+        "breakdown": reach_breakdown({name: r["offsets"] for name, r in results.items()}, face.rest, face.control_rest),
+        "held_fps": held_fps(
+            {r["sculpt"]: r["offsets"] for r in results.values()}, face.rest, face.control_rest, face.fp_ids
+        ),
         "per_shape": {
             name: {
                 "sculpt": r["sculpt"],
@@ -170,7 +173,7 @@ def summary(face: evaluate.SampleFace, results: dict) -> dict:
     }
 
 
-def print_table(report: dict) -> None:
+def print_table(report: dict, held: bool = False) -> None:
     print("| ARKit shape(s) | sculpt | E at weight 1 | share of error | p95 (mm) | best weight | E at best weight |")
     print("|---|---|---:|---:|---:|---:|---:|")
     for name, row in report["per_shape"].items():
@@ -184,6 +187,8 @@ def print_table(report: dict) -> None:
         f"\npooled E {report['e_pooled']:.3f}; {report['below_1']} of {report['count']} below E 1.0; regions: {regions}"
     )
     print_breakdown(report["breakdown"])
+    if held:
+        print_held_fps(report["held_fps"])
 
 
 class StageTimer:
@@ -290,6 +295,7 @@ def main(argv=None) -> int:
     parser.add_argument("--face", type=Path, default=evaluate.DEFAULT_FACE)
     parser.add_argument("--engine", choices=("planar", "elastic"), default="planar")
     parser.add_argument("--json", type=Path, help="write the figures here")
+    parser.add_argument("--held-fps", action="store_true", help="list the FPs each sculpt moves and its key holds")
     args = parser.parse_args(argv)
     convert.addon_package()
     face = evaluate.load_face(args.face)
@@ -300,7 +306,7 @@ def main(argv=None) -> int:
     else:
         pairs = pairs_from_folder(args.targets) if args.targets else pairs_from_units(args.makehuman_units)
         report = summary(face, scores(face, made_keys(face, args.engine), pairs))
-        print_table(report)
+        print_table(report, args.held_fps)
     report["command"] = " ".join(["python -m scripts.bench.evaluate_arkit", *(argv or sys.argv[1:])])
     if args.json:
         args.json.write_text(json.dumps(report, indent=1))

@@ -99,6 +99,21 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
     assert abs(sneer[near["9.1"], 0]) < 0.001  # raised, not widened (4.8 mm out with stretch_l_nose, AU 38's)
+    # the lifted upper lip raises the nose's bottom edge beside it (9.5: the lip's upper edge; no FAP moves it,
+    # and it stayed before), not the nostril's border 9.1 (AU 9's) nor the other side's 9.4
+    upper = offsets["mouthUpperUpLeft"]
+    assert upper[near["9.5"], 2] > 0.003 and abs(upper[near["9.4"], 2]) < 0.0005, (
+        upper[near["9.5"]],
+        upper[near["9.4"]],
+    )
+    assert upper[near["9.1"], 2] < 0.5 * upper[near["9.5"], 2], upper[near["9.1"]]
+    # the Cupid's bow's peaks (no FAP moves them) go with the upper lip's outer contour either side of them: the
+    # rolled upper lip takes them down with it (they stayed up, standing out of the rolled lip; the roll's push
+    # took them back already)
+    roll = offsets["mouthRollUpper"]
+    for peak, side in (("8.10", "8.5"), ("8.9", "8.6")):
+        beside = 0.5 * (roll[near["8.1"], 2] + roll[near[side], 2])
+        assert roll[near[peak], 2] < 0.5 * beside < -0.001, (peak, roll[near[peak]], beside)
     # the puffed cheeks go out along the cheek's surface normal, forward (-Y) as well as out (the FAP alone: 7.2 mm
     # straight out, none forward), each as far as puff_cheek moves it
     puff = offsets["cheekPuff"]

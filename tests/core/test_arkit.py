@@ -33,6 +33,8 @@ def test_table_has_every_arkit_name_once_with_a_why():
         "cheekPuff": "cheek_puff",
         "noseSneerLeft": "nostril_lift",
         "noseSneerRight": "nostril_lift",
+        "mouthUpperUpLeft": "nose_base_lift",
+        "mouthUpperUpRight": "nose_base_lift",
         "tongueOut": "tongue_forward",
         **{
             f"mouth{shape}{side}": "corner_slide"
@@ -249,6 +251,17 @@ def test_the_upper_lip_rises_its_measured_maximum():
             assert 0.29 <= lift <= 0.31, (name, suffix)
             middle = -recipe[fap(f"lower_t_midlip{suffix}").number - 1] / 1024
             assert np.isclose(2.0 * middle, lift), (name, suffix)
+
+
+def test_both_lowered_sides_lower_the_lower_lips_middle_as_far():
+    # the rule mouthUpperUp's middle follows: a lip pulled on both sides moves at its middle as far as at its sides,
+    # each side's shape giving the middle half (mouthLowerDown's middle 100 of 250 each before: 200 with both)
+    table = load_recipes()
+    for name, side in (("mouthLowerDownLeft", "lm"), ("mouthLowerDownRight", "rm")):
+        recipe = table.recipe(name)
+        for suffix in ("", "_o"):
+            drop = recipe[fap(f"raise_b_lip_{side}{suffix}").number - 1]
+            assert drop == -250.0 and recipe[fap(f"raise_b_midlip{suffix}").number - 1] == drop / 2, (name, suffix)
 
 
 def test_weights_add_their_recipes():

@@ -3,12 +3,14 @@
 import numpy as np
 
 from addon.arkit.deformations import (
+    bow_follow,
     cheek_puff,
     corner_slide,
     deform_points,
     hinge_angle,
     hinge_axis,
     jaw_hinge,
+    nose_base_lift,
     nostril_lift,
     surface_normals,
     whole_lip_push,
@@ -239,6 +241,47 @@ def test_the_nostril_rises_with_the_upper_lip_beside_it():
     np.testing.assert_array_equal(
         deform_points("nostril_lift", neutral, sneer, FACE_FRAME)[fp_index("9.5")],
         neutral[fp_index("9.5")] + [0.0, 0.003, 0.0],
+    )
+
+
+def test_the_nose_base_rises_with_the_upper_lip_below_it_and_the_nostril_stays():
+    # AU 10 lifts the upper lip, whose upper edge is the nose's bottom edge: 9.5 rises with 8.5, 9.1 (the ala,
+    # AU 9's) and the midline's 9.15 stay; a lip that comes down leaves its side's nose base where it was
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    lifted = neutral.copy()
+    lifted[fp_index("8.5"), 1] += 0.005  # the left upper lip rises (lower_t_lip_lm_o < 0)
+    lifted[fp_index("8.1"), 1] += 0.0025  # its middle half as far
+    lifted[fp_index("8.6"), 1] -= 0.002  # the right one comes down
+    moved = nose_base_lift(neutral @ axes, lifted @ axes, axes) @ axes.T
+    np.testing.assert_allclose(moved[fp_index("9.5")], neutral[fp_index("9.5")] + [0.0, 0.005, 0.0], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k != fp_index("9.5")]
+    np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)  # 9.1, 9.4, 9.15 among them
+    np.testing.assert_array_equal(
+        deform_points("nose_base_lift", neutral, lifted, FACE_FRAME),
+        bow_follow(neutral, nose_base_lift(neutral, lifted, FACE_FRAME), FACE_FRAME),
+    )
+
+
+def test_the_cupids_bow_peaks_follow_the_upper_lips_outer_contour_where_they_lie():
+    # no FAP moves 8.9 / 8.10: each moves as the contour between 8.1 and the side point beside it, blended by where
+    # it lies across at rest (before: pinned, every lip FAP bent the contour down to them)
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    for peak, mid, side, t in (("8.10", "8.1", "8.5", 0.25), ("8.9", "8.1", "8.6", 0.75)):
+        neutral[fp_index(peak)] = (1 - t) * neutral[fp_index(mid)] + t * neutral[fp_index(side)] + [0.0, 0.002, 0.0]
+    lifted = neutral.copy()
+    lifted[fp_index("8.1"), 1] += 0.004  # the mid-point up 4 mm
+    lifted[fp_index("8.5")] += [0.001, 0.008, -0.002]  # the left side up 8, out 1, forward 2
+    lifted[fp_index("8.10")] += 0.005  # a motion a deformation gave the peak is replaced by the contour's
+    moved = bow_follow(neutral @ axes, lifted @ axes, axes) @ axes.T
+    np.testing.assert_allclose(
+        moved[fp_index("8.10")] - neutral[fp_index("8.10")], [0.00025, 0.003 + 0.002, -0.0005], atol=1e-12
+    )
+    np.testing.assert_allclose(moved[fp_index("8.9")], neutral[fp_index("8.9")] + [0.0, 0.001, 0.0], atol=1e-12)
+    others = [k for k in range(N_FEATURE_POINTS) if k not in (fp_index("8.9"), fp_index("8.10"))]
+    np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)
+    # every recipe's points end so, a uniform shift staying a shift
+    np.testing.assert_allclose(
+        deform_points(None, neutral, lifted, FACE_FRAME), bow_follow(neutral, lifted, FACE_FRAME)
     )
 
 

@@ -48,3 +48,40 @@ def test_the_lips_parting_unit_is_lower_down_and_upper_up():
         "mouthUpperUpLeft",
         "mouthUpperUpRight",
     }
+
+
+def test_the_units_that_lift_the_upper_lip_lift_the_nose_base_beside_it_and_not_the_nostril():
+    # what mouthUpperUp's `nose_base_lift` reads from them (AU 10): the nose's bottom edge 9.5 rises at least as
+    # far as the lip's outer point 8.5 below it, the nostril's border 9.1 hardly (0.5 mm and 0)
+    for unit in ("mouth-elevation", "mouth-depression-retraction"):
+        lip, base, nostril = (unit_motion(unit, fp_id)[2] for fp_id in ("8.5", "9.5", "9.1"))
+        assert base >= lip > 0.003 and abs(nostril) < 0.001, (unit, lip, base, nostril)
+
+
+def test_the_under_reached_error_is_split_by_distance_from_a_moved_fp():
+    # four vertices along x at 0, 5, 15 and 40 mm; the key moves the first (an FP's) 2 mm, the sculpt all four:
+    # the other three are under-reached, 2 mm of error each, at 5, 15 and 40 mm from the FP the key moves (the
+    # FP at the last vertex does not move)
+    from scripts.bench.arkit_ict import reach_breakdown
+
+    rest = np.array([[0.0, 0.0, 0.0], [0.005, 0.0, 0.0], [0.015, 0.0, 0.0], [0.040, 0.0, 0.0]])
+    sculpted = np.tile([0.0, 0.0, 0.002], (4, 1))
+    generated = np.zeros((4, 3))
+    generated[0] = sculpted[0]
+    breakdown = reach_breakdown({"jawOpen": (generated, sculpted)}, rest, rest[[0, 3]])
+    np.testing.assert_allclose(breakdown["share_under_reached"], 1.0)
+    np.testing.assert_allclose(breakdown["share_under_reached_by_distance_from_a_moved_fp"], [1 / 3, 1 / 3, 0, 1 / 3])
+    assert "share_under_reached_by_distance_from_a_moved_fp" not in reach_breakdown({"x": (generated, sculpted)})
+
+
+def test_held_fps_lists_the_fps_the_sculpt_moves_and_the_key_holds():
+    # three FPs on three vertices: the sculpt moves all 2 mm; the key the first 2 mm (followed), the second 0.5 mm
+    # (held: under 40 %), the third 1 mm (50 %: not held); a fourth FP is unknown (NaN) and left out
+    from scripts.bench.arkit_ict import held_fps
+
+    rest = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.02, 0.0, 0.0]])
+    sculpted = np.tile([0.0, 0.0, 0.002], (3, 1))
+    generated = np.array([[0.0, 0.0, 0.002], [0.0, 0.0, 0.0005], [0.0, 0.0, 0.001]])
+    fps = np.vstack([rest + 1e-4, np.full((1, 3), np.nan)])
+    held = held_fps({"mouthSmileLeft": (generated, sculpted)}, rest, fps, ["8.3", "5.1", "9.5", "2.10"])
+    assert held == {"mouthSmileLeft": [["5.1", [0.0, 0.0, 2.0], 0.5]]}
