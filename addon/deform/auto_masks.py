@@ -143,16 +143,11 @@ def rim_vertices(vertices: np.ndarray, neutral: np.ndarray, opening: tuple[str, 
 def _side(vertices, edges, neutral, upper_ids, lower_ids, band, rims=None):
     """(N,) how far each vertex is on the lower side (0..1), and its distance to the lower and the upper side
     (the side's FPs, with its edge of each opening: `rim_vertices`)."""
-    seeds, points = {}, {}
-    for name, ids in (("upper", upper_ids), ("lower", lower_ids)):
-        points[name] = [neutral[fp_index(f)] for f in sorted(ids) if np.all(np.isfinite(neutral[fp_index(f)]))]
-    toward = {}
-    if points["upper"] and points["lower"]:
-        up = np.mean(points["upper"], axis=0) - np.mean(points["lower"], axis=0)
-        toward = {"upper": up, "lower": -up}
-    for k, name in enumerate(("upper", "lower")):
-        near = nearest_vertices(vertices, np.array(points[name])) if points[name] else np.array([], dtype=np.intp)
-        seeds[name] = _twin_on_side(vertices, edges, near, toward[name]) if name in toward else near
+    seeds = {}
+    for k, (name, ids) in enumerate((("upper", upper_ids), ("lower", lower_ids))):
+        points = [neutral[fp_index(f)] for f in sorted(ids) if np.all(np.isfinite(neutral[fp_index(f)]))]
+        near = nearest_vertices(vertices, np.array(points)) if points else np.array([], dtype=np.intp)
+        seeds[name] = _twin_on_side(vertices, edges, near)
         if rims is not None:
             seeds[name] = np.concatenate([seeds[name], rims[k]])
     d_up = geodesic_distance(vertices, edges, seeds["upper"])
@@ -162,28 +157,24 @@ def _side(vertices, edges, neutral, upper_ids, lower_ids, band, rims=None):
     return np.where(np.isfinite(d_up) | np.isfinite(d_low), np.nan_to_num(lower, nan=0.0), 0.0), d_low, d_up
 
 
-def _twin_on_side(vertices: np.ndarray, edges: np.ndarray, seeds: np.ndarray, toward: np.ndarray) -> np.ndarray:
-    """`seeds` with each vertex that shares its place with others (a mesh cut open along a line, Open Sealed
-    Mouth: one vertex for each side of the cut) replaced by the one whose neighbours lie farthest along `toward`
-    (the side its FP is on): the nearest vertex to an FP on the cut is otherwise whichever comes first."""
+def _twin_on_side(vertices: np.ndarray, edges: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """`seeds` (one side's FPs' nearest vertices) with each vertex that shares its place with others (a mesh cut
+    open along a line, Open Sealed Mouth: one vertex for each side of the cut) replaced by the one nearest, over
+    the skin, to the side's seeds that share their place with none (its other FPs: on the cut, the nearest vertex
+    to an FP is otherwise whichever comes first, as often the other side's)."""
     seeds = np.asarray(seeds, dtype=np.intp)
     if not len(seeds):
         return seeds
     _places, group, count = np.unique(vertices, axis=0, return_inverse=True, return_counts=True)
     group = group.reshape(-1)
     shared = count[group[seeds]] > 1
-    if not shared.any():
+    if not shared.any() or shared.all():
         return seeds
-    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
-    total, degree = np.zeros_like(vertices), np.zeros(len(vertices))
-    for a, b in ((0, 1), (1, 0)):
-        np.add.at(total, edges[:, a], vertices[edges[:, b]])
-        np.add.at(degree, edges[:, a], 1.0)
-    lean = ((total / np.maximum(degree, 1.0)[:, None]) - vertices) @ np.asarray(toward, dtype=np.float64)
+    reach = geodesic_distance(vertices, edges, seeds[~shared])
     out = seeds.copy()
     for k in np.flatnonzero(shared):
         twins = np.flatnonzero(group == group[seeds[k]])
-        out[k] = twins[np.argmax(lean[twins])]
+        out[k] = twins[np.argmin(reach[twins])]
     return out
 
 

@@ -180,10 +180,10 @@ def test_masks_seed_each_lip_on_its_own_side_of_the_cut():
     middle = cut.path[len(cut.path) // 2]  # a vertex of the cut: it and its copy are both nearest an FP there
     twin = len(vertices) + len(cut.path) // 2 - 1
     np.testing.assert_array_equal(after[twin], after[middle])
-    up = np.array([0.0, 1.0, 0.0])
-    assert _twin_on_side(after, edges, np.array([middle]), up).tolist() == [middle]
-    assert _twin_on_side(after, edges, np.array([middle]), -up).tolist() == [twin]
-    assert _twin_on_side(after, edges, np.array([twin]), up).tolist() == [middle]
-    assert _twin_on_side(vertices, edge_weights(vertices, sizes, corners)[0], np.array([middle]), -up).tolist() == [
-        middle
-    ]  # no twin before the cut: the seed stays
+    # a side's other FPs, off the cut: the outer lips' middles, 8 mm above and below
+    above, below = (int(np.argmin(np.linalg.norm(vertices - [0.0, y, 0.0], axis=1))) for y in (0.008, -0.008))
+    assert _twin_on_side(after, edges, np.array([middle, above])).tolist() == [middle, above]
+    assert _twin_on_side(after, edges, np.array([middle, below])).tolist() == [twin, below]
+    assert _twin_on_side(after, edges, np.array([twin, above])).tolist() == [middle, above]
+    before = edge_weights(vertices, sizes, corners)[0]
+    assert _twin_on_side(vertices, before, np.array([middle, below])).tolist() == [middle, below]  # no twin yet
