@@ -211,12 +211,10 @@ def _check_fps(rest: np.ndarray, edges: np.ndarray, placed: dict, neutral: dict,
         notes.append(Warn(f"FP {', '.join(far)} were placed far off the surface and snapped onto it: check them"))
     fused = face_checks.fused_openings(rest, edges, neutral)
     if fused:
-        notes.append(
-            Warn(
-                f"the mesh has no opening at the {', '.join(fused)}: they cannot part (cut the mesh open between "
-                "the feature points)"
-            )
-        )
+        how = "cut the mesh open between the feature points"
+        if any(name.startswith("lips") for name in fused):
+            how += "; for the lips: Remove Set-Up, Open Sealed Mouth, then Set Up Face again"
+        notes.append(Warn(f"the mesh has no opening at the {', '.join(fused)}: they cannot part ({how})"))
 
 
 def _planned_masks(

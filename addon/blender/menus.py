@@ -15,6 +15,7 @@ class MPEG4_MT_object(bpy.types.Menu):
         layout.operator(ops.MPEG4_OT_place_feature_points.bl_idname)
         layout.operator(auto_placement_ops.MPEG4_OT_auto_place_feature_points.bl_idname)
         layout.operator(ops.MPEG4_OT_setup_face.bl_idname)
+        layout.operator(ops.MPEG4_OT_open_sealed_mouth.bl_idname)
         layout.separator()
         layout.operator(ops.MPEG4_OT_import_fap.bl_idname)
         layout.operator(ops.MPEG4_OT_export_fap.bl_idname)

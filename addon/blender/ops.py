@@ -9,7 +9,7 @@ from bpy_extras.io_utils import ExportHelper, ImportHelper
 
 from ..errors import Mpeg4Error
 from ..mpeg4.feature_points import FP_IDS, feature_point
-from . import auto_placement, bake, face_data, face_setup, fap_io, fp_empties, poll
+from . import auto_placement, bake, binding_store, face_data, face_setup, fap_io, fp_empties, poll, sealed_mouth
 from .modal_job import ModalJob
 from .motion_options import GainAndClamp
 from .reporting import Mpeg4Operator, report_outside_operator
@@ -44,6 +44,54 @@ class MPEG4_OT_remove_face(Mpeg4Operator, bpy.types.Operator):
 
     def run(self, context):
         return face_setup.remove(poll.face(context))
+
+
+class MPEG4_OT_open_sealed_mouth(Mpeg4Operator, bpy.types.Operator):
+    """Cut the mesh open along the crease between the lips where the mesh seals them (a scan, a sculpt, welded
+    lips), from FP 2.4 to FP 2.5: asks first, and Undo takes it back. Run it before Set Up Face"""
+
+    bl_idname = "mpeg4.open_sealed_mouth"
+    bl_label = "Open Sealed Mouth"
+    bl_options = {"REGISTER", "UNDO"}
+
+    show_only: BoolProperty(
+        name="Show Only",
+        default=False,
+        options={"SKIP_SAVE"},
+        description="Select the edges the cut would follow (Tab into Edit Mode to see them) and cut nothing",
+    )
+
+    @classmethod
+    def unavailable(cls, context):
+        reason = poll.no_face(context)
+        face = face_data.active_face(context)
+        if reason is None and binding_store.is_bound(face):
+            return f"{face.name} is set up: Remove Set-Up first (the cut changes the mesh), then set it up again"
+        return reason
+
+    def run(self, context):
+        face = poll.face(context)
+        cut = sealed_mouth.plan(face)
+        if self.show_only:
+            return sealed_mouth.show(face, cut)
+        return sealed_mouth.cut_open(face, cut)
+
+    def invoke(self, context, event):
+        if self.show_only or context.window is None:
+            return self.execute(context)
+        face = poll.face(context)
+        try:
+            cut = sealed_mouth.plan(face)
+        except Mpeg4Error as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        return context.window_manager.invoke_confirm(
+            self,
+            event,
+            title="Cut the Mouth Open?",
+            message=f"Cut {sealed_mouth.describe(face, cut)}",
+            confirm_text="Cut",
+        )
 
 
 def _fp_items(_self, _context):
@@ -316,6 +364,7 @@ class MPEG4_OT_bake(ModalJob, Mpeg4Operator, bpy.types.Operator):
 CLASSES = (
     MPEG4_OT_setup_face,
     MPEG4_OT_remove_face,
+    MPEG4_OT_open_sealed_mouth,
     MPEG4_OT_place_feature_points,
     MPEG4_OT_import_fap,
     MPEG4_OT_export_fap,

@@ -45,6 +45,10 @@ class MPEG4_PT_face(bpy.types.Panel):
         row.prop(settings, "use_x_mirror", text="", icon="MOD_MIRROR")
         row.operator("mpeg4.setup_face", icon="MOD_MESHDEFORM")
         layout.operator("mpeg4.auto_place_feature_points", icon="SHADERFX")
+        if not bound:
+            row = layout.row(align=True)
+            row.operator("mpeg4.open_sealed_mouth", icon="MOD_EDGESPLIT")
+            row.operator("mpeg4.open_sealed_mouth", text="", icon="HIDE_OFF").show_only = True
         low = auto_placement.low_confidence(face)
         if low:
             col = layout.column(align=True)

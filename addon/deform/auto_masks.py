@@ -146,7 +146,8 @@ def _side(vertices, edges, neutral, upper_ids, lower_ids, band, rims=None):
     seeds = {}
     for k, (name, ids) in enumerate((("upper", upper_ids), ("lower", lower_ids))):
         points = [neutral[fp_index(f)] for f in sorted(ids) if np.all(np.isfinite(neutral[fp_index(f)]))]
-        seeds[name] = nearest_vertices(vertices, np.array(points)) if points else np.array([], dtype=np.intp)
+        near = nearest_vertices(vertices, np.array(points)) if points else np.array([], dtype=np.intp)
+        seeds[name] = _twin_on_side(vertices, edges, near)
         if rims is not None:
             seeds[name] = np.concatenate([seeds[name], rims[k]])
     d_up = geodesic_distance(vertices, edges, seeds["upper"])
@@ -154,6 +155,27 @@ def _side(vertices, edges, neutral, upper_ids, lower_ids, band, rims=None):
     with np.errstate(invalid="ignore"):
         lower = _smoothstep(0.5 + (d_up - d_low) / band)
     return np.where(np.isfinite(d_up) | np.isfinite(d_low), np.nan_to_num(lower, nan=0.0), 0.0), d_low, d_up
+
+
+def _twin_on_side(vertices: np.ndarray, edges: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """`seeds` (one side's FPs' nearest vertices) with each vertex that shares its place with others (a mesh cut
+    open along a line, Open Sealed Mouth: one vertex for each side of the cut) replaced by the one nearest, over
+    the skin, to the side's seeds that share their place with none (its other FPs: on the cut, the nearest vertex
+    to an FP is otherwise whichever comes first, as often the other side's)."""
+    seeds = np.asarray(seeds, dtype=np.intp)
+    if not len(seeds):
+        return seeds
+    _places, group, count = np.unique(vertices, axis=0, return_inverse=True, return_counts=True)
+    group = group.reshape(-1)
+    shared = count[group[seeds]] > 1
+    if not shared.any() or shared.all():
+        return seeds
+    reach = geodesic_distance(vertices, edges, seeds[~shared])
+    out = seeds.copy()
+    for k in np.flatnonzero(shared):
+        twins = np.flatnonzero(group == group[seeds[k]])
+        out[k] = twins[np.argmin(reach[twins])]
+    return out
 
 
 def _width(neutral, pair) -> float:

@@ -106,10 +106,24 @@ def fused_openings(rest: np.ndarray, edges: np.ndarray, positions: Mapping[str, 
         if not set(ids) <= positions.keys():
             continue
         width = float(np.linalg.norm(np.asarray(positions[across[0]]) - positions[across[1]]))
-        a, b = (int(np.argmin(np.linalg.norm(rest - positions[s[0]], axis=1))) for s in (side_a, side_b))
-        if joined_over_skin(graph, rest, a, b, width, dijkstra):
+        if joined_near(graph, rest, positions[side_a[0]], positions[side_b[0]], width, dijkstra):
             fused.append(f"{name} ({_names((side_a[0], side_b[0]))})")
     return fused
+
+
+def nearest_vertices(rest: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The vertices nearest `point`: all of them where several lie at one place (a mesh cut open along a line has
+    two vertices at each point of it, one for each side)."""
+    distance = np.linalg.norm(rest - np.asarray(point, dtype=np.float64), axis=1)
+    return np.flatnonzero(distance <= distance.min())
+
+
+def joined_near(graph, rest: np.ndarray, point_a, point_b, width: float, dijkstra) -> bool:
+    """`joined_over_skin` for the vertices nearest two points: joined when every vertex nearest one is joined to
+    every vertex nearest the other (where a cut left two vertices at a point, one on each side, the opening
+    is there)."""
+    near_a, near_b = nearest_vertices(rest, point_a), nearest_vertices(rest, point_b)
+    return all(joined_over_skin(graph, rest, int(a), int(b), width, dijkstra) for a in near_a for b in near_b)
 
 
 def joined_over_skin(graph, rest: np.ndarray, a: int, b: int, width: float, dijkstra) -> bool:
