@@ -608,10 +608,17 @@ class ContactArrays:
             self.scratch.ctypes.data,
         )
 
+    def __getstate__(self) -> dict:
+        """Pickled and copied without `arguments`: its addresses are this process's, of these very arrays."""
+        return {name: value for name, value in self.__dict__.items() if name != "arguments"}
+
     @classmethod
     def of(
-        cls, vertices, rows, ends, look, keep, direction, triangles, facing, reach, axes, n_guarded, skin, sources, shares
-    ) -> ContactArrays:
+        cls, vertices, rows, ends, look, keep, direction, triangles, facing, reach, axes, n_guarded, skin, sources, shares,
+        positions=None,
+    ) -> ContactArrays:  # fmt: skip
+        """The arrays, checked (a `DeformError` where an index is out of range); with the mesh's (N, 3) `positions`,
+        the triangles' first order is theirs (else the kernel's first call sorts them from the mesh's order)."""
         vertices, rows, ends, triangles, skin, sources = (
             np.asarray(a, dtype=np.int64) for a in (vertices, rows, ends, triangles, skin, sources)
         )
@@ -649,6 +656,10 @@ class ContactArrays:
         n_vertices = 1 + max(int(a.max(initial=-1)) for a in (vertices, triangles, skin))
         kernel = _kernel()
         size = (len(vertices), len(ends), len(triangles), int(n_guarded))
+        order = np.arange(len(triangles))
+        if positions is not None and len(positions) >= n_vertices:
+            least = (np.asarray(positions, dtype=np.float64)[triangles] @ np.asarray(axes)[0]).min(axis=1)
+            order = np.concatenate([np.argsort(least[:n_first]), n_first + np.argsort(least[n_first:])])
         return cls(
             vertices=np.ascontiguousarray(vertices, np.int32),
             rows=np.ascontiguousarray(rows, np.int32),
@@ -664,7 +675,7 @@ class ContactArrays:
             skin=np.ascontiguousarray(skin, np.int32),
             sources=np.ascontiguousarray(sources, np.int32),
             shares=np.ascontiguousarray(shares, np.float64),
-            order=np.arange(len(triangles), dtype=np.int32),
+            order=np.ascontiguousarray(order, np.int32),
             scratch=np.empty(0 if kernel is None else int(kernel.pbk_press_apart_scratch(*size))),
             n_vertices=n_vertices,
         )

@@ -535,7 +535,7 @@ def press_apart(guard: LipGuard, out: np.ndarray, native: bool = True) -> bool:
     if contact is None or not len(contact.triangles):
         return False
     if native:
-        moved = fused.press_apart_into(_contact_arrays(guard), out)
+        moved = fused.press_apart_into(_contact_arrays(guard, out), out)
         if moved is not None:
             return moved
     axes = guard.axes
@@ -569,15 +569,16 @@ def press_apart(guard: LipGuard, out: np.ndarray, native: bool = True) -> bool:
     return True
 
 
-def _contact_arrays(guard: LipGuard) -> fused.ContactArrays:
-    """The guard's contact and carry as the kernel takes them, made once and kept with the guard (which is frozen:
-    they are its own state, as the kernel's sorted order of the triangles is from call to call)."""
+def _contact_arrays(guard: LipGuard, out: np.ndarray | None = None) -> fused.ContactArrays:
+    """The guard's contact and carry as the kernel takes them, made once (the other lip's triangles first sorted as
+    they lie in `out`) and kept with the guard: they are its own state, as the kernel's order of the triangles is from
+    call to call, so they go in its __dict__ (the dataclass is frozen; dataclasses.replace makes a guard without)."""
     arrays = guard.__dict__.get("_contact_arrays")
     if arrays is None:
         c = guard.contact
         arrays = fused.ContactArrays.of(
             c.vertices, c.rows, c.ends, c.look, c.keep, c.direction, c.triangles, c.facing, c.reach, guard.axes,
-            len(guard.vertices), guard.skin, guard.sources, guard.shares,
+            len(guard.vertices), guard.skin, guard.sources, guard.shares, out,
         )  # fmt: skip
         guard.__dict__["_contact_arrays"] = arrays
     return arrays

@@ -1,6 +1,8 @@
 """The lip guard in the compiled kernel (`fused.guard_lips_into`, native/lip_guard.h) against its numpy reference
 (`lips.guard_lips`), on the hand-made mouth of test_lips: the same vertices move by the same amounts."""
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -235,3 +237,22 @@ def test_inconsistent_contact_arrays_are_refused():
     ):
         with pytest.raises(DeformError):
             made(**changes)
+
+
+@needs_kernel
+def test_a_guard_pickled_after_pressing_presses_alike_in_its_new_arrays():
+    """The kernel's arguments are addresses of this process's arrays: a guard pickled with its contact's arrays (kept
+    with it after the first press) and loaded again takes the addresses of the loaded arrays (before, the old ones:
+    the process crashed)."""
+    rest, triangles, upper, lower, fps = tucked_mouth(apart=0.0002)
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    slid = rest.copy()
+    slid[lower, 2] += 0.002 * np.cos(np.pi * rest[lower, 0] / 0.05) ** 2
+    guard_lips(guard, slid, fps)
+    first = slid.copy()
+    assert lips.press_apart(guard, first)
+    loaded = pickle.loads(pickle.dumps(guard))
+    assert "arguments" not in pickle.loads(pickle.dumps(lips._contact_arrays(guard))).__dict__
+    again = slid.copy()
+    assert lips.press_apart(loaded, again)
+    np.testing.assert_array_equal(again, first)
