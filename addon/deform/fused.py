@@ -67,8 +67,8 @@ _GUARD_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, *[_POINTER] * 3, ctypes.c_in
 _GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, ctypes.c_int64, _POINTER, ctypes.c_int64, *[_POINTER] * 4]
 
 _PRESS_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, _POINTER, _POINTER, ctypes.c_int64, *[_POINTER] * 4]
-_PRESS_ARGUMENTS += [ctypes.c_int64, ctypes.c_int64, _POINTER, ctypes.c_double, _POINTER, ctypes.c_int64, ctypes.c_int64]
-_PRESS_ARGUMENTS += [_POINTER, ctypes.c_int64, *[_POINTER] * 5]
+_PRESS_ARGUMENTS += [ctypes.c_int64, ctypes.c_int64, _POINTER, ctypes.c_double, _POINTER, ctypes.c_int64]
+_PRESS_ARGUMENTS += [ctypes.c_int64, _POINTER, ctypes.c_int64, *[_POINTER] * 5]
 
 _NEAREST_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, _POINTER, ctypes.c_int32, ctypes.c_double]
 _NEAREST_ARGUMENTS += [ctypes.c_double, ctypes.c_int32, *[_POINTER] * 3]
@@ -614,8 +614,8 @@ class ContactArrays:
 
     @classmethod
     def of(
-        cls, vertices, rows, ends, look, keep, direction, triangles, facing, reach, axes, n_guarded, skin, sources, shares,
-        positions=None,
+        cls, vertices, rows, ends, look, keep, direction, triangles, facing, reach, axes, n_guarded, skin, sources,
+        shares, positions=None,
     ) -> ContactArrays:  # fmt: skip
         """The arrays, checked (a `DeformError` where an index is out of range); with the mesh's (N, 3) `positions`,
         the triangles' first order is theirs (else the kernel's first call sorts them from the mesh's order)."""
