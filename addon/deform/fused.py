@@ -536,21 +536,25 @@ class GuardArrays:
         )
 
 
+def _writable_positions(out: np.ndarray, n_vertices: int) -> bool:
+    """Whether the kernel can write `out` in place: (N, 3) float32 or float64, C-contiguous, writeable, N at least
+    `n_vertices`."""
+    return (
+        out.dtype in (np.float32, np.float64)
+        and out.ndim == 2
+        and out.shape[1] == 3
+        and out.flags.c_contiguous
+        and out.flags.writeable
+        and n_vertices <= len(out)
+    )
+
+
 def guard_lips_into(arrays: GuardArrays, out: np.ndarray, points: np.ndarray) -> bool | None:
     """`lips.guard_lips` by the kernel, in place on ``out`` (N, 3, C-contiguous float32 or float64) for the control
     points (M, 3): True when it moved any vertex, False when none; None, with ``out`` untouched, where the kernel is
     unavailable. Not thread-safe (``scratch``)."""
     kernel = _kernel() if available() else None
-    if (
-        kernel is None
-        or out.dtype not in (np.float32, np.float64)
-        or out.ndim != 2
-        or out.shape[1] != 3
-        or not out.flags.c_contiguous
-        or not out.flags.writeable
-        or points.shape != arrays.points.shape
-        or arrays.n_vertices > len(out)
-    ):
+    if kernel is None or not _writable_positions(out, arrays.n_vertices) or points.shape != arrays.points.shape:
         return None
     arguments = arrays.arguments
     arrays.points[...] = points
@@ -583,30 +587,12 @@ class ContactArrays:
 
     @functools.cached_property
     def arguments(self) -> tuple:
-        """The kernel's arguments but the output type and the output."""
-        return (
-            len(self.vertices),
-            self.vertices.ctypes.data,
-            self.rows.ctypes.data,
-            len(self.ends),
-            self.ends.ctypes.data,
-            self.look.ctypes.data,
-            self.keep.ctypes.data,
-            self.direction.ctypes.data,
-            len(self.triangles),
-            self.n_first,
-            self.triangles.ctypes.data,
-            self.reach,
-            self.axes.ctypes.data,
-            self.n_guarded,
-            len(self.skin),
-            self.skin.ctypes.data,
-            len(self.sources),
-            self.sources.ctypes.data,
-            self.shares.ctypes.data,
-            self.order.ctypes.data,
-            self.scratch.ctypes.data,
-        )
+        """The kernel's arguments but the output type and the output (each array by its address)."""
+        arrays = (self.vertices, self.rows, self.ends, self.look, self.keep, self.direction, self.triangles)
+        sizes = (len(self.vertices), len(self.ends), len(self.triangles), self.n_first)
+        carry = (self.n_guarded, len(self.skin), self.skin, len(self.sources), self.sources, self.shares)
+        ordered = (sizes[0], *arrays[:2], sizes[1], *arrays[2:6], *sizes[2:], arrays[6], self.reach, self.axes, *carry)
+        return tuple(a.ctypes.data if isinstance(a, np.ndarray) else a for a in (*ordered, self.order, self.scratch))
 
     def __getstate__(self) -> dict:
         """Pickled and copied without `arguments`: its addresses are this process's, of these very arrays."""
@@ -686,16 +672,7 @@ def press_apart_into(arrays: ContactArrays, out: np.ndarray) -> bool | None:
     moved any vertex, False when none; None, with ``out`` untouched, where the kernel is unavailable or ``out`` is not
     one it can write. Not thread-safe (the scratch and the triangles' order)."""
     kernel = _kernel() if available() else None
-    if (
-        kernel is None
-        or out.dtype not in (np.float32, np.float64)
-        or out.ndim != 2
-        or out.shape[1] != 3
-        or not out.flags.c_contiguous
-        or not out.flags.writeable
-        or arrays.n_vertices > len(out)
-        or not arrays.scratch.size
-    ):
+    if kernel is None or not _writable_positions(out, arrays.n_vertices) or not arrays.scratch.size:
         return None
     status = kernel.pbk_press_apart(int(out.dtype == np.float32), *arrays.arguments, out.ctypes.data)
     return None if status == 1 else status == 2

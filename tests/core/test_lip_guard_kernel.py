@@ -191,10 +191,9 @@ def test_the_kernel_presses_the_contact_apart_as_the_numpy_does_bit_for_bit(dtyp
     assert moved >= 12  # the contact did push in most cases
 
 
-@needs_kernel
-def test_the_kernel_keeps_the_triangles_order_from_call_to_call_and_answers_alike():
-    """The kernel's order of the other lip's triangles (sorted by their boxes, kept between calls) does not change
-    what it finds: the same mouth pressed after a shuffled order, after many other frames, and from a fresh guard."""
+def pressed_once():
+    """The tucked mouth (lips touching 0.2 mm apart) with its lower lip slid forward 2 mm at the mid line, after the
+    seam's guard; pressed apart by the kernel: (rest, lower lip, guard, slid, pressed)."""
     rest, triangles, upper, lower, fps = tucked_mouth(apart=0.0002)
     guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
     slid = rest.copy()
@@ -202,6 +201,14 @@ def test_the_kernel_keeps_the_triangles_order_from_call_to_call_and_answers_alik
     guard_lips(guard, slid, fps)
     first = slid.copy()
     assert lips.press_apart(guard, first)
+    return rest, lower, guard, slid, first
+
+
+@needs_kernel
+def test_the_kernel_keeps_the_triangles_order_from_call_to_call_and_answers_alike():
+    """The kernel's order of the other lip's triangles (sorted by their boxes, kept between calls) does not change
+    what it finds: the same mouth pressed again after many other frames and after the order was shuffled."""
+    rest, lower, guard, slid, first = pressed_once()
     arrays = lips._contact_arrays(guard)
     n_first = arrays.n_first
     assert np.array_equal(np.sort(arrays.order[:n_first]), np.arange(n_first))  # a permutation within each facing
@@ -244,13 +251,7 @@ def test_a_guard_pickled_after_pressing_presses_alike_in_its_new_arrays():
     """The kernel's arguments are addresses of this process's arrays: a guard pickled with its contact's arrays (kept
     with it after the first press) and loaded again takes the addresses of the loaded arrays (before, the old ones:
     the process crashed)."""
-    rest, triangles, upper, lower, fps = tucked_mouth(apart=0.0002)
-    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
-    slid = rest.copy()
-    slid[lower, 2] += 0.002 * np.cos(np.pi * rest[lower, 0] / 0.05) ** 2
-    guard_lips(guard, slid, fps)
-    first = slid.copy()
-    assert lips.press_apart(guard, first)
+    _rest, _lower, guard, slid, first = pressed_once()
     loaded = pickle.loads(pickle.dumps(guard))
     assert "arguments" not in pickle.loads(pickle.dumps(lips._contact_arrays(guard))).__dict__
     again = slid.copy()
