@@ -48,7 +48,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 13  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 14  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below
@@ -65,6 +65,10 @@ _GROUPED_ARGUMENTS += [ctypes.c_int32, _POINTER]
 GUARD_KNOTS = 17  # GUARD_KNOTS in native/lip_guard.h, lips.N_KNOTS
 _GUARD_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, *[_POINTER] * 4, ctypes.c_int64]
 _GUARD_ARGUMENTS += [*[_POINTER] * 3, ctypes.c_double, ctypes.c_int64, _POINTER, ctypes.c_int64, *[_POINTER] * 4]
+
+_PRESS_ARGUMENTS = [ctypes.c_int32, ctypes.c_int64, _POINTER, _POINTER, ctypes.c_int64, *[_POINTER] * 4]
+_PRESS_ARGUMENTS += [ctypes.c_int64, ctypes.c_int64, _POINTER, ctypes.c_double, _POINTER, ctypes.c_int64]
+_PRESS_ARGUMENTS += [ctypes.c_int64, _POINTER, ctypes.c_int64, *[_POINTER] * 5]
 
 _NEAREST_ARGUMENTS = [ctypes.c_int64, *[_POINTER] * 3, ctypes.c_int64, _POINTER, ctypes.c_int32, ctypes.c_double]
 _NEAREST_ARGUMENTS += [ctypes.c_double, ctypes.c_int32, *[_POINTER] * 3]
@@ -159,6 +163,10 @@ def open_library(path: Path | None) -> ctypes.CDLL | None:
         library.pbk_bases.restype = None
         library.pbk_guard_lips.argtypes = _GUARD_ARGUMENTS
         library.pbk_guard_lips.restype = ctypes.c_int
+        library.pbk_press_apart.argtypes = _PRESS_ARGUMENTS
+        library.pbk_press_apart.restype = ctypes.c_int
+        library.pbk_press_apart_scratch.argtypes = [ctypes.c_int64] * 4
+        library.pbk_press_apart_scratch.restype = ctypes.c_int64
         library.pbk_nearest_sources.argtypes = _NEAREST_ARGUMENTS
         library.pbk_nearest_sources.restype = ctypes.c_int
         library.pbk_locate.argtypes = _LOCATE_ARGUMENTS
@@ -528,25 +536,145 @@ class GuardArrays:
         )
 
 
+def _writable_positions(out: np.ndarray, n_vertices: int) -> bool:
+    """Whether the kernel can write `out` in place: (N, 3) float32 or float64, C-contiguous, writeable, N at least
+    `n_vertices`."""
+    return (
+        out.dtype in (np.float32, np.float64)
+        and out.ndim == 2
+        and out.shape[1] == 3
+        and out.flags.c_contiguous
+        and out.flags.writeable
+        and n_vertices <= len(out)
+    )
+
+
 def guard_lips_into(arrays: GuardArrays, out: np.ndarray, points: np.ndarray) -> bool | None:
     """`lips.guard_lips` by the kernel, in place on ``out`` (N, 3, C-contiguous float32 or float64) for the control
     points (M, 3): True when it moved any vertex, False when none; None, with ``out`` untouched, where the kernel is
     unavailable. Not thread-safe (``scratch``)."""
     kernel = _kernel() if available() else None
-    if (
-        kernel is None
-        or out.dtype not in (np.float32, np.float64)
-        or out.ndim != 2
-        or out.shape[1] != 3
-        or not out.flags.c_contiguous
-        or not out.flags.writeable
-        or points.shape != arrays.points.shape
-        or arrays.n_vertices > len(out)
-    ):
+    if kernel is None or not _writable_positions(out, arrays.n_vertices) or points.shape != arrays.points.shape:
         return None
     arguments = arrays.arguments
     arrays.points[...] = points
     status = kernel.pbk_guard_lips(int(out.dtype == np.float32), *arguments, out.ctypes.data)
+    return None if status == 1 else status == 2
+
+
+@dataclass(frozen=True, eq=False)
+class ContactArrays:
+    """A lip guard's contact (`lips.Contact`) and carry as the kernel's `pbk_press_apart` takes them (`of` checks
+    every index the kernel follows; `lips.press_apart` makes them once per guard)."""
+
+    vertices: np.ndarray  # (P,) int32: the contact's mesh vertices
+    rows: np.ndarray  # (P,) int32: their rows among the guarded vertices
+    ends: np.ndarray  # (S, 2) int32: the samples, rows into vertices
+    look: np.ndarray  # (S,) float64
+    keep: np.ndarray  # (S,) float64
+    direction: np.ndarray  # (S, 3) float64
+    triangles: np.ndarray  # (T, 3) int32: the other lips' skin, those facing 1 first
+    n_first: int  # how many of triangles face 1
+    reach: float
+    axes: np.ndarray  # (3, 3) float64
+    n_guarded: int
+    skin: np.ndarray  # (K,) int32
+    sources: np.ndarray  # (k, K) int32
+    shares: np.ndarray  # (k, K) float64
+    order: np.ndarray  # (T,) int32: the kernel keeps it sorted by the triangles' boxes from call to call
+    scratch: np.ndarray  # float64, as many as the kernel asks for (empty where there was no kernel)
+    n_vertices: int  # the least vertex count of a mesh these vertices index
+
+    @functools.cached_property
+    def arguments(self) -> tuple:
+        """The kernel's arguments but the output type and the output (each array by its address)."""
+        arrays = (self.vertices, self.rows, self.ends, self.look, self.keep, self.direction, self.triangles)
+        sizes = (len(self.vertices), len(self.ends), len(self.triangles), self.n_first)
+        carry = (self.n_guarded, len(self.skin), self.skin, len(self.sources), self.sources, self.shares)
+        ordered = (sizes[0], *arrays[:2], sizes[1], *arrays[2:6], *sizes[2:], arrays[6], self.reach, self.axes, *carry)
+        return tuple(a.ctypes.data if isinstance(a, np.ndarray) else a for a in (*ordered, self.order, self.scratch))
+
+    def __getstate__(self) -> dict:
+        """Pickled and copied without `arguments`: its addresses are this process's, of these very arrays."""
+        return {name: value for name, value in self.__dict__.items() if name != "arguments"}
+
+    @classmethod
+    def of(
+        cls, vertices, rows, ends, look, keep, direction, triangles, facing, reach, axes, n_guarded, skin, sources,
+        shares, positions=None,
+    ) -> ContactArrays:  # fmt: skip
+        """The arrays, checked (a `DeformError` where an index is out of range); with the mesh's (N, 3) `positions`,
+        the triangles' first order is theirs (else the kernel's first call sorts them from the mesh's order)."""
+        vertices, rows, ends, triangles, skin, sources = (
+            np.asarray(a, dtype=np.int64) for a in (vertices, rows, ends, triangles, skin, sources)
+        )
+        look, facing = np.asarray(look, dtype=np.float64), np.asarray(facing, dtype=np.float64)
+        n_first = int(np.sum(facing == 1.0))
+        if not (
+            vertices.ndim == 1
+            and np.all(vertices >= 0)
+            and rows.shape == vertices.shape
+            and np.all((0 <= rows) & (rows < n_guarded))
+            and len(np.unique(rows)) == len(rows)
+            and ends.ndim == 2
+            and ends.shape[1] == 2
+            and np.all((0 <= ends) & (ends < len(vertices)))
+            and look.shape == np.shape(keep) == (len(ends),)
+            and np.all(np.abs(look) == 1.0)
+            and np.shape(direction) == (len(ends), 3)
+            and triangles.ndim == 2
+            and triangles.shape[1] == 3
+            and np.all(triangles >= 0)
+            and facing.shape == (len(triangles),)
+            and np.all(facing[:n_first] == 1.0)
+            and np.all(facing[n_first:] == -1.0)
+            and np.shape(axes) == (3, 3)
+            and skin.ndim == 1
+            and 0 <= n_guarded <= len(skin)
+            and np.all(skin >= 0)
+            and sources.ndim == 2
+            and sources.shape[1] == len(skin)
+            and np.shape(shares) == sources.shape
+            and np.all((0 <= sources) & (sources < n_guarded))
+            and max(len(vertices), len(ends), len(triangles), len(skin)) < 2**31
+        ):
+            raise DeformError("inconsistent lip contact arrays")
+        n_vertices = 1 + max(int(a.max(initial=-1)) for a in (vertices, triangles, skin))
+        kernel = _kernel()
+        size = (len(vertices), len(ends), len(triangles), int(n_guarded))
+        order = np.arange(len(triangles))
+        if positions is not None and len(positions) >= n_vertices:
+            least = (np.asarray(positions, dtype=np.float64)[triangles] @ np.asarray(axes)[0]).min(axis=1)
+            order = np.concatenate([np.argsort(least[:n_first]), n_first + np.argsort(least[n_first:])])
+        return cls(
+            vertices=np.ascontiguousarray(vertices, np.int32),
+            rows=np.ascontiguousarray(rows, np.int32),
+            ends=np.ascontiguousarray(ends, np.int32),
+            look=np.ascontiguousarray(look),
+            keep=np.ascontiguousarray(keep, np.float64),
+            direction=np.ascontiguousarray(direction, np.float64),
+            triangles=np.ascontiguousarray(triangles, np.int32),
+            n_first=n_first,
+            reach=float(reach),
+            axes=np.ascontiguousarray(axes, np.float64),
+            n_guarded=int(n_guarded),
+            skin=np.ascontiguousarray(skin, np.int32),
+            sources=np.ascontiguousarray(sources, np.int32),
+            shares=np.ascontiguousarray(shares, np.float64),
+            order=np.ascontiguousarray(order, np.int32),
+            scratch=np.empty(0 if kernel is None else int(kernel.pbk_press_apart_scratch(*size))),
+            n_vertices=n_vertices,
+        )
+
+
+def press_apart_into(arrays: ContactArrays, out: np.ndarray) -> bool | None:
+    """`lips.press_apart` by the kernel, in place on ``out`` (N, 3, C-contiguous float32 or float64): True when it
+    moved any vertex, False when none; None, with ``out`` untouched, where the kernel is unavailable or ``out`` is not
+    one it can write. Not thread-safe (the scratch and the triangles' order)."""
+    kernel = _kernel() if available() else None
+    if kernel is None or not _writable_positions(out, arrays.n_vertices) or not arrays.scratch.size:
+        return None
+    status = kernel.pbk_press_apart(int(out.dtype == np.float32), *arrays.arguments, out.ctypes.data)
     return None if status == 1 else status == 2
 
 

@@ -512,18 +512,28 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
     return True
 
 
-def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
+def press_apart(guard: LipGuard, out: np.ndarray, native: bool = True) -> bool:
     """Keep the vertices of `guard.contact`, and the middles of the edges between them, out of the other lip's flesh
     (the depth square to the contact, `_along`, less what they had at rest beyond a touch) and as far from it as at rest
     where they touched it, in place on the deformed (N, 3) `out`, after `guard_lips`: each vertex moves into its own
     lip by the most any of its samples lacks, the skin beside it following as it follows the seam's push
-    (`_push_along`). True when it moved any. Pushes only part the lips (each into its own lip, away from the other)."""
+    (`_push_along`). True when it moved any. Pushes only part the lips (each into its own lip, away from the other).
+
+    `native`: by the compiled kernel where it is (`fused.press_apart_into`, native/lip_guard.h: the same result bit
+    for bit; on the shared heads' demo 0.4-0.8 ms a call against numpy's 9-20 ms; the arrays it takes are made at the
+    first call and kept with the guard); else, and as its reference, by numpy here, whose sums over the three axes
+    are written out in the kernel's order."""
     contact = guard.contact
     if contact is None or not len(contact.triangles):
         return False
+    if native:
+        moved = fused.press_apart_into(_contact_arrays(guard, out), out)
+        if moved is not None:
+            return moved
     axes = guard.axes
-    points = (out.take(contact.vertices, axis=0).astype(np.float64) @ axes.T)[contact.ends].mean(axis=1)
-    corners = (out.take(contact.triangles.ravel(), axis=0).astype(np.float64) @ axes.T).reshape(-1, 3, 3)
+    face = _in_frame(out.take(contact.vertices, axis=0).astype(np.float64), axes)
+    points = (face[contact.ends[:, 0]] + face[contact.ends[:, 1]]) / 2.0
+    corners = _in_frame(out.take(contact.triangles.ravel(), axis=0).astype(np.float64), axes).reshape(-1, 3, 3)
     # a clearance at rest is looked from that far back toward the other lip
     start = points + np.minimum(contact.keep, 0.0)[:, None] * contact.direction
     depth = np.zeros(len(points))
@@ -541,7 +551,8 @@ def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
     for k in range(2):
         np.maximum.at(push, contact.ends[:, k], lacks)
         np.add.at(moves, contact.ends[:, k], lacks[:, None] * contact.direction)
-    along = moves / np.maximum(np.linalg.norm(moves, axis=1, keepdims=True), 1e-300)
+    norm = np.sqrt(moves[:, 0] * moves[:, 0] + moves[:, 1] * moves[:, 1] + moves[:, 2] * moves[:, 2])
+    along = moves / np.maximum(norm, 1e-300)[:, None]
     pushes = np.zeros(len(guard.vertices))
     pushes[contact.rows] = push
     directions = np.zeros((len(guard.vertices), 3))
@@ -550,15 +561,43 @@ def press_apart(guard: LipGuard, out: np.ndarray) -> bool:
     return True
 
 
+def _contact_arrays(guard: LipGuard, out: np.ndarray | None = None) -> fused.ContactArrays:
+    """The guard's contact and carry as the kernel takes them, made once (the other lip's triangles first sorted as
+    they lie in `out`) and kept with the guard: they are its own state, as the kernel's order of the triangles is from
+    call to call, so they go in its __dict__ (the dataclass is frozen; dataclasses.replace makes a guard without)."""
+    arrays = guard.__dict__.get("_contact_arrays")
+    if arrays is None:
+        c = guard.contact
+        arrays = fused.ContactArrays.of(
+            c.vertices, c.rows, c.ends, c.look, c.keep, c.direction, c.triangles, c.facing, c.reach, guard.axes,
+            len(guard.vertices), guard.skin, guard.sources, guard.shares, out,
+        )  # fmt: skip
+        guard.__dict__["_contact_arrays"] = arrays
+    return arrays
+
+
+def _in_frame(points: np.ndarray, axes: np.ndarray) -> np.ndarray:
+    """(P, 3) mesh `points` in the face frame, `points @ axes.T` with each sum written out (a matrix product's order
+    is the BLAS's: the kernel's twin sums in this one)."""
+    return np.stack([points[:, 0] * a[0] + points[:, 1] * a[1] + points[:, 2] * a[2] for a in axes], axis=1)
+
+
 def _push_along(guard: LipGuard, out: np.ndarray, push: np.ndarray, directions: np.ndarray) -> None:
     """`_push`, each guarded vertex moved by its (V,) `push` along its (V, 3) unit `directions` (face frame) instead
-    of straight along its side, and the skin beside the lips by its shares of those moves, in place on `out`."""
+    of straight along its side, and the skin beside the lips by its shares of those moves, in place on `out`. The sums
+    run source after source and axis after axis, as in the kernel's twin (`pbk_press_apart`)."""
     weight = np.abs(guard.shares) * push.take(guard.sources)  # (k, V + C)
-    step = np.einsum("kr,krc->rc", weight, directions.take(guard.sources, axis=0))
+    step = np.zeros((len(guard.skin), 3))
+    for k in range(len(guard.sources)):
+        term = weight[k][:, None] * directions.take(guard.sources[k], axis=0)
+        step = term if k == 0 else step + term
     n = len(guard.vertices)
-    short = push - np.einsum("rc,rc->r", step[:n], directions)  # its own push, where the shared move falls short
-    step[:n] += directions * np.maximum(short, 0.0)[:, None]
-    out[guard.skin] += (step @ guard.axes).astype(out.dtype)
+    own = step[:n]
+    short = push - (own[:, 0] * directions[:, 0] + own[:, 1] * directions[:, 1] + own[:, 2] * directions[:, 2])
+    step[:n] = own + directions * np.maximum(short, 0.0)[:, None]
+    a = guard.axes
+    moved = np.stack([step[:, 0] * a[0, m] + step[:, 1] * a[1, m] + step[:, 2] * a[2, m] for m in range(3)], axis=1)
+    out[guard.skin] += moved.astype(out.dtype)
 
 
 def _push(guard: LipGuard, out: np.ndarray, push: np.ndarray) -> None:

@@ -13,7 +13,9 @@ Blender's own `debug_depsgraph_time` prints them.
 frame by frame; the CPU time of each stage of every frame (`time.process_time`, which other jobs on the machine do
 not lengthen): Planar Bones (`Playback.evaluate`), the lip guard (each call, the rounds inside Unfold Skin's
 included), the lids' turn, Unfold Skin (its look at the groups, then `open_folds_guarded` with its guard rounds),
-the positions written back, and the whole frame (`scene.frame_set`, Blender's own evaluation included). Printed:
+the positions written back, a head on a body's turn taken back from the body (`neck.turn_back`), the add-on's frame
+handler as a whole (`live.apply_scene`), and the whole frame (`scene.frame_set`, Blender's own evaluation
+included: the whole frame less the handler is Blender's). Printed:
 the median of each over the frames in which the face moved, then the `--slowest` frames by CPU time, each stage's
 time and the calls of the guard and of Unfold Skin's kernel.
 """
@@ -110,6 +112,8 @@ STAGES = (  # (name, module or class, attribute): what `--face` times in each fr
     ("Unfold Skin", unfold, "open_folds_guarded"),
     ("kernel unfold", fused, "unfold"),
     ("write back", rest_shape, "write_positions"),
+    ("body turned back", live, "turn_back"),
+    ("handler", live, "apply_scene"),
 )
 
 
@@ -160,7 +164,7 @@ def stage_times(face_path: Path, stream: Path) -> tuple[list[int], np.ndarray, n
 def print_stages(face_path: Path, stream: Path, slowest: int) -> None:
     frames, times, counts, names = stage_times(face_path, stream)
     ms = times * 1000
-    moving = counts[:, -2] > 0  # the positions were written back: the face moved
+    moving = counts[:, names.index("write back")] > 0  # the positions were written back: the face moved
     median = np.median(ms[moving], axis=0)
     print(f"{face_path.stem}, {stream.name}: {len(frames)} frames, {int(moving.sum())} moving; CPU ms per stage")
     print("| frame | " + " | ".join(names) + " | whole / moving median |")
