@@ -1,0 +1,113 @@
+"""Alignment with a transcript, then again with the model adapted to the take by MLLR (docs/voice.md).
+
+    .venv/bin/python -m scripts.bench.bench_align_mllr {dev,accents,fast,middle,middle-fast,held-out} [...]
+                     [--sphinxtrain] [--limit N]
+
+Each take is synthesised once and aligned as shipped (pass 1); the phones of that alignment (the model's
+phones, SIL for a pause) are the supervision of one global MLLR mean transform estimated on the take alone;
+the take is aligned again with the model so adapted (pass 2). Both are scored as scripts/bench/bench_lipsync.py
+scores the rows with a transcript (closure truth, clean), on the same samples. `--sphinxtrain`: the transform
+from Debian's sphinxtrain (bw, mllr_solve: `apt-get install sphinxtrain sphinxbase-utils pocketsphinx`, as row
+(e) of bench_recognition_ceiling) instead of the shipped two-pass alignment.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+from addon.speech import espeak, phone_alignment, recording
+from addon.speech.segments import TimedLabel
+from scripts.bench import bench_align_sets as sets
+from scripts.bench import bench_lipsync as bench
+from scripts.bench import bench_recognition_ceiling as ceiling
+
+SETS = {**sets.SETS, "held-out": ("held-out", bench.HELD_OUT["voices"], bench.HELD_OUT["rates"])}
+
+
+def sentences_of(which: str) -> list[str]:
+    return bench.read_sentences()[-bench.N_SENTENCES :] if which == "held-out" else sets.sentences_of(which)
+
+
+class _Captured:
+    """The model's phone names of the last alignment (`_aligned_entries` wrapped)."""
+
+    def __init__(self):
+        self.phones: list[str] = []
+        self.original = phone_alignment._aligned_entries
+
+    def __call__(self, alignment, words):
+        self.phones += [p.name for p in alignment.phones()]
+        return self.original(alignment, words)
+
+
+def align(take, text: str, voice: str, mllr: str | None = None) -> list[TimedLabel]:
+    options = {"mllr": mllr} if mllr else {}
+    module = phone_alignment._pocketsphinx()
+    saved = phone_alignment._pocketsphinx
+    phone_alignment._idle_decoders.pop(("align", "STANDARD"), None)
+    if mllr:
+        phone_alignment._pocketsphinx = lambda: ceiling._Swapped(module, options, phone_loop_only=False)
+    try:
+        return phone_alignment.phones_from_recording(take, text, accent=bench.accent_of(voice))
+    except phone_alignment.AlignmentError:  # refused: a mouth that never moves, as the benchmark
+        return [TimedLabel(0.0, take.duration, "sil")]
+    finally:
+        phone_alignment._pocketsphinx = saved
+        if mllr:
+            phone_alignment._idle_decoders.pop(("align", "STANDARD"), None)
+
+
+def sphinxtrain_transform(take, phones: list[str], folder: Path) -> str | None:
+    wheel = Path(phone_alignment._pocketsphinx().get_model_path()) / "en-us" / "en-us"
+    case = {"take": take}
+    path = ceiling.mllr_transform([case], [ceiling.spoken(phones)], folder, wheel)
+    return None if path is None else str(path)
+
+
+def run_set(name: str, limit: int | None, folder: Path) -> str:
+    which, voices, rates = SETS[name]
+    groups: dict[str, list[list[dict]]] = {}
+    duration = cpu = 0.0
+    for text in sentences_of(which)[:limit]:
+        for voice in voices:
+            for rate in rates:
+                speech = espeak.synthesize(text, voice, rate=rate)
+                take = recording.from_samples(speech.samples, speech.sample_rate, f"{voice} {rate}")
+                truth = espeak.speech_segments(speech)
+                captured = _Captured()
+                phone_alignment._aligned_entries = captured
+                try:
+                    first = align(take, text, voice)
+                finally:
+                    phone_alignment._aligned_entries = captured.original
+                began = time.process_time()
+                mllr = sphinxtrain_transform(take, captured.phones, Path(tempfile.mkdtemp(dir=folder)))
+                second = align(take, text, voice, mllr) if mllr else first
+                cpu += time.process_time() - began
+                duration += speech.duration
+                results = [bench.score(truth, phone_alignment.phone_segments(p), speech.duration) for p in (first, second)]
+                for key in ("all", voice, f"{rate} wpm"):
+                    groups.setdefault(key, []).append(results)
+    parts = []
+    for key, pairs in groups.items():
+        a, b = (bench.summary_of([p[k] for p in pairs])["agreement"] for k in (0, 1))
+        parts.append(f"{key} {a:.1%} -> {b:.1%}")
+    return f"{name}: " + ", ".join(parts) + f"; adaptation + pass 2 {duration / max(cpu, 1e-9):.1f}x real time (CPU)"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("sets", nargs="+", choices=tuple(SETS))
+    parser.add_argument("--limit", type=int, default=None, help="the first N sentences of each set")
+    args = parser.parse_args(argv)
+    with tempfile.TemporaryDirectory() as folder:
+        for name in args.sets:
+            print(run_set(name, args.limit, Path(folder)), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
