@@ -45,13 +45,14 @@ import dataclasses
 import functools
 import os
 import re
+import tempfile
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..progress import scaled
-from . import SpeechError, espeak
+from . import SpeechError, adaptation, espeak
 from .bilabials import bilabials_from_acoustics
 from .boundaries import log_band_energies, pauses_at, refine_boundaries, sound_into_silence
 from .recording import RATE, Recording, RecordingError
@@ -320,7 +321,7 @@ def _add_words(decoder, words: list[_Word]) -> None:
 # ----------------------------------------------------------------------------- decoding
 
 
-def _new_decoder(task: str, accuracy: str):
+def _new_decoder(task: str, accuracy: str, **files: str):
     if accuracy not in ACCURACY:
         raise SpeechError(f"accuracy {accuracy!r} is not one of {', '.join(ACCURACY)}")
     beam = BEAMS[task, accuracy]
@@ -328,6 +329,7 @@ def _new_decoder(task: str, accuracy: str):
     if beam is not None:
         options.update(beam=beam, wbeam=beam, pbeam=beam)
     options["lm"] = word_language_model() if task == "words" else None
+    options.update(files)  # an adapted model's transform (`mllr`) and the take's own dictionary (`dict`)
     if task == "recognise":
         # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
         # search keeps only a few long phones
@@ -543,13 +545,15 @@ def alignment_steps(
     vad_mode: int = DEFAULT_VAD_MODE,
     accuracy: str = "STANDARD",
     accent: str = DEFAULT_ACCENT,
+    adapt: bool = True,
 ) -> ProgressSteps:
     """Forced alignment of `transcript` with `recording`: yields progress, returns the timed phones.
 
     The words are pronounced as espeak-ng's voice `accent` (one of `ACCENTS`) says them in the sentence
     (`_espeak_words`), so that the phones and visemes match what Speak Text gives for the same text in that
     voice; if that alignment fails (a speaker whose accent differs), or espeak-ng is missing, with the
-    dictionary's pronunciations."""
+    dictionary's pronunciations. With `adapt`, the model is then adapted to the take by MLLR from that
+    alignment and the take aligned again (`_adapted`)."""
     if accent not in ACCENTS:
         raise AlignmentError(f"accent {accent!r} is not one of {', '.join(ACCENTS)}")
     words = transcript_words(transcript)
@@ -561,29 +565,88 @@ def alignment_steps(
             "transcript of this recording?"
         )
     ranges, voiced = pieces(recording.samples, vad_mode)
+    means: dict = {}
     with _decoder("align", accuracy) as decoder:
         try:
-            spoken = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
-            results = yield from _align_pieces(decoder, recording, ranges, _share_words(spoken, voiced))
+            said = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
+            shares = _share_words(said, voiced)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, means), 0, 0.5)
         except (AlignmentError, espeak.EspeakMissingError):
-            listed = _with_pauses(_dictionary_words(decoder, words), transcript)
-            results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
+            said = _with_pauses(_dictionary_words(decoder, words), transcript)
+            shares = _share_words(said, voiced)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, means), 0, 0.5)
+    if adapt:
+        results = yield from scaled(_adapted(recording, ranges, shares, results, accuracy, means), 0.5, 1)
     # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound;
     # where the transcript pauses, the word before ends with its sound
     energies = log_band_energies(recording.samples)
-    joined = _join([phones for phones, _ in results], recording.duration)
+    joined = _join([phones for phones, _, _ in results], recording.duration)
     phones = refine_boundaries(joined, energies, 1.0 / FRAME_RATES["align"], _abrupt)
     phones = sound_into_silence(phones, energies, _silent)
-    return pauses_at(phones, energies, [moment for _, breaks in results for moment in breaks], _silent)
+    return pauses_at(phones, energies, [moment for _, breaks, _ in results for moment in breaks], _silent)
+
+
+def _state_frames(alignment) -> tuple[np.ndarray, np.ndarray]:
+    """The aligned senone of each frame, and the base phone's index in the model's definition (the codebook of
+    a phonetically-tied model), from the alignment's states and the phones they belong to."""
+    phones = list(alignment.phones())
+    starts = [p.start for p in phones]
+    index = {name: k for k, name in enumerate(_model().phones)}
+    frames = phones[-1].start + phones[-1].duration
+    senones, codebooks = np.zeros(frames, np.int64), np.zeros(frames, np.int64)
+    for state in alignment.states():
+        phone = phones[bisect.bisect_right(starts, state.start) - 1]
+        senones[state.start : state.start + state.duration] = int(state.name)
+        codebooks[state.start : state.start + state.duration] = index[phone.name]
+    return senones, codebooks
+
+
+@functools.cache
+def _model() -> adaptation.Model:
+    """The wheel's acoustic model as `adaptation` reads it (means, variances, mixture weights, phones)."""
+    return adaptation.read_model(os.path.join(_pocketsphinx().get_model_path(), "en-us", "en-us"))
+
+
+def _adapted(recording: Recording, ranges, shares, results: list, accuracy: str, means: dict) -> Generator[float, None, list]:
+    """The take aligned again with the model adapted to it: one MLLR mean transform per feature stream
+    (`adaptation.estimate`) from the first alignment's states and the take's features, PocketSphinx's model
+    loaded with it (`mllr`), the same words aligned. The first alignment is kept when the take is too short for
+    a transform, or the adapted model does not align it."""
+    params = _model().params
+    aligned = []
+    for pcm, senones, codebooks in (piece for _, _, piece in results):
+        feats = adaptation.features(adaptation.cepstra(np.frombuffer(pcm, "<i2"), params))
+        n = min(len(feats), len(senones))
+        aligned.append((feats[:n], senones[:n], codebooks[:n]))
+    transform = adaptation.estimate(aligned, _model())
+    if transform is None:
+        return results
+    entries = {w.key: w.phones for piece in shares for w in piece}
+    entries[_MEAN_WORD] = ("AH",)
+    with tempfile.TemporaryDirectory() as folder:
+        # the dictionary holds the take's words alone: loading PocketSphinx's whole dictionary is nine tenths of
+        # loading a decoder (0.20 s against 0.02 s)
+        paths = {"mllr": os.path.join(folder, "mllr_matrix"), "dict": os.path.join(folder, "dictionary")}
+        adaptation.write_mllr(paths["mllr"], transform)
+        with open(paths["dict"], "w", encoding="utf-8") as out:
+            out.writelines(f"{key} {' '.join(phones)}\n" for key, phones in entries.items())
+        decoder = _new_decoder("align", accuracy, **paths)
+    try:
+        return (yield from _align_pieces(decoder, recording, ranges, shares, means))
+    except AlignmentError:
+        return results
 
 
 def _silent(label: str) -> bool:
     return label == "sil"
 
 
-def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
+def _align_pieces(decoder, recording: Recording, ranges, shares, means: dict | None = None) -> Generator[float, None, list]:
     """Align each piece with its words (a piece that fails is tried again together with the next one): for each
-    piece, its timed phones and the ends (s) of its words that the transcript follows with a pause."""
+    piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its padded
+    PCM with the senone and base phone of each of its frames (`_state_frames`). `means` keeps each piece's
+    cepstral mean by its sample range, for a second alignment of the same pieces."""
+    means = {} if means is None else means
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -595,9 +658,9 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
             pending_range, pending_words = (first, end), []
             continue
         pcm = _pcm(recording.samples[first:end])
-        entries, breaks = None, []
+        entries, breaks, states = None, [], None
         try:
-            mean = _piece_mean(decoder, pcm)
+            mean = means[first, end] = means.get((first, end)) or _piece_mean(decoder, pcm)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
             yield from _decode_pass(decoder, pcm, mean, done, total)
             if decoder.hyp() is not None:
@@ -607,6 +670,7 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 if alignment is not None and _score_per_frame(alignment) >= MIN_SCORE_PER_FRAME:
                     entries = _aligned_entries(alignment, piece_words)
                     breaks = [b for _, b, w in _word_spans(alignment, piece_words) if w.pause_after]
+                    states = _state_frames(alignment)
         except RuntimeError:
             entries = None
         done += len(pcm)  # two passes of len(pcm) / 2 samples
@@ -620,7 +684,8 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 + ": check that it is what is said (every word, in order), or lip-sync without it"
             )
         rate = FRAME_RATES["align"]
-        results.append((_phones_of(entries, first / RATE, rate), [_seconds(b, first / RATE, rate) for b in breaks]))
+        moments = [_seconds(b, first / RATE, rate) for b in breaks]
+        results.append((_phones_of(entries, first / RATE, rate), moments, (pcm, *states)))
         pending_range, pending_words = None, []
     return results
 
@@ -693,7 +758,7 @@ def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read:
     with _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
-            mean = _piece_mean(decoder, pcm)
+            mean = means[first, end] = means.get((first, end)) or _piece_mean(decoder, pcm)
             decoder.activate_search()  # the phone loop or language model the decoder was made with
             yield from _decode_pass(decoder, pcm, mean, done, total)
             done += len(pcm) / 2
