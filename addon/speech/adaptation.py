@@ -221,14 +221,15 @@ def _remove_noise(spectra: np.ndarray) -> np.ndarray:
 
 def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True) -> np.ndarray:
     """int16 samples at 16 kHz -> (frames, 13) cepstra as PocketSphinx's front end computes them: frame k from
-    samples [160 k, 160 k + 410), the last, shorter one zero-padded. The noise removal runs on from utterance to
+    samples [160 k, 160 k + 410), the last from what is left after the last whole window's shift, zero-padded. The noise removal runs on from utterance to
     utterance in a decoder, whose first pass over a piece is the cepstral-mean pass: `warm_up` runs it over the
     piece once before, as there."""
     x = np.asarray(pcm, np.float64)
     if x.size == 0:
         return np.zeros((0, N_CEPSTRA))
     emphasised = x - PRE_EMPHASIS * np.concatenate([[0.0], x[:-1]])
-    frames = 1 + max(0, -(-(x.size - WINDOW) // FRAME_SHIFT))
+    # the whole windows, then one from the samples left after the last one's shift, zero-padded (end_utt)
+    frames = 1 + (1 + (x.size - WINDOW) // FRAME_SHIFT if x.size >= WINDOW else 0)
     padded = np.zeros((frames - 1) * FRAME_SHIFT + WINDOW)
     padded[: x.size] = emphasised[: padded.size]
     windows = np.lib.stride_tricks.sliding_window_view(padded, WINDOW)[::FRAME_SHIFT][:frames] * np.hamming(WINDOW)
@@ -263,28 +264,25 @@ def statistics(
     dim), each frame's senone and codebook (the state alignment): G (streams, dim, dim + 1, dim + 1) and
     k (streams, dim, dim + 1), G_i = sum over Gaussians m of occ_m / var_mi xi_m xi_m^T, k_i = sum over frames
     and Gaussians of gamma_m(t) o_i(t) / var_mi xi_m, with xi = [mu, 1] and gamma the Gaussian's posterior
-    within the frame's senone."""
-    n_cb, n_feat, n_density, dim = model.means.shape
-    occupancy = np.zeros((n_cb, n_feat, n_density))
-    first = np.zeros((n_cb, n_feat, n_density, dim))
-    one_hot = (codebooks[None, :] == np.arange(n_cb)[:, None]).astype(np.float64)  # (codebooks, T)
-    for f in range(n_feat):
-        mu, var = model.means[codebooks, f], model.variances[codebooks, f]  # (T, densities, dim)
-        o = feats[:, f, None, :]
-        log_n = -0.5 * (((o - mu) ** 2 / var).sum(-1) + np.log(2 * np.pi * var).sum(-1))
-        log_w = np.log(np.maximum(model.weights[senones, f], 1e-300))
-        joint = log_n + log_w
-        gamma = np.exp(joint - joint.max(axis=1, keepdims=True))
-        gamma /= gamma.sum(axis=1, keepdims=True)
-        occupancy[:, f] = one_hot @ gamma
-        first[:, f] = (one_hot @ (gamma[:, :, None] * feats[:, f, None, :]).reshape(len(feats), -1)).reshape(n_cb, n_density, dim)
-    used = np.unique(codebooks)  # the other codebooks have no occupancy
-    by_stream = lambda x: x[used].transpose(1, 0, 2, 3).reshape(n_feat, -1, x.shape[-1])  # noqa: E731
-    xi = by_stream(np.concatenate([model.means, np.ones(model.means.shape[:3] + (1,))], axis=-1))
-    weighted = by_stream(occupancy[..., None] / model.variances)  # occ_m / var_mi: (streams, Gaussians, dim)
-    scaled = by_stream(first / model.variances)
-    g = np.stack([(weighted[f].T[:, :, None] * xi[f][None]).transpose(0, 2, 1) @ xi[f] for f in range(n_feat)])
-    k = np.stack([scaled[f].T @ xi[f] for f in range(n_feat)])
+    within the frame's senone (its mixture weight times its density, normalised over the mixture)."""
+    n_feat, dim = model.means.shape[1], model.means.shape[3]
+    g = np.zeros((n_feat, dim, dim + 1, dim + 1))
+    k = np.zeros((n_feat, dim, dim + 1))
+    for c in np.unique(codebooks):  # the frames of one codebook at a time: their Gaussians are the same
+        at = codebooks == c
+        log_w = np.log(np.maximum(model.weights[senones[at]], 1e-300))  # (frames, streams, densities)
+        for f in range(n_feat):
+            o, mu, var = feats[at, f], model.means[c, f], model.variances[c, f]
+            inv = 1.0 / var
+            # log N(o; mu, var) for every frame and Gaussian, the square expanded into products
+            quadratic = (o * o) @ inv.T - 2.0 * o @ (mu * inv).T + (mu * mu * inv).sum(1)
+            joint = log_w[:, f] - 0.5 * (quadratic + np.log(2 * np.pi * var).sum(1))
+            gamma = np.exp(joint - joint.max(axis=1, keepdims=True))
+            gamma /= gamma.sum(axis=1, keepdims=True)
+            xi = np.column_stack([mu, np.ones(len(mu))])  # (densities, dim + 1)
+            occupancy_inv = gamma.sum(0)[:, None] * inv  # occ_m / var_mi
+            g[f] += (occupancy_inv.T[:, None, :] * xi.T[None]) @ xi
+            k[f] += ((gamma.T @ o) * inv).T @ xi
     return g, k
 
 
