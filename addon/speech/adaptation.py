@@ -151,7 +151,10 @@ def read_mixture_weights(path: Path) -> np.ndarray:
 
 def read_model(folder: Path) -> Model:
     folder = Path(folder)
-    means, variances = read_gaussians(folder / "means"), np.maximum(read_gaussians(folder / "variances"), VARIANCE_FLOOR)
+    means, variances = (
+        read_gaussians(folder / "means"),
+        np.maximum(read_gaussians(folder / "variances"), VARIANCE_FLOOR),
+    )
     weights, phones = read_mixture_weights(folder / "sendump"), read_phones(folder / "mdef")
     if means.shape != variances.shape or means.shape[0] != len(phones) or weights.shape[1:] != means.shape[1:3]:
         raise AdaptationError(f"{folder}: not a phonetically-tied model (one codebook per base phone)")
@@ -163,7 +166,11 @@ def read_model(folder: Path) -> Model:
 
 def mel_filters(params: dict) -> np.ndarray:
     """(filters, FFT_SIZE // 2 + 1) triangular mel filters of unit area, edges rounded to the FFT's bins."""
-    n, low, high = int(params.get("nfilt", 40)), float(params.get("lowerf", 133.33)), float(params.get("upperf", 6855.5))
+    n, low, high = (
+        int(params.get("nfilt", 40)),
+        float(params.get("lowerf", 133.33)),
+        float(params.get("upperf", 6855.5)),
+    )
     mel = lambda f: 2595.0 * np.log10(1.0 + f / 700.0)  # noqa: E731
     width = (mel(high) - mel(low)) / (n + 1)
     step = RATE / FFT_SIZE
@@ -221,9 +228,9 @@ def _remove_noise(spectra: np.ndarray) -> np.ndarray:
 
 def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True) -> np.ndarray:
     """int16 samples at 16 kHz -> (frames, 13) cepstra as PocketSphinx's front end computes them: frame k from
-    samples [160 k, 160 k + 410), the last from what is left after the last whole window's shift, zero-padded. The noise removal runs on from utterance to
-    utterance in a decoder, whose first pass over a piece is the cepstral-mean pass: `warm_up` runs it over the
-    piece once before, as there."""
+    samples [160 k, 160 k + 410), the last from what is left after the last whole window's shift, zero-padded.
+    The noise removal runs on from utterance to utterance in a decoder, whose first pass over a piece is the
+    cepstral-mean pass: `warm_up` runs it over the piece once before, as there."""
     x = np.asarray(pcm, np.float64)
     if x.size == 0:
         return np.zeros((0, N_CEPSTRA))

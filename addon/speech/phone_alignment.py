@@ -607,7 +607,9 @@ def _model() -> adaptation.Model:
     return adaptation.read_model(os.path.join(_pocketsphinx().get_model_path(), "en-us", "en-us"))
 
 
-def _adapted(recording: Recording, ranges, shares, results: list, accuracy: str, means: dict) -> Generator[float, None, list]:
+def _adapted(
+    recording: Recording, ranges, shares, results: list, accuracy: str, means: dict
+) -> Generator[float, None, list]:
     """The take aligned again with the model adapted to it: one MLLR mean transform per feature stream
     (`adaptation.estimate`) from the first alignment's states and the take's features, PocketSphinx's model
     loaded with it (`mllr`), the same words aligned. The first alignment is kept when the take is too short for
@@ -641,7 +643,9 @@ def _silent(label: str) -> bool:
     return label == "sil"
 
 
-def _align_pieces(decoder, recording: Recording, ranges, shares, means: dict | None = None) -> Generator[float, None, list]:
+def _align_pieces(
+    decoder, recording: Recording, ranges, shares, means: dict | None = None
+) -> Generator[float, None, list]:
     """Align each piece with its words (a piece that fails is tried again together with the next one): for each
     piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its padded
     PCM with the senone and base phone of each of its frames (`_state_frames`). `means` keeps each piece's
@@ -711,7 +715,10 @@ def recognition_steps(
         return heard
     try:
         aligned = yield from scaled(
-            alignment_steps(recording, " ".join(said), vad_mode=vad_mode, accuracy=accuracy), 0.6, 1.0
+            # not adapted: recognised words are no transcript, and a wrong word would adapt the model to it
+            alignment_steps(recording, " ".join(said), vad_mode=vad_mode, accuracy=accuracy, adapt=False),
+            0.6,
+            1.0,
         )
     except AlignmentError:
         return heard
@@ -758,7 +765,7 @@ def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read:
     with _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
-            mean = means[first, end] = means.get((first, end)) or _piece_mean(decoder, pcm)
+            mean = _piece_mean(decoder, pcm)
             decoder.activate_search()  # the phone loop or language model the decoder was made with
             yield from _decode_pass(decoder, pcm, mean, done, total)
             done += len(pcm) / 2
@@ -806,11 +813,13 @@ def phones_from_recording(
     progress: Callable[[float], None] | None = None,
     words: bool = False,
     accent: str = DEFAULT_ACCENT,
+    adapt: bool = True,
 ) -> list[TimedLabel]:
     """The recording's timed phones: aligned with `transcript` when given (not blank), pronounced in `accent`,
-    else recognised (with `words`: the recognised words aligned, see `recognition_steps`)."""
+    with the model adapted to the take unless not `adapt`; else recognised (with `words`: the recognised words
+    aligned, see `recognition_steps`)."""
     if transcript is not None and transcript.strip():
-        steps = alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy, accent=accent)
+        steps = alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy, accent=accent, adapt=adapt)
         return run(steps, progress)
     return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words), progress)
 

@@ -94,7 +94,9 @@ def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool) -> st
                     cpu += time.process_time() - between
                 cpu_first += between - began if not sphinxtrain else 0.0
                 duration += speech.duration
-                results = [bench.score(truth, phone_alignment.phone_segments(p), speech.duration) for p in (first, second)]
+                results = [
+                    bench.score(truth, phone_alignment.phone_segments(p), speech.duration) for p in (first, second)
+                ]
                 for key in ("all", voice, f"{rate} wpm"):
                     groups.setdefault(key, []).append(results)
     parts = []
