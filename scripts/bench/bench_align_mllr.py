@@ -8,7 +8,10 @@ phones, SIL for a pause) are the supervision of one global MLLR mean transform e
 the take is aligned again with the model so adapted (pass 2). Both are scored as scripts/bench/bench_lipsync.py
 scores the rows with a transcript (closure truth, clean), on the same samples. `--sphinxtrain`: the transform
 from Debian's sphinxtrain (bw, mllr_solve: `apt-get install sphinxtrain sphinxbase-utils pocketsphinx`, as row
-(e) of bench_recognition_ceiling) instead of the shipped two-pass alignment.
+(e) of bench_recognition_ceiling) instead of the shipped two-pass alignment. `--unsupervised`: without a
+transcript, the same two passes for the phone loop: its recognised phones (each a word of one phone, pauses
+left to the grammar's optional silences) aligned to give the state alignment, the transform estimated from it
+(`adaptation.estimate`, as the shipped alignment does) and the take recognised again with the adapted model.
 """
 
 from __future__ import annotations
@@ -18,7 +21,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from addon.speech import espeak, phone_alignment, recording
+import numpy as np
+
+from addon.speech import adaptation, espeak, phone_alignment, recording
 from addon.speech.segments import TimedLabel
 from scripts.bench import bench_align_sets as sets
 from scripts.bench import bench_lipsync as bench
@@ -68,7 +73,45 @@ def sphinxtrain_transform(take, phones: list[str], folder: Path) -> str | None:
     return None if path is None else str(path)
 
 
-def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool) -> str:
+def recognised_then_adapted(take) -> tuple[list[TimedLabel], list[TimedLabel]]:
+    """The phone loop's phones, and the phone loop's phones with the model adapted to the take from them."""
+    first = phone_alignment.run(phone_alignment.phone_loop_steps(take))
+    said = [p.label for p in first if p.label != "sil"]
+    words = [phone_alignment._Word(p, f"phone_{p}", (p.upper(),)) for p in said]
+    ranges, _ = phone_alignment.pieces(take.samples)
+    if len(ranges) != 1 or not words:
+        return first, first
+    with phone_alignment._decoder("align", "STANDARD") as decoder:
+        phone_alignment._add_words(decoder, words)
+        try:
+            results = phone_alignment.run(phone_alignment._align_pieces(decoder, take, ranges, [words]))
+        except phone_alignment.AlignmentError:
+            return first, first
+    model = phone_alignment._model()
+    aligned = []
+    for pcm, senones, codebooks in (piece for _, _, piece in results):
+        feats = adaptation.features(adaptation.cepstra(np.frombuffer(pcm, "<i2"), model.params))
+        n = min(len(feats), len(senones))
+        aligned.append((feats[:n], senones[:n], codebooks[:n]))
+    transform = adaptation.estimate(aligned, model)
+    if transform is None:
+        return first, first
+    module = phone_alignment._pocketsphinx()
+    saved = phone_alignment._pocketsphinx
+    with tempfile.TemporaryDirectory() as folder:
+        path = str(Path(folder) / "mllr_matrix")
+        adaptation.write_mllr(path, transform)
+        phone_alignment._idle_decoders.pop(("recognise", "STANDARD"), None)
+        phone_alignment._pocketsphinx = lambda: ceiling._Swapped(module, {"mllr": path})
+        try:
+            second = phone_alignment.run(phone_alignment.phone_loop_steps(take))
+        finally:
+            phone_alignment._pocketsphinx = saved
+            phone_alignment._idle_decoders.pop(("recognise", "STANDARD"), None)
+    return first, second
+
+
+def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool, unsupervised: bool = False) -> str:
     which, voices, rates = SETS[name]
     groups: dict[str, list[list[dict]]] = {}
     duration = cpu = cpu_first = 0.0
@@ -78,6 +121,17 @@ def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool) -> st
                 speech = espeak.synthesize(text, voice, rate=rate)
                 take = recording.from_samples(speech.samples, speech.sample_rate, f"{voice} {rate}")
                 truth = espeak.speech_segments(speech)
+                if unsupervised:
+                    began = time.process_time()
+                    first, second = recognised_then_adapted(take)
+                    cpu += time.process_time() - began
+                    duration += speech.duration
+                    results = [
+                        bench.score(truth, phone_alignment.phone_segments(p), speech.duration) for p in (first, second)
+                    ]
+                    for key in ("all", voice, f"{rate} wpm"):
+                        groups.setdefault(key, []).append(results)
+                    continue
                 captured = _Captured()
                 phone_alignment._aligned_entries = captured
                 began = time.process_time()
@@ -104,6 +158,8 @@ def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool) -> st
         a, b = (bench.summary_of([p[k] for p in pairs])["agreement"] for k in (0, 1))
         parts.append(f"{key} {a:.1%} -> {b:.1%}")
     speeds = f"{duration / max(cpu_first, 1e-9):.1f}x -> {duration / max(cpu, 1e-9):.1f}x real time (CPU)"
+    if unsupervised:
+        speeds = f"both passes {duration / max(cpu, 1e-9):.1f}x real time (CPU)"
     return f"{name}: " + ", ".join(parts) + ("" if sphinxtrain else f"; {speeds}")
 
 
@@ -112,10 +168,11 @@ def main(argv=None) -> int:
     parser.add_argument("sets", nargs="+", choices=tuple(SETS))
     parser.add_argument("--limit", type=int, default=None, help="the first N sentences of each set")
     parser.add_argument("--sphinxtrain", action="store_true", help="the transform from sphinxtrain (bw, mllr_solve)")
+    parser.add_argument("--unsupervised", action="store_true", help="without a transcript: the phone loop, adapted")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as folder:
         for name in args.sets:
-            print(run_set(name, args.limit, Path(folder), args.sphinxtrain), flush=True)
+            print(run_set(name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised), flush=True)
     return 0
 
 
