@@ -11,6 +11,7 @@ import pytest
 
 from addon.speech import adaptation
 from addon.speech.adaptation import Model
+from tests.markers import needs_espeak
 
 needs_pocketsphinx = pytest.mark.skipif(importlib.util.find_spec("pocketsphinx") is None, reason="no pocketsphinx")
 
@@ -129,3 +130,28 @@ def test_the_wheels_model_reads():
     np.testing.assert_allclose(model.weights.sum(axis=2), 1.0)
     assert "SIL" in model.phones and "M" in model.phones and len(model.phones) == 42
     assert model.variances.min() >= adaptation.VARIANCE_FLOOR
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_an_identity_transform_aligns_as_the_unadapted_model(monkeypatch):
+    """The second alignment runs on its own decoder (the take's words as its dictionary, the transform loaded
+    with the model): with the identity transform it gives the first alignment's phones exactly; with the
+    transform estimated from the take, the same labels in the same order."""
+    from addon.speech import espeak, phone_alignment, recording
+
+    text = "Maybe Bob should show you the whole map."
+    speech = espeak.synthesize(text, "en-us", rate=175)
+    take = recording.from_samples(speech.samples, speech.sample_rate, "test")
+    plain = phone_alignment.run(phone_alignment.alignment_steps(take, text, adapt=False))
+    adapted = phone_alignment.run(phone_alignment.alignment_steps(take, text))
+    assert [p.label for p in adapted] == [p.label for p in plain]
+    assert [(p.start, p.end) for p in adapted] != [(p.start, p.end) for p in plain]  # the transform moved some
+
+    made = []
+    new_decoder = phone_alignment._new_decoder
+    monkeypatch.setattr(phone_alignment, "_new_decoder", lambda *a, **k: made.append(k) or new_decoder(*a, **k))
+    identity = np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0)
+    monkeypatch.setattr(adaptation, "estimate", lambda pieces, model: identity)
+    assert phone_alignment.run(phone_alignment.alignment_steps(take, text)) == plain
+    assert [sorted(k) for k in made] == [["dict", "mllr"]]
