@@ -114,7 +114,7 @@ def read_gaussians(path: Path) -> np.ndarray:
 def write_gaussians(path: Path, values: np.ndarray) -> None:
     """(codebooks, streams, densities, dim) -> a sphinx s3 means or variances file (little-endian, no checksum)."""
     n_mgau, n_feat, n_density, dim = values.shape
-    header = b"s3\nversion 1.0\nchksum0 no\nendhdr\n"
+    header = b"s3\nversion 1.0\nendhdr\n"
     dims = struct.pack(f"<I3i{n_feat}ii", MAGIC, n_mgau, n_feat, n_density, *[dim] * n_feat, values.size)
     Path(path).write_bytes(header + dims + np.ascontiguousarray(values, "<f4").tobytes())
 
