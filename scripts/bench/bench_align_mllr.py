@@ -12,11 +12,14 @@ from Debian's sphinxtrain (bw, mllr_solve: `apt-get install sphinxtrain sphinxba
 transcript, the same two passes for the phone loop: its recognised phones (each a word of one phone, pauses
 left to the grammar's optional silences) aligned to give the state alignment, the transform estimated from it
 (`adaptation.estimate`, as the shipped alignment does) and the take recognised again with the adapted model.
+`--front-end`: `adaptation.cepstra` against Debian's `sphinx_fe` (sphinxbase-utils; the model's feat.params) on
+the padded PCM of the first take of each set: the largest difference per cepstral coefficient.
 """
 
 from __future__ import annotations
 
 import argparse
+import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -111,7 +114,36 @@ def recognised_then_adapted(take) -> tuple[list[TimedLabel], list[TimedLabel]]:
     return first, second
 
 
-def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool, unsupervised: bool = False) -> str:
+def front_end(take) -> str:
+    """adaptation.cepstra against sphinx_fe on the take's padded PCM, as the decoder is fed it."""
+    model = phone_alignment._model()
+    pcm = np.frombuffer(phone_alignment._pcm(take.samples), "<i2")
+    wheel = Path(phone_alignment._pocketsphinx().get_model_path()) / "en-us" / "en-us"
+    with tempfile.TemporaryDirectory() as folder:
+        raw, mfc = Path(folder) / "take.raw", Path(folder) / "take.mfc"
+        pcm.tofile(raw)
+        fe = [str(ceiling.SPHINX_FE), "-argfile", str(wheel / "feat.params"), "-samprate", "16000"]
+        fe += ["-i", str(raw), "-o", str(mfc), "-raw", "yes", "-input_endian", "little"]
+        subprocess.run(fe, capture_output=True, check=True)
+        data = mfc.read_bytes()
+    order = "<" if int.from_bytes(data[:4], "little") == (len(data) - 4) // 4 else ">"
+    theirs = np.frombuffer(data, order + "f4", offset=4).reshape(-1, adaptation.N_CEPSTRA)
+    ours = adaptation.cepstra(pcm, model.params, warm_up=False)
+    n = min(len(theirs), len(ours))
+    worst = np.abs(theirs[:n] - ours[:n]).max(axis=0)
+    return f"{len(ours)} / {len(theirs)} frames (ours / sphinx_fe), largest difference per coefficient " + " ".join(
+        f"{v:.1e}" for v in worst
+    )
+
+
+def run_set(
+    name: str,
+    limit: int | None,
+    folder: Path,
+    sphinxtrain: bool,
+    unsupervised: bool = False,
+    check_front_end: bool = False,
+) -> str:
     which, voices, rates = SETS[name]
     groups: dict[str, list[list[dict]]] = {}
     duration = cpu = cpu_first = 0.0
@@ -121,6 +153,8 @@ def run_set(name: str, limit: int | None, folder: Path, sphinxtrain: bool, unsup
                 speech = espeak.synthesize(text, voice, rate=rate)
                 take = recording.from_samples(speech.samples, speech.sample_rate, f"{voice} {rate}")
                 truth = espeak.speech_segments(speech)
+                if check_front_end:
+                    return f"{name}: {front_end(take)}"
                 if unsupervised:
                     began = time.process_time()
                     first, second = recognised_then_adapted(take)
@@ -169,10 +203,12 @@ def main(argv=None) -> int:
     parser.add_argument("--limit", type=int, default=None, help="the first N sentences of each set")
     parser.add_argument("--sphinxtrain", action="store_true", help="the transform from sphinxtrain (bw, mllr_solve)")
     parser.add_argument("--unsupervised", action="store_true", help="without a transcript: the phone loop, adapted")
+    parser.add_argument("--front-end", action="store_true", help="adaptation.cepstra against sphinx_fe")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as folder:
         for name in args.sets:
-            print(run_set(name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised), flush=True)
+            found = run_set(name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised, args.front_end)
+            print(found, flush=True)
     return 0
 
 
