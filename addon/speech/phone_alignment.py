@@ -607,32 +607,41 @@ def _model() -> adaptation.Model:
     return adaptation.read_model(os.path.join(_pocketsphinx().get_model_path(), "en-us", "en-us"))
 
 
-def _adapted(
-    recording: Recording, ranges, shares, results: list, accuracy: str, means: dict
-) -> Generator[float, None, list]:
-    """The take aligned again with the model adapted to it: one MLLR mean transform per feature stream
-    (`adaptation.estimate`) from the first alignment's states and the take's features, PocketSphinx's model
-    loaded with it (`mllr`), the same words aligned. The first alignment is kept when the take is too short for
-    a transform, or the adapted model does not align it."""
+def _transform(results: list) -> np.ndarray | None:
+    """One MLLR mean transform per feature stream (`adaptation.estimate`) from aligned pieces' states and their
+    features, or None (a take too short for one)."""
     params = _model().params
     aligned = []
     for pcm, senones, codebooks in (piece for _, _, piece in results):
         feats = adaptation.features(adaptation.cepstra(np.frombuffer(pcm, "<i2"), params))
         n = min(len(feats), len(senones))
         aligned.append((feats[:n], senones[:n], codebooks[:n]))
-    transform = adaptation.estimate(aligned, _model())
-    if transform is None:
-        return results
-    entries = {w.key: w.phones for piece in shares for w in piece}
-    entries[_MEAN_WORD] = ("AH",)
+    return adaptation.estimate(aligned, _model())
+
+
+def _adapted_decoder(task: str, accuracy: str, transform: np.ndarray, words: dict[str, tuple[str, ...]]):
+    """A decoder for `task` whose model PocketSphinx loads with `transform` (`mllr`), its dictionary the words
+    given alone (and `_MEAN_WORD`): loading PocketSphinx's whole dictionary is nine tenths of loading a decoder
+    (0.20 s against 0.02 s)."""
+    entries = {**words, _MEAN_WORD: ("AH",)}
     with tempfile.TemporaryDirectory() as folder:
-        # the dictionary holds the take's words alone: loading PocketSphinx's whole dictionary is nine tenths of
-        # loading a decoder (0.20 s against 0.02 s)
         paths = {"mllr": os.path.join(folder, "mllr_matrix"), "dict": os.path.join(folder, "dictionary")}
         adaptation.write_mllr(paths["mllr"], transform)
         with open(paths["dict"], "w", encoding="utf-8") as out:
             out.writelines(f"{key} {' '.join(phones)}\n" for key, phones in entries.items())
-        decoder = _new_decoder("align", accuracy, **paths)
+        return _new_decoder(task, accuracy, **paths)
+
+
+def _adapted(
+    recording: Recording, ranges, shares, results: list, accuracy: str, means: dict
+) -> Generator[float, None, list]:
+    """The take aligned again with the model adapted to it (`_transform` of the first alignment), the same
+    words. The first alignment is kept when the take is too short for a transform, or the adapted model does
+    not align it."""
+    transform = _transform(results)
+    if transform is None:
+        return results
+    decoder = _adapted_decoder("align", accuracy, transform, {w.key: w.phones for piece in shares for w in piece})
     try:
         return (yield from _align_pieces(decoder, recording, ranges, shares, means))
     except AlignmentError:
