@@ -704,7 +704,12 @@ def _align_pieces(
 
 
 def recognition_steps(
-    recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD", words: bool = False
+    recording: Recording,
+    *,
+    vad_mode: int = DEFAULT_VAD_MODE,
+    accuracy: str = "STANDARD",
+    words: bool = False,
+    adapt: bool = False,
 ) -> ProgressSteps:
     """Recognition without a transcript (less accurate): yields progress, returns the timed phones.
 
@@ -714,8 +719,12 @@ def recognition_steps(
     phone loop (`phone_loop_steps`) runs too; its lip closures, found by the recogniser and the acoustic cues of
     `bilabials`, are laid over the aligned phones (`with_closures`): a word the recogniser got wrong does not
     open lips that the acoustics heard close. Where no word is recognised, the words cannot be aligned, or the
-    word language model is not installed (`word_language_model`), the phone loop's phones are used as they are."""
-    ranges, _ = pieces(recording.samples, vad_mode)
+    word language model is not installed (`word_language_model`), the phone loop's phones are used as they are.
+    With `adapt` (and not `words`): the phone loop twice, the second time with the model adapted to the take
+    from the first's phones (`_phone_loop_adapted`): slower, and better on the takes measured (docs/voice.md)."""
+    ranges, voiced = pieces(recording.samples, vad_mode)
+    if adapt and not words:
+        return (yield from _phone_loop_adapted(recording, ranges, voiced, accuracy))
     if not words or not os.path.isfile(word_language_model()):
         return (yield from _phone_loop(recording, ranges, accuracy))
     heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
@@ -744,13 +753,38 @@ def phone_loop_steps(
     return (yield from _phone_loop(recording, ranges, accuracy))
 
 
-def _phone_loop(recording: Recording, ranges, accuracy: str) -> ProgressSteps:
+def _phone_loop(recording: Recording, ranges, accuracy: str, decoder=None) -> ProgressSteps:
     def phones(decoder, first: int) -> list[TimedLabel]:
         entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
         return _phones_of(entries, first / RATE, FRAME_RATES["recognise"])
 
-    results = yield from _search_pieces(recording, ranges, "recognise", accuracy, phones)
+    results = yield from _search_pieces(recording, ranges, "recognise", accuracy, phones, decoder)
     return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
+
+
+def _phone_loop_adapted(recording: Recording, ranges, voiced, accuracy: str) -> ProgressSteps:
+    """The phone loop twice, the second time with the model adapted to the take from the first's phones
+    (unsupervised MLLR): those phones, each a word of one phone, aligned as a transcript is give the states the
+    transform is estimated from (`_transform`). The first phones are kept when they do not align or the take is
+    too short for a transform."""
+    heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.35)
+    known = {name.lower() for name in _model().phones}
+    words = [_Word(p.label, f"phone_{p.label}", (p.label.upper(),)) for p in heard if p.label in known - {"sil"}]
+    if not words:
+        return heard
+    with _decoder("align", accuracy) as decoder:
+        _add_words(decoder, words)
+        try:
+            results = yield from scaled(
+                _align_pieces(decoder, recording, ranges, _share_words(words, voiced)), 0.35, 0.65
+            )
+        except AlignmentError:
+            return heard
+    transform = _transform(results)
+    if transform is None:
+        return heard
+    decoder = _adapted_decoder("recognise", accuracy, transform, {})
+    return (yield from scaled(_phone_loop(recording, ranges, accuracy, decoder), 0.65, 1.0))
 
 
 def _word_steps(recording: Recording, ranges, accuracy: str) -> Generator[float, None, list[str]]:
@@ -765,13 +799,14 @@ def _word_steps(recording: Recording, ranges, accuracy: str) -> Generator[float,
     return [word for piece in results for word in piece]
 
 
-def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read: Callable) -> Generator:
+def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read: Callable, decoder=None) -> Generator:
     """One pass of the search `task` was made with over each piece, from the piece's own cepstral mean: yields
-    progress, returns `read(decoder, first sample)` of each piece."""
+    progress, returns `read(decoder, first sample)` of each piece. On a pooled decoder unless one is given."""
     total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
     done = 0.0
     results = []
-    with _decoder(task, accuracy) as decoder:
+    given = contextlib.nullcontext(decoder) if decoder is not None else None
+    with given or _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
             mean = _piece_mean(decoder, pcm)
@@ -823,14 +858,17 @@ def phones_from_recording(
     words: bool = False,
     accent: str = DEFAULT_ACCENT,
     adapt: bool = True,
+    adapt_recognition: bool = False,
 ) -> list[TimedLabel]:
     """The recording's timed phones: aligned with `transcript` when given (not blank), pronounced in `accent`,
     with the model adapted to the take unless not `adapt`; else recognised (with `words`: the recognised words
-    aligned, see `recognition_steps`)."""
+    aligned; with `adapt_recognition`: recognised twice, the model adapted from the first; see
+    `recognition_steps`)."""
     if transcript is not None and transcript.strip():
         steps = alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy, accent=accent, adapt=adapt)
         return run(steps, progress)
-    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words), progress)
+    steps = recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words, adapt=adapt_recognition)
+    return run(steps, progress)
 
 
 def read_transcript_file(path) -> str:
