@@ -155,3 +155,23 @@ def test_an_identity_transform_aligns_as_the_unadapted_model(monkeypatch):
     monkeypatch.setattr(adaptation, "estimate", lambda pieces, model: identity)
     assert phone_alignment.run(phone_alignment.alignment_steps(take, text)) == plain
     assert [sorted(k) for k in made] == [["dict", "mllr"]]
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_recognition_adapted_with_the_identity_recognises_as_before(monkeypatch):
+    """Without a transcript, on request: the phone loop's phones aligned give the states, the phone loop runs
+    again on the adapted model (its own decoder, `mllr` and a one-word dictionary): with the identity transform,
+    the same phones as the phone loop alone."""
+    from addon.speech import espeak, phone_alignment, recording
+
+    speech = espeak.synthesize("Maybe Bob should show you the whole map.", "en-us", rate=175)
+    take = recording.from_samples(speech.samples, speech.sample_rate, "test")
+    plain = phone_alignment.run(phone_alignment.recognition_steps(take))
+    made = []
+    new_decoder = phone_alignment._new_decoder
+    monkeypatch.setattr(phone_alignment, "_new_decoder", lambda *a, **k: made.append(a[0]) or new_decoder(*a, **k))
+    identity = np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0)
+    monkeypatch.setattr(adaptation, "estimate", lambda pieces, model: identity)
+    assert phone_alignment.run(phone_alignment.recognition_steps(take, adapt=True)) == plain
+    assert made[-1] == "recognise"
