@@ -155,8 +155,11 @@ def run_set(
     for key, pairs in groups.items():
         a, b = (bench.summary_of([p[k] for p in pairs])["agreement"] for k in (0, 1))
         parts.append(f"{key} {a:.1%} -> {b:.1%}")
+    pooled = [bench.summary_of([p[k] for p in groups["all"]]) for k in (0, 1)]
+    recall = f"closure recall {pooled[0]['closure_recall']:.1%} -> {pooled[1]['closure_recall']:.1%}"
+    recall += f", precision {pooled[0]['closure_precision']:.1%} -> {pooled[1]['closure_precision']:.1%}"
     speeds = f"{duration / max(cpu_first, 1e-9):.1f}x -> {duration / max(cpu, 1e-9):.1f}x real time (CPU)"
-    return f"{name}: " + ", ".join(parts) + ("" if sphinxtrain else f"; {speeds}")
+    return f"{name}: " + ", ".join(parts) + f"; {recall}" + ("" if sphinxtrain else f"; {speeds}")
 
 
 def main(argv=None) -> int:
