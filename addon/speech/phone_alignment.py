@@ -565,18 +565,17 @@ def alignment_steps(
             "transcript of this recording?"
         )
     ranges, voiced = pieces(recording.samples, vad_mode)
-    means: dict = {}
     with _decoder("align", accuracy) as decoder:
         try:
             said = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
             shares = _share_words(said, voiced)
-            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, means), 0, 0.5)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares), 0, 0.5)
         except (AlignmentError, espeak.EspeakMissingError):
             said = _with_pauses(_dictionary_words(decoder, words), transcript)
             shares = _share_words(said, voiced)
-            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, means), 0, 0.5)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares), 0, 0.5)
     if adapt:
-        results = yield from scaled(_adapted(recording, ranges, shares, results, accuracy, means), 0.5, 1)
+        results = yield from scaled(_adapted(recording, ranges, shares, results, accuracy), 0.5, 1)
     # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound;
     # where the transcript pauses, the word before ends with its sound
     energies = log_band_energies(recording.samples)
@@ -632,9 +631,7 @@ def _adapted_decoder(task: str, accuracy: str, transform: np.ndarray, words: dic
         return _new_decoder(task, accuracy, **paths)
 
 
-def _adapted(
-    recording: Recording, ranges, shares, results: list, accuracy: str, means: dict
-) -> Generator[float, None, list]:
+def _adapted(recording: Recording, ranges, shares, results: list, accuracy: str) -> Generator[float, None, list]:
     """The take aligned again with the model adapted to it (`_transform` of the first alignment), the same
     words. The first alignment is kept when the take is too short for a transform, or the adapted model does
     not align it."""
@@ -643,7 +640,7 @@ def _adapted(
         return results
     decoder = _adapted_decoder("align", accuracy, transform, {w.key: w.phones for piece in shares for w in piece})
     try:
-        return (yield from _align_pieces(decoder, recording, ranges, shares, means))
+        return (yield from _align_pieces(decoder, recording, ranges, shares))
     except AlignmentError:
         return results
 
@@ -652,14 +649,10 @@ def _silent(label: str) -> bool:
     return label == "sil"
 
 
-def _align_pieces(
-    decoder, recording: Recording, ranges, shares, means: dict | None = None
-) -> Generator[float, None, list]:
+def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
     """Align each piece with its words (a piece that fails is tried again together with the next one): for each
     piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its padded
-    PCM with the senone and base phone of each of its frames (`_state_frames`). `means` keeps each piece's
-    cepstral mean by its sample range, for a second alignment of the same pieces."""
-    means = {} if means is None else means
+    PCM with the senone and base phone of each of its frames (`_state_frames`)."""
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -673,7 +666,7 @@ def _align_pieces(
         pcm = _pcm(recording.samples[first:end])
         entries, breaks, states = None, [], None
         try:
-            mean = means[first, end] = means.get((first, end)) or _piece_mean(decoder, pcm)
+            mean = _piece_mean(decoder, pcm)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
             yield from _decode_pass(decoder, pcm, mean, done, total)
             if decoder.hyp() is not None:
