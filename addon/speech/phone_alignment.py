@@ -395,6 +395,21 @@ def _piece_mean(decoder, pcm: bytes) -> str:
     return decoder.get_cmn(True)
 
 
+def _piece_cepstra(pcm: bytes) -> np.ndarray:
+    """The piece's cepstra as the decoder computes them once its front end has run over the piece
+    (`adaptation.cepstra`, within 3.3e-5 of sphinx_fe)."""
+    return adaptation.cepstra(np.frombuffer(pcm, "<i2"), _model().params)
+
+
+def _batch_mean(cepstra: np.ndarray) -> str:
+    """The alignment's cepstral mean: the piece's own, over all its frames, as the model's feat.params ask
+    (`-cmn batch`), for PocketSphinx's `set_cmn`. The decoder's live estimate (`_piece_mean`) starts from the
+    model's initial mean as if from 500 frames of it, so for a take of a few seconds it stays near that prior
+    (c0 43.5 where the take's own is 51.4, "Blame the ambitious mayor...", en-029, 240 wpm): measured on 24 dev
+    takes, the take's own mean aligns 83.5 -> 85.3 % (docs/voice.md, *Session 13*)."""
+    return ",".join(f"{value:.6g}" for value in cepstra.mean(axis=0))
+
+
 def _decode_pass(decoder, pcm: bytes, mean: str, done: float, total: float) -> Generator[float, None, None]:
     """One decoding pass over a piece from its cepstral mean, FEED_SAMPLES at a time; yields
     (done + samples fed) / total."""
@@ -609,10 +624,9 @@ def _model() -> adaptation.Model:
 def _transform(results: list) -> np.ndarray | None:
     """One MLLR mean transform per feature stream (`adaptation.estimate`) from aligned pieces' states and their
     features, or None (a take too short for one)."""
-    params = _model().params
     aligned = []
-    for pcm, senones, codebooks in (piece for _, _, piece in results):
-        feats = adaptation.features(adaptation.cepstra(np.frombuffer(pcm, "<i2"), params))
+    for cepstra, senones, codebooks in (piece for _, _, piece in results):
+        feats = adaptation.features(cepstra)
         n = min(len(feats), len(senones))
         aligned.append((feats[:n], senones[:n], codebooks[:n]))
     return adaptation.estimate(aligned, _model())
@@ -651,8 +665,9 @@ def _silent(label: str) -> bool:
 
 def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
     """Align each piece with its words (a piece that fails is tried again together with the next one): for each
-    piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its padded
-    PCM with the senone and base phone of each of its frames (`_state_frames`)."""
+    piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its
+    cepstra with the senone and base phone of each of its frames (`_state_frames`). Each piece is decoded from
+    its own batch cepstral mean (`_batch_mean`)."""
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -666,7 +681,8 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
         pcm = _pcm(recording.samples[first:end])
         entries, breaks, states = None, [], None
         try:
-            mean = _piece_mean(decoder, pcm)
+            cepstra = _piece_cepstra(pcm)
+            mean = _batch_mean(cepstra)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
             yield from _decode_pass(decoder, pcm, mean, done, total)
             if decoder.hyp() is not None:
@@ -691,7 +707,7 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
             )
         rate = FRAME_RATES["align"]
         moments = [_seconds(b, first / RATE, rate) for b in breaks]
-        results.append((_phones_of(entries, first / RATE, rate), moments, (pcm, *states)))
+        results.append((_phones_of(entries, first / RATE, rate), moments, (cepstra, *states)))
         pending_range, pending_words = None, []
     return results
 
