@@ -12,6 +12,9 @@ from Debian's sphinxtrain (bw, mllr_solve: `apt-get install sphinxtrain sphinxba
 transcript, the same two passes for the phone loop: its recognised phones (each a word of one phone, pauses
 left to the grammar's optional silences) aligned to give the state alignment, the transform estimated from it
 (`adaptation.estimate`, as the shipped alignment does) and the take recognised again with the adapted model.
+`--scores`: the refusal cut's measurement (`phone_alignment.MIN_SCORE_PER_FRAME`): the first 8 dev sentences in
+the dev voices at 120 and 300 words a minute, clean and at 20 dB, each aligned (first alignment) with its own
+transcript and with the next sentence's; the acoustic scores per frame of each.
 `--front-end`: `adaptation.cepstra` against Debian's `sphinx_fe` (sphinxbase-utils; the model's feat.params) on
 the padded PCM of the first take of each set: the largest difference per cepstral coefficient.
 """
@@ -98,6 +101,43 @@ def front_end(take) -> str:
     )
 
 
+def scores() -> str:
+    """Per-frame scores of right and wrong transcripts (the next sentence's): (lowest right, wrong ones that
+    fail to align, wrong scores' range, wrong ones at or above the cut)."""
+    seen: list[float] = []
+    original = phone_alignment._score_per_frame
+    phone_alignment._score_per_frame = lambda alignment: seen.append(original(alignment)) or seen[-1]
+    right, wrong, failed = [], [], 0
+    sentences = sets.sentences_of("dev")[:9]
+    try:
+        for k, text in enumerate(sentences[:8]):
+            for voice in bench.DEV["voices"]:
+                for rate in (120, 300):
+                    speech = espeak.synthesize(text, voice, rate=rate)
+                    for noisy in (False, True):
+                        samples = bench.with_noise(speech.samples, bench.SNR_DB, k) if noisy else speech.samples
+                        take = recording.from_samples(samples, speech.sample_rate, f"{voice} {rate}")
+                        for transcript, out in ((text, right), (sentences[k + 1], wrong)):
+                            seen.clear()
+                            try:
+                                phone_alignment.run(phone_alignment.alignment_steps(take, transcript, adapt=False))
+                            except phone_alignment.AlignmentError:
+                                pass
+                            if seen:
+                                out.append(max(seen))  # the espeak-ng pronunciation's, or the dictionary's
+                            elif out is wrong:
+                                failed += 1
+    finally:
+        phone_alignment._score_per_frame = original
+    cut = phone_alignment.MIN_SCORE_PER_FRAME
+    passed = sum(score >= cut for score in wrong)
+    return (
+        f"right transcripts {min(right):.1f} to {max(right):.1f} ({len(right)}, {sum(r < cut for r in right)} under "
+        f"the cut {cut}); wrong: {failed} of {failed + len(wrong)} fail to align, the others {min(wrong):.1f} to "
+        f"{max(wrong):.1f}, {passed} of them at or above the cut"
+    )
+
+
 def run_set(
     name: str,
     limit: int | None,
@@ -164,12 +204,16 @@ def run_set(
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("sets", nargs="+", choices=tuple(SETS))
+    parser.add_argument("sets", nargs="*", choices=tuple(SETS))
     parser.add_argument("--limit", type=int, default=None, help="the first N sentences of each set")
     parser.add_argument("--sphinxtrain", action="store_true", help="the transform from sphinxtrain (bw, mllr_solve)")
     parser.add_argument("--unsupervised", action="store_true", help="without a transcript: the phone loop, adapted")
     parser.add_argument("--front-end", action="store_true", help="adaptation.cepstra against sphinx_fe")
+    parser.add_argument("--scores", action="store_true", help="per-frame scores of right and wrong transcripts")
     args = parser.parse_args(argv)
+    if args.scores:
+        print(scores(), flush=True)
+        return 0
     with tempfile.TemporaryDirectory() as folder:
         for name in args.sets:
             found = run_set(name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised, args.front_end)
