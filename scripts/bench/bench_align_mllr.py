@@ -204,7 +204,7 @@ def run_set(
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("sets", nargs="*", choices=tuple(SETS))
+    parser.add_argument("sets", nargs="*", help=f"of {', '.join(SETS)}")
     parser.add_argument("--limit", type=int, default=None, help="the first N sentences of each set")
     parser.add_argument("--sphinxtrain", action="store_true", help="the transform from sphinxtrain (bw, mllr_solve)")
     parser.add_argument("--unsupervised", action="store_true", help="without a transcript: the phone loop, adapted")
@@ -214,6 +214,9 @@ def main(argv=None) -> int:
     if args.scores:
         print(scores(), flush=True)
         return 0
+    unknown = [name for name in args.sets if name not in SETS]
+    if unknown or not args.sets:
+        parser.error(f"sets: {', '.join(unknown) or 'none given'} (choose from {', '.join(SETS)})")
     with tempfile.TemporaryDirectory() as folder:
         for name in args.sets:
             found = run_set(name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised, args.front_end)
