@@ -580,17 +580,18 @@ def alignment_steps(
             "transcript of this recording?"
         )
     ranges, voiced = pieces(recording.samples, vad_mode)
+    cepstra_of: dict = {}  # by sample range: the same for every alignment of the take
     with _decoder("align", accuracy) as decoder:
         try:
             said = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
             shares = _share_words(said, voiced)
-            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares), 0, 0.5)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, cepstra_of), 0, 0.5)
         except (AlignmentError, espeak.EspeakMissingError):
             said = _with_pauses(_dictionary_words(decoder, words), transcript)
             shares = _share_words(said, voiced)
-            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares), 0, 0.5)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, cepstra_of), 0, 0.5)
     if adapt:
-        results = yield from scaled(_adapted(recording, ranges, shares, results, accuracy), 0.5, 1)
+        results = yield from scaled(_adapted(recording, ranges, shares, results, accuracy, cepstra_of), 0.5, 1)
     # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound;
     # where the transcript pauses, the word before ends with its sound
     energies = log_band_energies(recording.samples)
@@ -645,7 +646,9 @@ def _adapted_decoder(task: str, accuracy: str, transform: np.ndarray, words: dic
         return _new_decoder(task, accuracy, **paths)
 
 
-def _adapted(recording: Recording, ranges, shares, results: list, accuracy: str) -> Generator[float, None, list]:
+def _adapted(
+    recording: Recording, ranges, shares, results: list, accuracy: str, cepstra_of: dict
+) -> Generator[float, None, list]:
     """The take aligned again with the model adapted to it (`_transform` of the first alignment), the same
     words. The first alignment is kept when the take is too short for a transform, or the adapted model does
     not align it."""
@@ -654,7 +657,7 @@ def _adapted(recording: Recording, ranges, shares, results: list, accuracy: str)
         return results
     decoder = _adapted_decoder("align", accuracy, transform, {w.key: w.phones for piece in shares for w in piece})
     try:
-        return (yield from _align_pieces(decoder, recording, ranges, shares))
+        return (yield from _align_pieces(decoder, recording, ranges, shares, cepstra_of))
     except AlignmentError:
         return results
 
@@ -663,11 +666,15 @@ def _silent(label: str) -> bool:
     return label == "sil"
 
 
-def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
+def _align_pieces(
+    decoder, recording: Recording, ranges, shares, cepstra_of: dict | None = None
+) -> Generator[float, None, list]:
     """Align each piece with its words (a piece that fails is tried again together with the next one): for each
     piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its
     cepstra with the senone and base phone of each of its frames (`_state_frames`). Each piece is decoded from
-    its own batch cepstral mean (`_batch_mean`)."""
+    its own batch cepstral mean (`_batch_mean`); `cepstra_of` keeps the cepstra by sample range for the next
+    alignment of the same take."""
+    cepstra_of = {} if cepstra_of is None else cepstra_of
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -681,7 +688,9 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
         pcm = _pcm(recording.samples[first:end])
         entries, breaks, states = None, [], None
         try:
-            cepstra = _piece_cepstra(pcm)
+            if (first, end) not in cepstra_of:
+                cepstra_of[first, end] = _piece_cepstra(pcm)
+            cepstra = cepstra_of[first, end]
             mean = _batch_mean(cepstra)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
             yield from _decode_pass(decoder, pcm, mean, done, total)
