@@ -229,8 +229,9 @@ def _remove_noise(spectra: np.ndarray) -> np.ndarray:
 def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True) -> np.ndarray:
     """int16 samples at 16 kHz -> (frames, 13) cepstra as PocketSphinx's front end computes them: frame k from
     samples [160 k, 160 k + 410), the last from what is left after the last whole window's shift, zero-padded.
-    The noise removal runs on from utterance to utterance in a decoder, whose first pass over a piece is the
-    cepstral-mean pass: `warm_up` runs it over the piece once before, as there."""
+    The noise removal runs on from utterance to utterance in a decoder: every pass over a piece after the
+    first sees it as the first left it, and `warm_up` runs it over the piece once before, as there (the
+    piece's mean is taken from these features; a decoder's first pass differs in its first frames only).
     x = np.asarray(pcm, np.float64)
     if x.size == 0:
         return np.zeros((0, N_CEPSTRA))
@@ -241,7 +242,7 @@ def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True) -> np.ndarray:
     padded[: x.size] = emphasised[: padded.size]
     windows = np.lib.stride_tricks.sliding_window_view(padded, WINDOW)[::FRAME_SHIFT][:frames] * np.hamming(WINDOW)
     spectra = np.abs(np.fft.rfft(windows, FFT_SIZE)) ** 2 @ mel_filters(params).T
-    if params.get("remove_noise", "yes") == "yes":
+    if params.get("remove_noise", "no") == "yes":  # PocketSphinx's default: no (the model's feat.params: yes)
         spectra = _remove_noise(np.concatenate([spectra, spectra]) if warm_up else spectra)[-frames:]
     logs = np.log(spectra + LOG_FLOOR)
     n = logs.shape[1]
