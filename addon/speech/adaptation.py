@@ -231,7 +231,7 @@ def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True) -> np.ndarray:
     samples [160 k, 160 k + 410), the last from what is left after the last whole window's shift, zero-padded.
     The noise removal runs on from utterance to utterance in a decoder: every pass over a piece after the
     first sees it as the first left it, and `warm_up` runs it over the piece once before, as there (the
-    piece's mean is taken from these features; a decoder's first pass differs in its first frames only).
+    piece's mean is taken from these features; a decoder's first pass differs in its first frames only)."""
     x = np.asarray(pcm, np.float64)
     if x.size == 0:
         return np.zeros((0, N_CEPSTRA))
