@@ -226,10 +226,9 @@ def _remove_noise(spectra: np.ndarray) -> np.ndarray:
     return spectra * (cumulative[:, hi + 1] - cumulative[:, lo]) / (hi - lo + 1)
 
 
-def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True, shift: int = FRAME_SHIFT) -> np.ndarray:
+def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True) -> np.ndarray:
     """int16 samples at 16 kHz -> (frames, 13) cepstra as PocketSphinx's front end computes them: frame k from
-    samples [shift k, shift k + 410) (shift 160 at 100 frames a second, the aligner's; 80 at the phone loop's
-    200), the last from what is left after the last whole window's shift, zero-padded.
+    samples [160 k, 160 k + 410), the last from what is left after the last whole window's shift, zero-padded.
     The noise removal runs on from utterance to utterance in a decoder: every pass over a piece after the
     first sees it as the first left it, and `warm_up` runs it over the piece once before, as there (the
     piece's mean is taken from these features; a decoder's first pass differs in its first frames only)."""
@@ -238,10 +237,10 @@ def cepstra(pcm: np.ndarray, params: dict, warm_up: bool = True, shift: int = FR
         return np.zeros((0, N_CEPSTRA))
     emphasised = x - PRE_EMPHASIS * np.concatenate([[0.0], x[:-1]])
     # the whole windows, then one from the samples left after the last one's shift, zero-padded (end_utt)
-    frames = 1 + (1 + (x.size - WINDOW) // shift if x.size >= WINDOW else 0)
-    padded = np.zeros((frames - 1) * shift + WINDOW)
+    frames = 1 + (1 + (x.size - WINDOW) // FRAME_SHIFT if x.size >= WINDOW else 0)
+    padded = np.zeros((frames - 1) * FRAME_SHIFT + WINDOW)
     padded[: x.size] = emphasised[: padded.size]
-    windows = np.lib.stride_tricks.sliding_window_view(padded, WINDOW)[::shift][:frames] * np.hamming(WINDOW)
+    windows = np.lib.stride_tricks.sliding_window_view(padded, WINDOW)[::FRAME_SHIFT][:frames] * np.hamming(WINDOW)
     spectra = np.abs(np.fft.rfft(windows, FFT_SIZE)) ** 2 @ mel_filters(params).T
     if params.get("remove_noise", "no") == "yes":  # PocketSphinx's default: no (the model's feat.params: yes)
         spectra = _remove_noise(np.concatenate([spectra, spectra]) if warm_up else spectra)[-frames:]

@@ -118,6 +118,7 @@ RHOTIC_VOWELS = frozenset({"en-us"})
 ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
 WORD_LANGUAGE_MODEL = "en-us.lm.bin"
 _BILABIALS = frozenset("p b m".split())  # CMU names of the phone loop's lip closures
+_MEAN_WORD = "a"  # in the dictionary of every decoder: the cheapest grammar to end a features-only utterance
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
 ProgressSteps = Generator[float, None, list[TimedLabel]]
@@ -354,7 +355,7 @@ _idle_decoders: dict[tuple[str, str], list] = {}
 def _decoder(task: str, accuracy: str):
     """A decoder for `task` ("align", "recognise") from a pool: loading the model takes about as long as
     aligning two seconds of speech. Its front end, which adapts from utterance to utterance (the noise
-    estimate; the cepstral mean is set per piece, `_batch_mean`), starts each take afresh, so a take gives the
+    estimate; the cepstral mean is set per piece, `_piece_mean`), starts each take afresh, so a take gives the
     same phones whatever was decoded before. One left by an error or by closing the steps midway (Esc) is dropped."""
     idle = _idle_decoders.setdefault((task, accuracy), [])
     if idle:
@@ -375,19 +376,37 @@ def _pcm(samples: np.ndarray) -> bytes:
     return np.clip(np.round(noise * 32767), -32768, 32767).astype("<i2").tobytes()
 
 
-def _piece_cepstra(pcm: bytes, frame_rate: int = FRAME_RATES["align"]) -> np.ndarray:
-    """The piece's cepstra at `frame_rate` frames a second as the decoder computes them once its front end has
-    run over the piece (`adaptation.cepstra`, within 3.3e-5 of sphinx_fe)."""
-    return adaptation.cepstra(np.frombuffer(pcm, "<i2"), _model().params, shift=RATE // frame_rate)
+def _piece_mean(decoder, pcm: bytes) -> str:
+    """The piece's own cepstral mean, from its features alone: the model's feat.params ask for batch
+    normalisation (`-cmn batch`), which decoding a second at a time cannot do by itself, and a mean carried
+    over from other takes, or the model's initial one, misleads the first seconds. Ending an utterance
+    searches every frame it holds, even frames fed with `no_search`, so the features are fed under a one-word
+    alignment grammar (`_MEAN_WORD`) without the silence and filler loops every grammar gets by default: its
+    search costs a fifth of an alignment pass. The caller sets its own search afterwards."""
+    fillers = decoder.config["fsgusefiller"]  # read when a grammar is set
+    decoder.config["fsgusefiller"] = False
+    try:
+        decoder.set_align_text(_MEAN_WORD)
+    finally:
+        decoder.config["fsgusefiller"] = fillers
+    decoder.start_utt()
+    decoder.process_raw(pcm, no_search=True, full_utt=False)
+    decoder.end_utt()
+    return decoder.get_cmn(True)
+
+
+def _piece_cepstra(pcm: bytes) -> np.ndarray:
+    """The piece's cepstra as the decoder computes them once its front end has run over the piece
+    (`adaptation.cepstra`, within 3.3e-5 of sphinx_fe)."""
+    return adaptation.cepstra(np.frombuffer(pcm, "<i2"), _model().params)
 
 
 def _batch_mean(cepstra: np.ndarray) -> str:
-    """A piece's cepstral mean: its own, over all its frames, as the model's feat.params ask (`-cmn batch`), for
-    PocketSphinx's `set_cmn`. The decoder's own estimate after a pass over the piece (`get_cmn`, used until
-    session 13) is its live one, which starts from the model's initial mean as if from 500 frames of it, so for
-    a take of a few seconds it stays near that prior (c0 43.5 where the take's own is 51.4, "Blame the
-    ambitious mayor...", en-029, 240 wpm): measured on dev takes, the take's own mean aligns 83.5 -> 85.3 % and
-    recognises 50.9 -> 52.2 % (docs/voice.md, *Session 13*). No decoding pass is needed for it."""
+    """The alignment's cepstral mean: the piece's own, over all its frames, as the model's feat.params ask
+    (`-cmn batch`), for PocketSphinx's `set_cmn`. The decoder's live estimate (`_piece_mean`) starts from the
+    model's initial mean as if from 500 frames of it, so for a take of a few seconds it stays near that prior
+    (c0 43.5 where the take's own is 51.4, "Blame the ambitious mayor...", en-029, 240 wpm): measured on 24 dev
+    takes, the take's own mean aligns 83.5 -> 85.3 % (docs/voice.md, *Session 13*)."""
     return ",".join(f"{value:.6g}" for value in cepstra.mean(axis=0))
 
 
@@ -616,9 +635,9 @@ def _transform(results: list) -> np.ndarray | None:
 
 def _adapted_decoder(task: str, accuracy: str, transform: np.ndarray, words: dict[str, tuple[str, ...]]):
     """A decoder for `task` whose model PocketSphinx loads with `transform` (`mllr`), its dictionary the words
-    given alone: loading PocketSphinx's whole dictionary is nine tenths of loading a decoder
+    given alone (and `_MEAN_WORD`): loading PocketSphinx's whole dictionary is nine tenths of loading a decoder
     (0.20 s against 0.02 s)."""
-    entries = words or {"a": ("AH",)}  # the phone loop needs no words, but a dictionary must hold one
+    entries = {_MEAN_WORD: ("AH",), **words}  # a transcript's own "a" keeps its pronunciation
     with tempfile.TemporaryDirectory() as folder:
         paths = {"mllr": os.path.join(folder, "mllr_matrix"), "dict": os.path.join(folder, "dictionary")}
         adaptation.write_mllr(paths["mllr"], transform)
@@ -808,7 +827,7 @@ def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read:
     with given or _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
-            mean = _batch_mean(_piece_cepstra(pcm, FRAME_RATES[task]))
+            mean = _piece_mean(decoder, pcm)
             decoder.activate_search()  # the phone loop or language model the decoder was made with
             yield from _decode_pass(decoder, pcm, mean, done, total)
             done += len(pcm) / 2

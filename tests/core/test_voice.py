@@ -425,3 +425,20 @@ def test_a_take_gives_the_same_phones_whatever_was_decoded_before():
         first = phone_alignment.phones_from_recording(take, transcript)
         phone_alignment.phones_from_recording(other, transcript and SENTENCE)
         assert phone_alignment.phones_from_recording(take, transcript) == first
+
+
+@needs_espeak
+@needs_pocketsphinx
+def test_the_cepstral_mean_pass_gives_the_mean_of_a_full_search_and_leaves_the_grammar_options():
+    take, _ = _take()
+    pcm = phone_alignment._pcm(take.samples)
+    with phone_alignment._decoder("align", "STANDARD") as decoder:
+        decoder.set_align_text("please pass me the apple pie")
+        decoder.start_utt()
+        decoder.process_raw(pcm, no_search=True, full_utt=False)
+        decoder.end_utt()  # searches every frame under the sentence's grammar
+        searched = decoder.get_cmn(True)
+        decoder.reinit_feat()
+        assert phone_alignment._piece_mean(decoder, pcm) == searched
+        assert decoder.config["fsgusefiller"] is True
+        assert decoder.current_search() == "_align"
