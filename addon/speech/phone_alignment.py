@@ -45,13 +45,14 @@ import dataclasses
 import functools
 import os
 import re
+import tempfile
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..progress import scaled
-from . import SpeechError, espeak
+from . import SpeechError, adaptation, espeak
 from .bilabials import bilabials_from_acoustics
 from .boundaries import log_band_energies, pauses_at, refine_boundaries, sound_into_silence
 from .recording import RATE, Recording, RecordingError
@@ -320,7 +321,7 @@ def _add_words(decoder, words: list[_Word]) -> None:
 # ----------------------------------------------------------------------------- decoding
 
 
-def _new_decoder(task: str, accuracy: str):
+def _new_decoder(task: str, accuracy: str, **files: str):
     if accuracy not in ACCURACY:
         raise SpeechError(f"accuracy {accuracy!r} is not one of {', '.join(ACCURACY)}")
     beam = BEAMS[task, accuracy]
@@ -328,6 +329,7 @@ def _new_decoder(task: str, accuracy: str):
     if beam is not None:
         options.update(beam=beam, wbeam=beam, pbeam=beam)
     options["lm"] = word_language_model() if task == "words" else None
+    options.update(files)  # an adapted model's transform (`mllr`) and the take's own dictionary (`dict`)
     if task == "recognise":
         # lw/pip: the phone LM's weight and the phone insertion penalty; with the defaults (lw 6.5, pip 1) the
         # search keeps only a few long phones
@@ -391,6 +393,21 @@ def _piece_mean(decoder, pcm: bytes) -> str:
     decoder.process_raw(pcm, no_search=True, full_utt=False)
     decoder.end_utt()
     return decoder.get_cmn(True)
+
+
+def _piece_cepstra(pcm: bytes) -> np.ndarray:
+    """The piece's cepstra as the decoder computes them once its front end has run over the piece
+    (`adaptation.cepstra`, within 3.3e-5 of sphinx_fe)."""
+    return adaptation.cepstra(np.frombuffer(pcm, "<i2"), _model().params)
+
+
+def _batch_mean(cepstra: np.ndarray) -> str:
+    """The alignment's cepstral mean: the piece's own, over all its frames, as the model's feat.params ask
+    (`-cmn batch`), for PocketSphinx's `set_cmn`. The decoder's live estimate (`_piece_mean`) starts from the
+    model's initial mean as if from 500 frames of it, so for a take of a few seconds it stays near that prior
+    (c0 43.5 where the take's own is 51.4, "Blame the ambitious mayor...", en-029, 240 wpm): measured on 24 dev
+    takes, the take's own mean aligns 83.5 -> 85.3 % (docs/voice.md, *Session 13*)."""
+    return ",".join(f"{value:.6g}" for value in cepstra.mean(axis=0))
 
 
 def _decode_pass(decoder, pcm: bytes, mean: str, done: float, total: float) -> Generator[float, None, None]:
@@ -543,13 +560,15 @@ def alignment_steps(
     vad_mode: int = DEFAULT_VAD_MODE,
     accuracy: str = "STANDARD",
     accent: str = DEFAULT_ACCENT,
+    adapt: bool = True,
 ) -> ProgressSteps:
     """Forced alignment of `transcript` with `recording`: yields progress, returns the timed phones.
 
     The words are pronounced as espeak-ng's voice `accent` (one of `ACCENTS`) says them in the sentence
     (`_espeak_words`), so that the phones and visemes match what Speak Text gives for the same text in that
     voice; if that alignment fails (a speaker whose accent differs), or espeak-ng is missing, with the
-    dictionary's pronunciations."""
+    dictionary's pronunciations. With `adapt`, the model is then adapted to the take by MLLR from that
+    alignment and the take aligned again (`_adapted`)."""
     if accent not in ACCENTS:
         raise AlignmentError(f"accent {accent!r} is not one of {', '.join(ACCENTS)}")
     words = transcript_words(transcript)
@@ -561,29 +580,101 @@ def alignment_steps(
             "transcript of this recording?"
         )
     ranges, voiced = pieces(recording.samples, vad_mode)
+    cepstra_of: dict = {}  # by sample range: the same for every alignment of the take
     with _decoder("align", accuracy) as decoder:
         try:
-            spoken = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
-            results = yield from _align_pieces(decoder, recording, ranges, _share_words(spoken, voiced))
+            said = _with_pauses(_espeak_words(decoder, transcript, accent), transcript)
+            shares = _share_words(said, voiced)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, cepstra_of), 0, 0.5)
         except (AlignmentError, espeak.EspeakMissingError):
-            listed = _with_pauses(_dictionary_words(decoder, words), transcript)
-            results = yield from _align_pieces(decoder, recording, ranges, _share_words(listed, voiced))
+            said = _with_pauses(_dictionary_words(decoder, words), transcript)
+            shares = _share_words(said, voiced)
+            results = yield from scaled(_align_pieces(decoder, recording, ranges, shares, cepstra_of), 0, 0.5)
+    if adapt:
+        results = yield from scaled(_adapted(recording, ranges, shares, results, accuracy, cepstra_of), 0.5, 1)
     # whole 10 ms frames: abrupt boundaries move to the acoustic event within one; silences give up their sound;
     # where the transcript pauses, the word before ends with its sound
     energies = log_band_energies(recording.samples)
-    joined = _join([phones for phones, _ in results], recording.duration)
+    joined = _join([phones for phones, _, _ in results], recording.duration)
     phones = refine_boundaries(joined, energies, 1.0 / FRAME_RATES["align"], _abrupt)
     phones = sound_into_silence(phones, energies, _silent)
-    return pauses_at(phones, energies, [moment for _, breaks in results for moment in breaks], _silent)
+    return pauses_at(phones, energies, [moment for _, breaks, _ in results for moment in breaks], _silent)
+
+
+def _state_frames(alignment) -> tuple[np.ndarray, np.ndarray]:
+    """The aligned senone of each frame, and the base phone's index in the model's definition (the codebook of
+    a phonetically-tied model), from the alignment's states and the phones they belong to."""
+    phones = list(alignment.phones())
+    starts = [p.start for p in phones]
+    index = {name: k for k, name in enumerate(_model().phones)}
+    frames = phones[-1].start + phones[-1].duration
+    senones, codebooks = np.zeros(frames, np.int64), np.zeros(frames, np.int64)
+    for state in alignment.states():
+        phone = phones[bisect.bisect_right(starts, state.start) - 1]
+        senones[state.start : state.start + state.duration] = int(state.name)
+        codebooks[state.start : state.start + state.duration] = index[phone.name]
+    return senones, codebooks
+
+
+@functools.cache
+def _model() -> adaptation.Model:
+    """The wheel's acoustic model as `adaptation` reads it (means, variances, mixture weights, phones)."""
+    return adaptation.read_model(os.path.join(_pocketsphinx().get_model_path(), "en-us", "en-us"))
+
+
+def _transform(results: list) -> np.ndarray | None:
+    """One MLLR mean transform per feature stream (`adaptation.estimate`) from aligned pieces' states and their
+    features, or None (a take too short for one)."""
+    aligned = []
+    for cepstra, senones, codebooks in (piece for _, _, piece in results):
+        feats = adaptation.features(cepstra)
+        n = min(len(feats), len(senones))
+        aligned.append((feats[:n], senones[:n], codebooks[:n]))
+    return adaptation.estimate(aligned, _model())
+
+
+def _adapted_decoder(task: str, accuracy: str, transform: np.ndarray, words: dict[str, tuple[str, ...]]):
+    """A decoder for `task` whose model PocketSphinx loads with `transform` (`mllr`), its dictionary the words
+    given alone (and `_MEAN_WORD`): loading PocketSphinx's whole dictionary is nine tenths of loading a decoder
+    (0.20 s against 0.02 s)."""
+    entries = {_MEAN_WORD: ("AH",), **words}  # a transcript's own "a" keeps its pronunciation
+    with tempfile.TemporaryDirectory() as folder:
+        paths = {"mllr": os.path.join(folder, "mllr_matrix"), "dict": os.path.join(folder, "dictionary")}
+        adaptation.write_mllr(paths["mllr"], transform)
+        with open(paths["dict"], "w", encoding="utf-8") as out:
+            out.writelines(f"{key} {' '.join(phones)}\n" for key, phones in entries.items())
+        return _new_decoder(task, accuracy, **paths)
+
+
+def _adapted(
+    recording: Recording, ranges, shares, results: list, accuracy: str, cepstra_of: dict
+) -> Generator[float, None, list]:
+    """The take aligned again with the model adapted to it (`_transform` of the first alignment), the same
+    words. The first alignment is kept when the take is too short for a transform, or the adapted model does
+    not align it."""
+    transform = _transform(results)
+    if transform is None:
+        return results
+    decoder = _adapted_decoder("align", accuracy, transform, {w.key: w.phones for piece in shares for w in piece})
+    try:
+        return (yield from _align_pieces(decoder, recording, ranges, shares, cepstra_of))
+    except AlignmentError:
+        return results
 
 
 def _silent(label: str) -> bool:
     return label == "sil"
 
 
-def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[float, None, list]:
+def _align_pieces(
+    decoder, recording: Recording, ranges, shares, cepstra_of: dict | None = None
+) -> Generator[float, None, list]:
     """Align each piece with its words (a piece that fails is tried again together with the next one): for each
-    piece, its timed phones and the ends (s) of its words that the transcript follows with a pause."""
+    piece, its timed phones, the ends (s) of its words that the transcript follows with a pause, and its
+    cepstra with the senone and base phone of each of its frames (`_state_frames`). Each piece is decoded from
+    its own batch cepstral mean (`_batch_mean`); `cepstra_of` keeps the cepstra by sample range for the next
+    alignment of the same take."""
+    cepstra_of = {} if cepstra_of is None else cepstra_of
     total = 2.0 * (len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))  # two passes
     done = 0.0
     results = []
@@ -595,9 +686,12 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
             pending_range, pending_words = (first, end), []
             continue
         pcm = _pcm(recording.samples[first:end])
-        entries, breaks = None, []
+        entries, breaks, states = None, [], None
         try:
-            mean = _piece_mean(decoder, pcm)
+            if (first, end) not in cepstra_of:
+                cepstra_of[first, end] = _piece_cepstra(pcm)
+            cepstra = cepstra_of[first, end]
+            mean = _batch_mean(cepstra)
             decoder.set_align_text(" ".join(w.key for w in piece_words))
             yield from _decode_pass(decoder, pcm, mean, done, total)
             if decoder.hyp() is not None:
@@ -608,6 +702,7 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                     spans = _word_spans(alignment, piece_words)
                     entries = _aligned_entries(alignment, spans)
                     breaks = [b for _, b, w in spans if w.pause_after]
+                    states = _state_frames(alignment)
         except RuntimeError:
             entries = None
         done += len(pcm)  # two passes of len(pcm) / 2 samples
@@ -621,13 +716,19 @@ def _align_pieces(decoder, recording: Recording, ranges, shares) -> Generator[fl
                 + ": check that it is what is said (every word, in order), or lip-sync without it"
             )
         rate = FRAME_RATES["align"]
-        results.append((_phones_of(entries, first / RATE, rate), [_seconds(b, first / RATE, rate) for b in breaks]))
+        moments = [_seconds(b, first / RATE, rate) for b in breaks]
+        results.append((_phones_of(entries, first / RATE, rate), moments, (cepstra, *states)))
         pending_range, pending_words = None, []
     return results
 
 
 def recognition_steps(
-    recording: Recording, *, vad_mode: int = DEFAULT_VAD_MODE, accuracy: str = "STANDARD", words: bool = False
+    recording: Recording,
+    *,
+    vad_mode: int = DEFAULT_VAD_MODE,
+    accuracy: str = "STANDARD",
+    words: bool = False,
+    adapt: bool = False,
 ) -> ProgressSteps:
     """Recognition without a transcript (less accurate): yields progress, returns the timed phones.
 
@@ -637,8 +738,12 @@ def recognition_steps(
     phone loop (`phone_loop_steps`) runs too; its lip closures, found by the recogniser and the acoustic cues of
     `bilabials`, are laid over the aligned phones (`with_closures`): a word the recogniser got wrong does not
     open lips that the acoustics heard close. Where no word is recognised, the words cannot be aligned, or the
-    word language model is not installed (`word_language_model`), the phone loop's phones are used as they are."""
-    ranges, _ = pieces(recording.samples, vad_mode)
+    word language model is not installed (`word_language_model`), the phone loop's phones are used as they are.
+    With `adapt` (and not `words`): the phone loop twice, the second time with the model adapted to the take
+    from the first's phones (`_phone_loop_adapted`): slower, and better on the takes measured (docs/voice.md)."""
+    ranges, voiced = pieces(recording.samples, vad_mode)
+    if adapt and not words:
+        return (yield from _phone_loop_adapted(recording, ranges, voiced, accuracy))
     if not words or not os.path.isfile(word_language_model()):
         return (yield from _phone_loop(recording, ranges, accuracy))
     heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.3)
@@ -647,7 +752,10 @@ def recognition_steps(
         return heard
     try:
         aligned = yield from scaled(
-            alignment_steps(recording, " ".join(said), vad_mode=vad_mode, accuracy=accuracy), 0.6, 1.0
+            # not adapted: recognised words are no transcript, and a wrong word would adapt the model to it
+            alignment_steps(recording, " ".join(said), vad_mode=vad_mode, accuracy=accuracy, adapt=False),
+            0.6,
+            1.0,
         )
     except AlignmentError:
         return heard
@@ -664,13 +772,38 @@ def phone_loop_steps(
     return (yield from _phone_loop(recording, ranges, accuracy))
 
 
-def _phone_loop(recording: Recording, ranges, accuracy: str) -> ProgressSteps:
+def _phone_loop(recording: Recording, ranges, accuracy: str, decoder=None) -> ProgressSteps:
     def phones(decoder, first: int) -> list[TimedLabel]:
         entries = [(s.word.lower(), s.start_frame, s.end_frame - s.start_frame + 1, None) for s in decoder.seg()]
         return _phones_of(entries, first / RATE, FRAME_RATES["recognise"])
 
-    results = yield from _search_pieces(recording, ranges, "recognise", accuracy, phones)
+    results = yield from _search_pieces(recording, ranges, "recognise", accuracy, phones, decoder)
     return bilabials_from_acoustics(_join(results, recording.duration), recording.samples)
+
+
+def _phone_loop_adapted(recording: Recording, ranges, voiced, accuracy: str) -> ProgressSteps:
+    """The phone loop twice, the second time with the model adapted to the take from the first's phones
+    (unsupervised MLLR): those phones, each a word of one phone, aligned as a transcript is give the states the
+    transform is estimated from (`_transform`). The first phones are kept when they do not align or the take is
+    too short for a transform."""
+    heard = yield from scaled(_phone_loop(recording, ranges, accuracy), 0.0, 0.35)
+    known = {name.lower() for name in _model().phones}
+    words = [_Word(p.label, f"phone_{p.label}", (p.label.upper(),)) for p in heard if p.label in known - {"sil"}]
+    if not words:
+        return heard
+    with _decoder("align", accuracy) as decoder:
+        _add_words(decoder, words)
+        try:
+            results = yield from scaled(
+                _align_pieces(decoder, recording, ranges, _share_words(words, voiced)), 0.35, 0.65
+            )
+        except AlignmentError:
+            return heard
+    transform = _transform(results)
+    if transform is None:
+        return heard
+    decoder = _adapted_decoder("recognise", accuracy, transform, {})
+    return (yield from scaled(_phone_loop(recording, ranges, accuracy, decoder), 0.65, 1.0))
 
 
 def _word_steps(recording: Recording, ranges, accuracy: str) -> Generator[float, None, list[str]]:
@@ -685,13 +818,14 @@ def _word_steps(recording: Recording, ranges, accuracy: str) -> Generator[float,
     return [word for piece in results for word in piece]
 
 
-def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read: Callable) -> Generator:
+def _search_pieces(recording: Recording, ranges, task: str, accuracy: str, read: Callable, decoder=None) -> Generator:
     """One pass of the search `task` was made with over each piece, from the piece's own cepstral mean: yields
-    progress, returns `read(decoder, first sample)` of each piece."""
+    progress, returns `read(decoder, first sample)` of each piece. On a pooled decoder unless one is given."""
     total = float(len(recording.samples) + 2 * PAD_SECONDS * RATE * len(ranges))
     done = 0.0
     results = []
-    with _decoder(task, accuracy) as decoder:
+    given = contextlib.nullcontext(decoder) if decoder is not None else None
+    with given or _decoder(task, accuracy) as decoder:
         for first, end in ranges:
             pcm = _pcm(recording.samples[first:end])
             mean = _piece_mean(decoder, pcm)
@@ -742,13 +876,18 @@ def phones_from_recording(
     progress: Callable[[float], None] | None = None,
     words: bool = False,
     accent: str = DEFAULT_ACCENT,
+    adapt: bool = True,
+    adapt_recognition: bool = False,
 ) -> list[TimedLabel]:
     """The recording's timed phones: aligned with `transcript` when given (not blank), pronounced in `accent`,
-    else recognised (with `words`: the recognised words aligned, see `recognition_steps`)."""
+    with the model adapted to the take unless not `adapt`; else recognised (with `words`: the recognised words
+    aligned; with `adapt_recognition`: recognised twice, the model adapted from the first; see
+    `recognition_steps`)."""
     if transcript is not None and transcript.strip():
-        steps = alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy, accent=accent)
+        steps = alignment_steps(recording, transcript, vad_mode=vad_mode, accuracy=accuracy, accent=accent, adapt=adapt)
         return run(steps, progress)
-    return run(recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words), progress)
+    steps = recognition_steps(recording, vad_mode=vad_mode, accuracy=accuracy, words=words, adapt=adapt_recognition)
+    return run(steps, progress)
 
 
 def read_transcript_file(path) -> str:

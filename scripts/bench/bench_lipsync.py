@@ -1,6 +1,7 @@
 """Lip-sync from a recording against the text path (docs/voice.md's figures).
 
     .venv/bin/python -m scripts.bench.bench_lipsync [--json OUT.json] [--quick] [--words] [--accent-given]
+                     [--no-adapt] [--adapt-recognition]
 
 Test recordings are made with espeak-ng, whose synthesis reports each phoneme's time in the same output as its
 audio: the text path's visemes of that synthesis (`espeak.speech_segments`, what Speak Text keys: each stop from the
@@ -174,6 +175,8 @@ def with_noise(samples: np.ndarray, snr_db: float, seed: int) -> np.ndarray:
 
 WORDS = {"on": False}  # --words: without a transcript, the recognised words aligned (phone_alignment.recognition_steps)
 ACCENT = {"given": False}  # --accent-given: with a transcript, aligned in the take's accent (its voice)
+ADAPT = {"on": True}  # --no-adapt: with a transcript, one alignment with the unadapted model (before session 13)
+ADAPT_RECOGNITION = {"on": False}  # --adapt-recognition: without a transcript, the phone loop adapted (unsupervised)
 
 
 def accent_of(voice: str) -> str:
@@ -190,7 +193,12 @@ def run_case(text: str, voice: str, rate: int, noisy: bool, seed: int, transcrip
     refused = False
     try:
         phones = phone_alignment.phones_from_recording(
-            take, text if transcript else None, words=WORDS["on"], accent=accent_of(voice)
+            take,
+            text if transcript else None,
+            words=WORDS["on"],
+            accent=accent_of(voice),
+            adapt=ADAPT["on"],
+            adapt_recognition=ADAPT_RECOGNITION["on"],
         )
     except phone_alignment.AlignmentError:  # refused: scored as a mouth that never moves
         phones, refused = [TimedLabel(0.0, speech.duration, "sil")], True
@@ -270,7 +278,7 @@ def word_closures(wav: Path, text: str) -> dict:
     """Words of the transcript with /p b m/ and whether a PP segment falls inside each one's aligned span."""
     began, cpu = time.perf_counter(), time.process_time()
     take = recording.read_recording(wav)
-    phones = phone_alignment.phones_from_recording(take, text)
+    phones = phone_alignment.phones_from_recording(take, text, adapt=ADAPT["on"])
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
     segments = phone_alignment.phone_segments(phones)
     spans: list[tuple[str, list]] = []  # (word, its phones), in order; a repeated word starts a new span
@@ -294,9 +302,11 @@ def recognised_against_aligned(wav: Path, text: str) -> dict:
     """A real recording's recognised visemes (no transcript) scored against its aligned ones, the nearest to a
     truth a human recording without phone labels has (the aligner, given the words, is far more exact)."""
     take = recording.read_recording(wav)
-    aligned = phone_alignment.phone_segments(phone_alignment.phones_from_recording(take, text))
+    aligned = phone_alignment.phone_segments(phone_alignment.phones_from_recording(take, text, adapt=ADAPT["on"]))
     began, cpu = time.perf_counter(), time.process_time()
-    phones = phone_alignment.phones_from_recording(take, None, words=WORDS["on"])
+    phones = phone_alignment.phones_from_recording(
+        take, None, words=WORDS["on"], adapt_recognition=ADAPT_RECOGNITION["on"]
+    )
     seconds, cpu = time.perf_counter() - began, time.process_time() - cpu
     result = score(aligned, phone_alignment.phone_segments(phones), take.duration)
     return {**result, "duration": take.duration, "seconds": seconds, "cpu": cpu}
@@ -365,7 +375,13 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="3 sentences a set (a smoke run)")
     parser.add_argument("--words", action="store_true", help="without a transcript: recognised words, aligned")
     parser.add_argument("--accent-given", action="store_true", help="with a transcript: in each take's accent")
+    parser.add_argument("--no-adapt", action="store_true", help="with a transcript: no MLLR adaptation to the take")
+    parser.add_argument(
+        "--adapt-recognition", action="store_true", help="without a transcript: the phone loop, adapted to the take"
+    )
     args = parser.parse_args(argv)
+    ADAPT["on"] = not args.no_adapt
+    ADAPT_RECOGNITION["on"] = args.adapt_recognition
     WORDS["on"] = args.words
     ACCENT["given"] = args.accent_given
     sentences = read_sentences()
