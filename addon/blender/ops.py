@@ -82,9 +82,8 @@ class MPEG4_OT_open_sealed_mouth(Mpeg4Operator, bpy.types.Operator):
         face = poll.face(context)
         try:
             cut = sealed_mouth.plan(face)
-        except Mpeg4Error as exc:
-            self.report({"ERROR"}, str(exc))
-            return {"CANCELLED"}
+        except Exception:  # a refusal (or a failure): `execute` plans again and reports it as every operator does
+            return self.execute(context)
         return context.window_manager.invoke_confirm(
             self,
             event,
