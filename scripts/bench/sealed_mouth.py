@@ -24,6 +24,7 @@ import numpy as np
 
 import addon
 from addon.blender import face_data
+from scripts import convert
 from scripts.bench.variants import HEAD, SAMPLE
 
 LIP_MASKS = ("upper_lip", "lower_lip")
@@ -124,9 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
         face = bpy.data.objects[HEAD]
-        for ob in bpy.context.view_layer.objects:
-            ob.select_set(ob == face)
-        bpy.context.view_layer.objects.active = face
+        convert.select_only(face)
         bpy.ops.mpeg4.remove_face()
         seal(face)
         bpy.ops.wm.save_as_mainfile(filepath=str(args.out / "sealed.blend"))
