@@ -33,19 +33,13 @@ import addon
 from addon.blender import binding_store, face_data, live, rest_shape
 from addon.deform.planar_bones import evaluate
 from addon.mpeg4.fap_file import read_fap, write_fap
+from scripts import convert
 from scripts.bench.surface_deform import SurfaceDeform, copy_object
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
 DEMO = ROOT / "sample_blends" / "demo.fap"
 WARM_UP = 2
-
-
-def _select(ob) -> None:
-    for other in bpy.context.view_layer.objects:
-        other.select_set(False)
-    ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
 
 
 def _operator(op, **kwargs) -> None:
@@ -57,7 +51,7 @@ def set_up_sample(level: int) -> tuple[bpy.types.Object, float]:
     """Open the sample, subdivide the head `level` times (applied) and set it up; returns (head, set-up time)."""
     bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
     head = bpy.data.objects["Head"]
-    _select(head)
+    convert.select_only(head)
     _operator(bpy.ops.mpeg4.remove_face)
     if level:
         modifier = head.modifiers.new("Subdivision", "SUBSURF")

@@ -42,6 +42,7 @@ from addon.fitting.fdp_file import parse_fdp
 from addon.fitting.xface_fdp import parse_xface_fdp
 from addon.mpeg4.feature_points import FP_IDS
 from addon.speech import cue_files
+from scripts import convert
 
 ROOT = Path(__file__).resolve().parents[2]
 SAMPLE = ROOT / "sample_blends" / "makehuman_head.blend"
@@ -240,7 +241,7 @@ class Campaign:
 
     def reopen(self) -> None:
         bpy.ops.wm.open_mainfile(filepath=str(self.saved))
-        select(bpy.data.objects["Head"])
+        convert.select_only(bpy.data.objects["Head"])
         for path in self.folder.iterdir():
             if path.name not in ("face.blend", "sample.json") and not path.is_dir():
                 path.unlink()
@@ -261,13 +262,6 @@ def deadline():
             return False
 
     return Alarm()
-
-
-def select(ob) -> None:
-    for other in bpy.context.view_layer.objects:
-        other.select_set(False)
-    ob.select_set(True)
-    bpy.context.view_layer.objects.active = ob
 
 
 def scene_state(head, folder: Path):
@@ -420,7 +414,7 @@ def calibration_target(campaign: Campaign) -> None:
         empty.location = [size * rng.uniform(-1, 1) * rng.choice([1.0, 1.0, 1e3, 0.0]) for _ in range(3)]
         collection.objects.link(empty)
     bpy.context.view_layer.update()
-    select(head)
+    convert.select_only(head)
     target.select_set(True)
 
 
@@ -511,7 +505,7 @@ def main(argv: list[str] | None = None) -> int:
         (folder / "notes.txt").write_text("not a face\n")
         (folder / "cut.blend").write_bytes(SAMPLE.read_bytes()[:5000])
         bpy.ops.wm.open_mainfile(filepath=str(SAMPLE))
-        select(bpy.data.objects["Head"])
+        convert.select_only(bpy.data.objects["Head"])
         assert bpy.ops.mpeg4.setup_face() == {"FINISHED"}
         bpy.ops.wm.save_as_mainfile(filepath=str(campaign.saved))
         start = time.perf_counter()
