@@ -106,6 +106,9 @@ NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
 NOSE_BASES = {"8.5": ("9.5",), "8.6": ("9.4",)}
 # the Cupid's bow's peaks (no FAP moves them), with the upper lip's outer contour points either side of each
 BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
+# each side's point on the nose's bottom edge (no FAP moves it), with the nostril's border above it, which the
+# alar cartilage holds, and the upper lip's outer point below it, which a lip's push moves (`nose_base_push`)
+NOSE_BASE_SKIN = {"9.5": ("9.1", "8.5"), "9.4": ("9.2", "8.6")}
 # the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
 CHEEKS = ("5.1", "5.2")
 # how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
@@ -259,7 +262,37 @@ def _follow_push(
 def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
     (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
-    return _follow_push(neutral, corner_slide(neutral, points, axes), LIP_FOLLOWERS, True, axes)
+    pushed = _follow_push(neutral, corner_slide(neutral, points, axes), LIP_FOLLOWERS, True, axes)
+    return nose_base_push(neutral, pushed, axes)
+
+
+def nose_base_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each side's point on the nose's bottom edge (9.5, 9.4) pushed
+    forward (face z) as the skin between the nostril's border above it and the upper lip's outer point below it
+    is where it lies: their pushes blended by how far down from the border to the lip's point it lies at rest
+    (face y). Its height and its sideways place stay."""
+    axes = np.asarray(axes, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    moved = np.array(points, dtype=np.float64)
+    for base, (border, lip) in NOSE_BASE_SKIN.items():
+        k, a, b = fp_index(base), fp_index(border), fp_index(lip)
+        t = _share_between(neutral, k, a, b, axes[1])
+        if t is None or not np.all(np.isfinite(moved[[a, b]])):
+            continue
+        push = ((1.0 - t) * (moved[a] - neutral[a]) + t * (moved[b] - neutral[b])) @ axes[2]
+        moved[k] += (push - (moved[k] - neutral[k]) @ axes[2]) * axes[2]
+    return moved
+
+
+def _share_between(neutral: np.ndarray, k: int, a: int, b: int, along: np.ndarray) -> float | None:
+    """How far across from FP `a` to FP `b` FP `k` lies at rest, measured along the unit direction `along`
+    (0..1, clipped), or None where a point is unknown or `a` and `b` are level along it."""
+    if not np.all(np.isfinite(neutral[[k, a, b]])):
+        return None
+    across = (neutral[b] - neutral[a]) @ along
+    if abs(across) <= 0.0:
+        return None
+    return float(np.clip((neutral[k] - neutral[a]) @ along / across, 0.0, 1.0))
 
 
 def mid_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
@@ -381,12 +414,9 @@ def bow_follow(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLEND
     moved = np.array(points, dtype=np.float64)
     for peak, (mid, side) in BOW_PEAKS.items():
         k, m, q = fp_index(peak), fp_index(mid), fp_index(side)
-        if not np.all(np.isfinite(neutral[[k, m, q]])) or not np.all(np.isfinite(moved[[m, q]])):
+        t = _share_between(neutral, k, m, q, axes[0])
+        if t is None or not np.all(np.isfinite(moved[[m, q]])):
             continue
-        across = (neutral[q] - neutral[m]) @ axes[0]
-        if abs(across) <= 0.0:
-            continue
-        t = float(np.clip((neutral[k] - neutral[m]) @ axes[0] / across, 0.0, 1.0))
         moved[k] = neutral[k] + (1.0 - t) * (moved[m] - neutral[m]) + t * (moved[q] - neutral[q])
     return moved
 
