@@ -18,7 +18,11 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move the inner mid-points
   2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' on top
   of their `corner_slide` (AU 18/22: orbicularis oris purses and everts the lips all round; ARKit's rolls move
-  a lip "toward the inside of the mouth").
+  a lip "toward the inside of the mouth"). Within it, `nose_base_push`: the nose's bottom edge beside each
+  nostril (9.5, 9.4), which no FAP moves, lies on the skin between the nostril's border (9.1, 9.2, held by the
+  alar cartilage) and the upper lip's outer point (8.5, 8.6), and a pushed lip drags that skin with it: the
+  point comes forward (or goes back) by the two points' pushes blended by how far down from the border to the
+  lip it lies at rest, as `bow_follow` blends the contour across. No size of its own.
 - `mid_lip_push` (mouthShrugLower / Upper: mentalis, AU 17, and the upper lip's shrug push a lip out at its
   middle): the lip's outer edge 8.2 / 8.1 comes out as far as push_b_lip / push_t_lip moved its inner mid-point
   2.3 / 2.2 (ARKit: "outward movement of the lower lip", the lip, not its inner edge); its sides and the corners
