@@ -275,16 +275,26 @@ def nose_base_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = B
     forward (face z) as the skin between the nostril's border above it and the upper lip's outer point below it
     is where it lies: their pushes blended by how far down from the border to the lip's point it lies at rest
     (face y). Its height and its sideways place stay."""
+    return _blend_between(neutral, points, axes, NOSE_BASE_SKIN, across=1, only=2)
+
+
+def _blend_between(neutral, points, axes, between: dict, across: int, only: int | None = None) -> np.ndarray:
+    """`points` with each FP `between` names moved as the skin between its two points (a, b) moves where it lies:
+    their motions blended by how far across from a to b it lies at rest along face axis `across`; with `only`,
+    along that face axis alone (its motion along the others kept)."""
     axes = np.asarray(axes, dtype=np.float64)
     neutral = np.asarray(neutral, dtype=np.float64)
     moved = np.array(points, dtype=np.float64)
-    for base, (border, lip) in NOSE_BASE_SKIN.items():
-        k, a, b = fp_index(base), fp_index(border), fp_index(lip)
-        t = _share_between(neutral, k, a, b, axes[1])
+    for fp, (a_fp, b_fp) in between.items():
+        k, a, b = fp_index(fp), fp_index(a_fp), fp_index(b_fp)
+        t = _share_between(neutral, k, a, b, axes[across])
         if t is None or not np.all(np.isfinite(moved[[a, b]])):
             continue
-        push = ((1.0 - t) * (moved[a] - neutral[a]) + t * (moved[b] - neutral[b])) @ axes[2]
-        moved[k] += (push - (moved[k] - neutral[k]) @ axes[2]) * axes[2]
+        blend = (1.0 - t) * (moved[a] - neutral[a]) + t * (moved[b] - neutral[b])
+        if only is None:
+            moved[k] = neutral[k] + blend
+        else:
+            moved[k] += ((blend - (moved[k] - neutral[k])) @ axes[only]) * axes[only]
     return moved
 
 
@@ -413,16 +423,7 @@ def bow_follow(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLEND
     """(84, 3) FP positions (mesh coordinates) with each Cupid's bow peak moved as the upper lip's outer contour
     moves where it lies: the motions of the contour's mid-point 8.1 and the side point beside it (8.5 / 8.6),
     blended by how far across from 8.1 to that point the peak lies at rest (face x)."""
-    axes = np.asarray(axes, dtype=np.float64)
-    neutral = np.asarray(neutral, dtype=np.float64)
-    moved = np.array(points, dtype=np.float64)
-    for peak, (mid, side) in BOW_PEAKS.items():
-        k, m, q = fp_index(peak), fp_index(mid), fp_index(side)
-        t = _share_between(neutral, k, m, q, axes[0])
-        if t is None or not np.all(np.isfinite(moved[[m, q]])):
-            continue
-        moved[k] = neutral[k] + (1.0 - t) * (moved[m] - neutral[m]) + t * (moved[q] - neutral[q])
-    return moved
+    return _blend_between(neutral, points, axes, BOW_PEAKS, across=0)
 
 
 def deform_points(
