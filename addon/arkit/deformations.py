@@ -18,7 +18,11 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   (FAPs 16, 17) are the only forward motions of the lips the standard has, and they move the inner mid-points
   2.3 / 2.2 alone; the lip's other points follow their lip's push, the corners the mean of both lips' on top
   of their `corner_slide` (AU 18/22: orbicularis oris purses and everts the lips all round; ARKit's rolls move
-  a lip "toward the inside of the mouth").
+  a lip "toward the inside of the mouth"). Within it, `nose_base_push`: the nose's bottom edge beside each
+  nostril (9.5, 9.4), which no FAP moves, lies on the skin between the nostril's border (9.1, 9.2, held by the
+  alar cartilage) and the upper lip's outer point (8.5, 8.6), and a pushed lip drags that skin with it: the
+  point comes forward (or goes back) by the two points' pushes blended by how far down from the border to the
+  lip it lies at rest, as `bow_follow` blends the contour across. No size of its own.
 - `mid_lip_push` (mouthShrugLower / Upper: mentalis, AU 17, and the upper lip's shrug push a lip out at its
   middle): the lip's outer edge 8.2 / 8.1 comes out as far as push_b_lip / push_t_lip moved its inner mid-point
   2.3 / 2.2 (ARKit: "outward movement of the lower lip", the lip, not its inner edge); its sides and the corners
@@ -106,6 +110,9 @@ NOSTRILS = {"8.5": ("9.1", "9.5"), "8.6": ("9.2", "9.4")}
 NOSE_BASES = {"8.5": ("9.5",), "8.6": ("9.4",)}
 # the Cupid's bow's peaks (no FAP moves them), with the upper lip's outer contour points either side of each
 BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
+# each side's point on the nose's bottom edge (no FAP moves it), with the nostril's border above it, which the
+# alar cartilage holds, and the upper lip's outer point below it, which a lip's push moves (`nose_base_push`)
+NOSE_BASE_SKIN = {"9.5": ("9.1", "8.5"), "9.4": ("9.2", "8.6")}
 # the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
 CHEEKS = ("5.1", "5.2")
 # how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
@@ -259,7 +266,47 @@ def _follow_push(
 def whole_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with each lip's points pushed forward as far as its mid-point
     (2.2 upper, 2.3 lower: push_t_lip, push_b_lip) and the corners by the mean of both."""
-    return _follow_push(neutral, corner_slide(neutral, points, axes), LIP_FOLLOWERS, True, axes)
+    pushed = _follow_push(neutral, corner_slide(neutral, points, axes), LIP_FOLLOWERS, True, axes)
+    return nose_base_push(neutral, pushed, axes)
+
+
+def nose_base_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each side's point on the nose's bottom edge (9.5, 9.4) pushed
+    forward (face z) as the skin between the nostril's border above it and the upper lip's outer point below it
+    is where it lies: their pushes blended by how far down from the border to the lip's point it lies at rest
+    (face y). Its height and its sideways place stay."""
+    return _blend_between(neutral, points, axes, NOSE_BASE_SKIN, across=1, only=2)
+
+
+def _blend_between(neutral, points, axes, between: dict, across: int, only: int | None = None) -> np.ndarray:
+    """`points` with each FP `between` names moved as the skin between its two points (a, b) moves where it lies:
+    their motions blended by how far across from a to b it lies at rest along face axis `across`; with `only`,
+    along that face axis alone (its motion along the others kept)."""
+    axes = np.asarray(axes, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    moved = np.array(points, dtype=np.float64)
+    for fp, (a_fp, b_fp) in between.items():
+        k, a, b = fp_index(fp), fp_index(a_fp), fp_index(b_fp)
+        t = _share_between(neutral, k, a, b, axes[across])
+        if t is None or not np.all(np.isfinite(moved[[a, b]])):
+            continue
+        blend = (1.0 - t) * (moved[a] - neutral[a]) + t * (moved[b] - neutral[b])
+        if only is None:
+            moved[k] = neutral[k] + blend
+        else:
+            moved[k] += ((blend - (moved[k] - neutral[k])) @ axes[only]) * axes[only]
+    return moved
+
+
+def _share_between(neutral: np.ndarray, k: int, a: int, b: int, along: np.ndarray) -> float | None:
+    """How far across from FP `a` to FP `b` FP `k` lies at rest, measured along the unit direction `along`
+    (0..1, clipped), or None where a point is unknown or `a` and `b` are level along it."""
+    if not np.all(np.isfinite(neutral[[k, a, b]])):
+        return None
+    across = (neutral[b] - neutral[a]) @ along
+    if abs(across) <= 0.0:
+        return None
+    return float(np.clip((neutral[k] - neutral[a]) @ along / across, 0.0, 1.0))
 
 
 def mid_lip_push(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
@@ -376,19 +423,7 @@ def bow_follow(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLEND
     """(84, 3) FP positions (mesh coordinates) with each Cupid's bow peak moved as the upper lip's outer contour
     moves where it lies: the motions of the contour's mid-point 8.1 and the side point beside it (8.5 / 8.6),
     blended by how far across from 8.1 to that point the peak lies at rest (face x)."""
-    axes = np.asarray(axes, dtype=np.float64)
-    neutral = np.asarray(neutral, dtype=np.float64)
-    moved = np.array(points, dtype=np.float64)
-    for peak, (mid, side) in BOW_PEAKS.items():
-        k, m, q = fp_index(peak), fp_index(mid), fp_index(side)
-        if not np.all(np.isfinite(neutral[[k, m, q]])) or not np.all(np.isfinite(moved[[m, q]])):
-            continue
-        across = (neutral[q] - neutral[m]) @ axes[0]
-        if abs(across) <= 0.0:
-            continue
-        t = float(np.clip((neutral[k] - neutral[m]) @ axes[0] / across, 0.0, 1.0))
-        moved[k] = neutral[k] + (1.0 - t) * (moved[m] - neutral[m]) + t * (moved[q] - neutral[q])
-    return moved
+    return _blend_between(neutral, points, axes, BOW_PEAKS, across=0)
 
 
 def deform_points(

@@ -124,6 +124,10 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     pucker = offsets["mouthPucker"]
     for fp_id in ("8.1", "8.2", "2.4", "2.5", "8.5", "8.8", "8.9", "8.10"):  # 8.9 / 8.10 1 mm before
         assert pucker[near[fp_id], 1] < -0.003, fp_id
+    # ... and the nose's bottom edge beside the nostril (9.5, 9.4: no FAP moves it, and it stayed before) comes
+    # with the skin between the nostril's border and the lip, under half as far as the lip (2.4 mm of 5.4)
+    for fp_id, lip in (("9.5", "8.5"), ("9.4", "8.6")):
+        assert 0.25 * pucker[near[lip], 1] > pucker[near[fp_id], 1] > 0.6 * pucker[near[lip], 1], fp_id
     # ... their corners, coming in, come forward along the face's surface more than the lips' push (5 mm): 8 mm
     for fp_id in ("2.4", "2.5"):
         assert pucker[near[fp_id], 1] < -0.008, fp_id

@@ -185,8 +185,31 @@ def test_the_whole_lip_moves_with_its_mid_points_push():
         assert np.isclose(forward[fp_index(fp)], 0.008), fp
     assert np.isclose(moved[fp_index("8.5"), 1], pushed[fp_index("8.5"), 1])
     lips = {fp_index(fp) for fp in "2.2 2.3 2.4 2.5 2.6 2.7 2.8 2.9 8.1 8.2 8.3 8.4 8.5 8.6 8.7 8.8 8.9 8.10".split()}
-    others = [k for k in range(N_FEATURE_POINTS) if k not in lips]
+    nose_base = {fp_index("9.4"), fp_index("9.5")}  # with the skin above the lip (`nose_base_push`, below)
+    others = [k for k in range(N_FEATURE_POINTS) if k not in lips | nose_base]
     np.testing.assert_array_equal(moved[others], pushed[others])
+
+
+def test_the_nose_base_comes_with_the_pushed_lip_as_the_skin_between_the_nostril_and_the_lip():
+    # 9.5 lies a quarter of the way down from the nostril's border 9.1 (held by the ala) to the lip's 8.5: it
+    # comes forward a quarter of the lip's push; on the right 9.4 lies at 9.2's height and takes 9.2's push (none)
+    neutral, axes = _face(), np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])  # Blender: Z up
+    for fp, point in {"9.1": (0.014, 0.010, 0.12), "9.5": (0.016, 0.0, 0.11), "8.5": (0.014, -0.030, 0.13)}.items():
+        neutral[fp_index(fp)] = point
+    for fp, point in {"9.2": (-0.014, 0.010, 0.12), "9.4": (-0.016, 0.010, 0.11)}.items():
+        neutral[fp_index(fp)] = point
+    pursed = neutral.copy()
+    pursed[fp_index("2.2"), 2] += 0.008  # push_t_lip: the upper lip, 8.5 with it, 8 mm forward
+    pursed[fp_index("8.5"), 1] -= 0.002  # a lip FAP lowers 8.5: 9.5 keeps its height
+    pursed[fp_index("9.5"), 0] += 0.001  # and its sideways place (no FAP moves it; checked as a rule)
+    moved = whole_lip_push(neutral @ axes, pursed @ axes, axes) @ axes.T
+    np.testing.assert_allclose(moved[fp_index("9.5")], pursed[fp_index("9.5")] + [0.0, 0.0, 0.002], atol=1e-12)
+    np.testing.assert_allclose(moved[fp_index("9.4")], neutral[fp_index("9.4")], atol=1e-12)
+    np.testing.assert_allclose(moved[[fp_index("9.1"), fp_index("9.2")]], pursed[[fp_index("9.1"), fp_index("9.2")]])
+    rolled = neutral.copy()
+    rolled[fp_index("2.2"), 2] -= 0.008  # a roll takes the lip back: the skin above it goes back with it
+    back = whole_lip_push(neutral, rolled, FACE_FRAME)
+    assert np.isclose(back[fp_index("9.5"), 2] - neutral[fp_index("9.5"), 2], -0.002)
 
 
 def test_a_shrug_pushes_the_lips_midline_out_inner_and_outer_and_leaves_the_rest():
