@@ -202,3 +202,29 @@ def test_pieces_are_decoded_from_their_own_cepstral_mean(monkeypatch):
     own = adaptation.cepstra(pcm, params).mean(axis=0)
     assert own[0] > 50.0
     np.testing.assert_allclose(handed[-1], own, rtol=1e-5, atol=1e-4)
+
+
+@needs_pocketsphinx
+def test_an_adapted_decoders_dictionary_holds_only_what_its_search_uses(monkeypatch):
+    """The adapted alignment decoder's dictionary is the take's words alone: alignment takes each piece's mean
+    from its own cepstra and never searches the mean word (the same phones with it as without, measured on 186
+    dev-side takes). Recognition measures the mean under a one-word grammar, so its dictionary keeps that word."""
+    from addon.speech import phone_alignment
+
+    read: list[list[str]] = []
+    new_decoder = phone_alignment._new_decoder
+
+    def spy(task, accuracy, **files):
+        with open(files["dict"], encoding="utf-8") as lines:
+            read.append([line.split()[0] for line in lines])
+        return new_decoder(task, accuracy, **files)
+
+    monkeypatch.setattr(phone_alignment, "_new_decoder", spy)
+    identity = np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0)
+    words = {"bob__b_aa_b": ("B", "AA", "B"), "map__m_ae_p": ("M", "AE", "P")}
+    decoder = phone_alignment._adapted_decoder("align", "STANDARD", identity, words)
+    assert read[-1] == list(words)
+    assert decoder.lookup_word(phone_alignment._MEAN_WORD) is None
+    decoder = phone_alignment._adapted_decoder("recognise", "STANDARD", identity, {})
+    assert read[-1] == [phone_alignment._MEAN_WORD]
+    assert decoder.lookup_word(phone_alignment._MEAN_WORD) == "AH"
