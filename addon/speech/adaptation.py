@@ -1,17 +1,23 @@
-"""Speaker adaptation of PocketSphinx's acoustic model to one take: an MLLR mean transform (no bpy).
+"""Speaker adaptation of PocketSphinx's acoustic model to one take: an MLLR mean transform and variance scales
+(no bpy).
 
 With a transcript the aligner knows what is said, so the take's own state alignment (pass 1) is supervision
 enough to move the model's Gaussians towards this voice: one affine transform of every mean, per feature stream,
 estimated by maximum likelihood (Leggetter & Woodland 1995, "Maximum likelihood linear regression for speaker
 adaptation of continuous density hidden Markov models", Computer Speech and Language 9; diagonal covariances,
-their row-by-row closed form), written as sphinxtrain's `mllr_matrix` text file, which PocketSphinx applies when
-it loads the model (`Decoder(mllr=PATH)`); the take is then aligned again (pass 2, `phone_alignment`).
+their row-by-row closed form), and given it, one scale of every variance per stream and dimension (Gales &
+Woodland 1996, "Mean and variance adaptation within the MLLR framework", Computer Speech and Language 10, with
+a diagonal H: the variance transform sphinxtrain's file carries and PocketSphinx applies, `var *= h`), written
+as sphinxtrain's `mllr_matrix` text file, which PocketSphinx applies when it loads the model
+(`Decoder(mllr=PATH)`); the take is then aligned again (pass 2, `phone_alignment`).
 
 Reading chosen where the paper leaves it open: the extended mean is [mu, 1] (sphinxtrain's order, so the
 transform's last column is the bias b and W = [A b]); one global class per stream, the only one PocketSphinx's
 loader applies (`gauden_mllr_transform` uses class 0); the frame-to-state assignment is the alignment's
-(Viterbi), the assignment to the Gaussians within a state's mixture is soft (their posteriors); the
-variance scaling is left at 1.
+(Viterbi), the assignment to the Gaussians within a state's mixture is soft (their posteriors, from the model
+as it is); the means' transform and the variances' scales come from the same posteriors (one EM step: the
+scales given the new means), the scales per dimension of each stream, not a full matrix (PocketSphinx's file
+has one scale per dimension).
 
 The statistics need the take's features as the decoder saw them: `cepstra` re-implements PocketSphinx 5.1.1's
 front end in floating point as the model's `feat.params` configure it (pre-emphasis 0.97, 410-sample Hamming
@@ -50,6 +56,9 @@ _SENDUMP_SHIFT = 1024 * np.log(1.0001)  # a sendump byte v is the weight 1.0001 
 # Fewer frames than this leave the transform's 14 unknowns per row poorly determined: no adaptation
 MIN_FRAMES = 50
 VARIANCE_FLOOR = 1e-4  # PocketSphinx's `varfloor`, applied to the variances when it loads them
+# A take whose frames all sit at their transformed means would scale its variances to 0; PocketSphinx floors the
+# scaled variances at `varfloor` anyway, and a scale of 0 would be no Gaussian at all
+MIN_VARIANCE_SCALE = 1e-4
 SUPPORTED = {"transform": "dct", "feat": "1s_c_d_dd", "svspec": "0-12/13-25/26-38", "agc": "none", "varnorm": "no"}
 
 
@@ -265,21 +274,38 @@ def features(cep: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------------------- MLLR
 
 
-def statistics(
-    feats: np.ndarray, senones: np.ndarray, codebooks: np.ndarray, model: Model
-) -> tuple[np.ndarray, np.ndarray]:
-    """Leggetter & Woodland's sufficient statistics of a mean transform per stream, from frames (T, streams,
-    dim), each frame's senone and codebook (the state alignment): G (streams, dim, dim + 1, dim + 1) and
-    k (streams, dim, dim + 1), G_i = sum over Gaussians m of occ_m / var_mi xi_m xi_m^T, k_i = sum over frames
-    and Gaussians of gamma_m(t) o_i(t) / var_mi xi_m, with xi = [mu, 1] and gamma the Gaussian's posterior
-    within the frame's senone (its mixture weight times its density, normalised over the mixture)."""
-    n_feat, dim = model.means.shape[1], model.means.shape[3]
-    g = np.zeros((n_feat, dim, dim + 1, dim + 1))
-    k = np.zeros((n_feat, dim, dim + 1))
+@dataclass(frozen=True)
+class Counts:
+    """The posterior-weighted counts of each Gaussian (codebook, stream, density) over a take's frames: its
+    occupancy, and the sums of its frames and of their squares (dim)."""
+
+    occupancy: np.ndarray
+    first: np.ndarray
+    second: np.ndarray
+
+    def __add__(self, other: Counts) -> Counts:
+        return Counts(self.occupancy + other.occupancy, self.first + other.first, self.second + other.second)
+
+
+@dataclass(frozen=True)
+class Transform:
+    """One global transform per stream: the means' W = [A b] (streams, dim, dim + 1) and the variances' scales
+    H (streams, dim), as PocketSphinx applies them (mu -> A mu + b, var -> h var)."""
+
+    means: np.ndarray
+    variances: np.ndarray
+
+
+def counts(feats: np.ndarray, senones: np.ndarray, codebooks: np.ndarray, model: Model) -> Counts:
+    """The Gaussians' counts from frames (T, streams, dim), each frame's senone and codebook (the state
+    alignment): gamma, the Gaussian's posterior within the frame's senone (its mixture weight times its density,
+    normalised over the mixture), summed over the frames, times the frame, times its square."""
+    shape = model.means.shape
+    occupancy, first, second = np.zeros(shape[:3]), np.zeros(shape), np.zeros(shape)
     for c in np.unique(codebooks):  # the frames of one codebook at a time: their Gaussians are the same
         at = codebooks == c
         log_w = np.log(np.maximum(model.weights[senones[at]], 1e-300))  # (frames, streams, densities)
-        for f in range(n_feat):
+        for f in range(shape[1]):
             o, mu, var = feats[at, f], model.means[c, f], model.variances[c, f]
             inv = 1.0 / var
             # log N(o; mu, var) for every frame and Gaussian, the square expanded into products
@@ -287,11 +313,32 @@ def statistics(
             joint = log_w[:, f] - 0.5 * (quadratic + np.log(2 * np.pi * var).sum(1))
             gamma = np.exp(joint - joint.max(axis=1, keepdims=True))
             gamma /= gamma.sum(axis=1, keepdims=True)
-            xi = np.column_stack([mu, np.ones(len(mu))])  # (densities, dim + 1)
-            occupancy_inv = gamma.sum(0)[:, None] * inv  # occ_m / var_mi
-            g[f] += (occupancy_inv.T[:, None, :] * xi.T[None]) @ xi
-            k[f] += ((gamma.T @ o) * inv).T @ xi
+            occupancy[c, f], first[c, f], second[c, f] = gamma.sum(0), gamma.T @ o, gamma.T @ (o * o)
+    return Counts(occupancy, first, second)
+
+
+def mean_statistics(counts: Counts, model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """Leggetter & Woodland's sufficient statistics of a mean transform per stream: G (streams, dim, dim + 1,
+    dim + 1) and k (streams, dim, dim + 1), G_i = sum over Gaussians m of occ_m / var_mi xi_m xi_m^T, k_i = sum
+    over frames and Gaussians of gamma_m(t) o_i(t) / var_mi xi_m, with xi = [mu, 1]."""
+    seen = counts.occupancy.sum(axis=(1, 2)) > 0  # the codebooks the take's frames met
+    means, variances = model.means[seen], model.variances[seen]
+    xi = np.concatenate([means, np.ones(means.shape[:3] + (1,))], axis=3)  # (codebooks, streams, m, dim + 1)
+    n_feat, dim = means.shape[1], means.shape[3]
+    g, k = np.zeros((n_feat, dim, dim + 1, dim + 1)), np.zeros((n_feat, dim, dim + 1))
+    for f in range(n_feat):
+        x = xi[:, f].reshape(-1, dim + 1)  # every Gaussian of the stream, one row each
+        occupancy_inv = (counts.occupancy[seen, f][..., None] / variances[:, f]).reshape(-1, dim)  # occ_m / var_mi
+        g[f] = (occupancy_inv.T[:, None, :] * x.T[None]) @ x
+        k[f] = ((counts.first[seen, f] / variances[:, f]).reshape(-1, dim)).T @ x
     return g, k
+
+
+def statistics(
+    feats: np.ndarray, senones: np.ndarray, codebooks: np.ndarray, model: Model
+) -> tuple[np.ndarray, np.ndarray]:
+    """`mean_statistics` of the frames' `counts`."""
+    return mean_statistics(counts(feats, senones, codebooks, model), model)
 
 
 def solve(g: np.ndarray, k: np.ndarray) -> np.ndarray:
@@ -299,17 +346,33 @@ def solve(g: np.ndarray, k: np.ndarray) -> np.ndarray:
     return np.linalg.solve(g, k[..., None])[..., 0]
 
 
-def estimate(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], model: Model) -> np.ndarray | None:
-    """The transform from aligned pieces of a take, each (features, senones, codebooks) (their statistics add),
-    or None when they have too few frames or their statistics are singular."""
+def variance_scales(counts: Counts, model: Model, transforms: np.ndarray) -> np.ndarray:
+    """(streams, dim) the maximum-likelihood scale of every variance given the transformed means (Gales and
+    Woodland 1996 with a diagonal H, one global class): h_i = sum over frames and Gaussians of
+    gamma_m(t) (o_i(t) - mu'_mi)^2 / var_mi, over the total occupancy, the square expanded into the counts."""
+    adapted = transformed_means(model.means, transforms)
+    residual = counts.second - 2.0 * adapted * counts.first + counts.occupancy[..., None] * adapted**2
+    return (residual / model.variances).sum(axis=(0, 2)) / counts.occupancy.sum(axis=(0, 2))[:, None]
+
+
+def estimate(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], model: Model) -> Transform | None:
+    """The transform from aligned pieces of a take, each (features, senones, codebooks) (their counts add): the
+    means' from the counts, then the variances' given the means', from the same counts (one EM step from the
+    model as it is). None when the pieces have too few frames or their statistics are singular."""
     if sum(len(feats) for feats, _, _ in pieces) < MIN_FRAMES:
         return None
-    parts = [statistics(feats, np.asarray(s), np.asarray(c), model) for feats, s, c in pieces]
+    total = sum(
+        (counts(feats, np.asarray(s), np.asarray(c), model) for feats, s, c in pieces[1:]),
+        counts(pieces[0][0], np.asarray(pieces[0][1]), np.asarray(pieces[0][2]), model),
+    )
     try:
-        w = solve(sum(g for g, _ in parts), sum(k for _, k in parts))
+        w = solve(*mean_statistics(total, model))
     except np.linalg.LinAlgError:
         return None
-    return w if np.all(np.isfinite(w)) else None
+    if not np.all(np.isfinite(w)):
+        return None
+    h = variance_scales(total, model, w)
+    return Transform(w, np.maximum(h, MIN_VARIANCE_SCALE)) if np.all(np.isfinite(h)) else None
 
 
 def transformed_means(means: np.ndarray, transforms: np.ndarray) -> np.ndarray:
@@ -318,26 +381,27 @@ def transformed_means(means: np.ndarray, transforms: np.ndarray) -> np.ndarray:
     return np.einsum("fij,cfmj->cfmi", a, means) + b[None, :, None, :]
 
 
-def write_mllr(path: Path, transforms: np.ndarray) -> None:
+def write_mllr(path: Path, transform: Transform) -> None:
     """sphinxtrain's `mllr_matrix` text: classes (1), streams, then per stream its length, A row by row, b and
-    the variance scaling (1)."""
-    lines = ["1", str(len(transforms))]
-    for w in transforms:
+    the variances' scales h."""
+    lines = ["1", str(len(transform.means))]
+    for w, h in zip(transform.means, transform.variances, strict=True):
         lines.append(str(len(w)))
         lines += [" ".join(f"{v:.9g}" for v in row) for row in w[:, :-1]]
-        lines += [" ".join(f"{v:.9g}" for v in w[:, -1]), " ".join(["1"] * len(w))]
+        lines += [" ".join(f"{v:.9g}" for v in w[:, -1]), " ".join(f"{v:.9g}" for v in h)]
     Path(path).write_text("\n".join(lines) + "\n")
 
 
-def read_mllr(path: Path) -> np.ndarray:
-    """An `mllr_matrix` file of one class -> (streams, dim, dim + 1) transforms W = [A b]."""
+def read_mllr(path: Path) -> Transform:
+    """An `mllr_matrix` file of one class -> its Transform."""
     values = iter(Path(path).read_text().split())
     classes, streams = int(next(values)), int(next(values))
     if classes != 1:
         raise AdaptationError(f"{path}: {classes} classes; only one is read")
-    out = []
+    means, scales = [], []
     for _ in range(streams):
         n = int(next(values))
         numbers = np.array([float(next(values)) for _ in range(n * n + 2 * n)])
-        out.append(np.column_stack([numbers[: n * n].reshape(n, n), numbers[n * n : n * n + n]]))
-    return np.array(out)
+        means.append(np.column_stack([numbers[: n * n].reshape(n, n), numbers[n * n : n * n + n]]))
+        scales.append(numbers[n * n + n :])
+    return Transform(np.array(means), np.array(scales))

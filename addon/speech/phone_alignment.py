@@ -118,7 +118,7 @@ RHOTIC_VOWELS = frozenset({"en-us"})
 ABRUPT_PHONES = frozenset("p b t d k g ch jh f v th dh s z sh zh m n ng sil".split())
 WORD_LANGUAGE_MODEL = "en-us.lm.bin"
 _BILABIALS = frozenset("p b m".split())  # CMU names of the phone loop's lip closures
-_MEAN_WORD = "a"  # in the dictionary of every decoder: the cheapest grammar to end a features-only utterance
+_MEAN_WORD = "a"  # in every recognition decoder's dictionary: the cheapest grammar to end a features-only utterance
 _NOISE_LEVEL = 2e-4  # the padding's faint noise (-74 dBFS): pure zeros give the front end log(0)
 
 ProgressSteps = Generator[float, None, list[TimedLabel]]
@@ -622,9 +622,9 @@ def _model() -> adaptation.Model:
     return adaptation.read_model(os.path.join(_pocketsphinx().get_model_path(), "en-us", "en-us"))
 
 
-def _transform(results: list) -> np.ndarray | None:
-    """One MLLR mean transform per feature stream (`adaptation.estimate`) from aligned pieces' states and their
-    features, or None (a take too short for one)."""
+def _transform(results: list) -> adaptation.Transform | None:
+    """One MLLR transform per feature stream, of the means and the variances (`adaptation.estimate`), from
+    aligned pieces' states and their features, or None (a take too short for one)."""
     aligned = []
     for cepstra, senones, codebooks in (piece for _, _, piece in results):
         feats = adaptation.features(cepstra)
@@ -633,11 +633,14 @@ def _transform(results: list) -> np.ndarray | None:
     return adaptation.estimate(aligned, _model())
 
 
-def _adapted_decoder(task: str, accuracy: str, transform: np.ndarray, words: dict[str, tuple[str, ...]]):
+def _adapted_decoder(task: str, accuracy: str, transform: adaptation.Transform, words: dict[str, tuple[str, ...]]):
     """A decoder for `task` whose model PocketSphinx loads with `transform` (`mllr`), its dictionary the words
-    given alone (and `_MEAN_WORD`): loading PocketSphinx's whole dictionary is nine tenths of loading a decoder
-    (0.20 s against 0.02 s)."""
-    entries = {_MEAN_WORD: ("AH",), **words}  # a transcript's own "a" keeps its pronunciation
+    given alone: loading PocketSphinx's whole dictionary is nine tenths of loading a decoder (0.20 s against
+    0.02 s). Recognition measures each piece's cepstral mean under a grammar of `_MEAN_WORD` (`_piece_mean`),
+    so its dictionary holds that word too; alignment takes the mean from the piece's own cepstra
+    (`_batch_mean`) and needs no other word (the same phones with it or without: docs/voice.md, session 14)."""
+    mean_word = {_MEAN_WORD: ("AH",)} if task != "align" else {}
+    entries = {**mean_word, **words}  # a transcript's own "a" keeps its pronunciation
     with tempfile.TemporaryDirectory() as folder:
         paths = {"mllr": os.path.join(folder, "mllr_matrix"), "dict": os.path.join(folder, "dictionary")}
         adaptation.write_mllr(paths["mllr"], transform)
@@ -802,6 +805,9 @@ def _phone_loop_adapted(recording: Recording, ranges, voiced, accuracy: str) -> 
     transform = _transform(results)
     if transform is None:
         return heard
+    # the means alone, as measured (docs/voice.md, session 13): the variances' scales were measured with a
+    # transcript only
+    transform = dataclasses.replace(transform, variances=np.ones_like(transform.variances))
     decoder = _adapted_decoder("recognise", accuracy, transform, {})
     return (yield from scaled(_phone_loop(recording, ranges, accuracy, decoder), 0.65, 1.0))
 

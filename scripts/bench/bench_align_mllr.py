@@ -1,12 +1,13 @@
 """Alignment with a transcript, then again with the model adapted to the take by MLLR (docs/voice.md).
 
     .venv/bin/python -m scripts.bench.bench_align_mllr {dev,accents,fast,middle,middle-fast,held-out} [...]
-                     [--sphinxtrain] [--limit N]
+                     [--sphinxtrain] [--means-only] [--limit N]
 
 Each take is synthesised once and aligned as shipped (pass 1); the phones of that alignment (the model's
-phones, SIL for a pause) are the supervision of one global MLLR mean transform estimated on the take alone;
-the take is aligned again with the model so adapted (pass 2). Both are scored as scripts/bench/bench_lipsync.py
-scores the rows with a transcript (closure truth, clean), on the same samples. `--sphinxtrain`: the transform
+phones, SIL for a pause) are the supervision of one global MLLR mean transform (and, since session 14, the
+variances' scales) estimated on the take alone; the take is aligned again with the model so adapted (pass 2).
+Both are scored as scripts/bench/bench_lipsync.py scores the rows with a transcript (closure truth, clean), on
+the same samples. `--sphinxtrain`: the transform
 from Debian's sphinxtrain (bw, mllr_solve: `apt-get install sphinxtrain sphinxbase-utils pocketsphinx`, as row
 (e) of bench_recognition_ceiling) instead of the shipped two-pass alignment. `--unsupervised`: without a
 transcript, the same two passes for the phone loop: its recognised phones (each a word of one phone, pauses
@@ -15,6 +16,8 @@ left to the grammar's optional silences) aligned to give the state alignment, th
 `--scores`: the refusal cut's measurement (`phone_alignment.MIN_SCORE_PER_FRAME`): the first 8 dev sentences in
 the dev voices at 120 and 300 words a minute, clean and at 20 dB, each aligned (first alignment) with its own
 transcript and with the next sentence's; the acoustic scores per frame of each.
+`--means-only`: before is the take adapted with the means' transform alone (session 13), after as shipped
+(the means' transform and the variances' scales), on the same samples.
 `--front-end`: `adaptation.cepstra` against Debian's `sphinx_fe` (sphinxbase-utils; the model's feat.params) on
 the padded PCM of the first take of each set: the largest difference per cepstral coefficient.
 """
@@ -54,7 +57,27 @@ class _Captured:
         return self.original(alignment, words)
 
 
-def align(take, text: str, voice: str, mllr: str | None = None, adapt: bool = False) -> list[TimedLabel]:
+def _means_only(pieces, model):
+    """`adaptation.estimate` with the variances' scales left at 1 (the transform of session 13)."""
+    found = ESTIMATE(pieces, model)
+    return None if found is None else adaptation.Transform(found.means, np.ones_like(found.variances))
+
+
+ESTIMATE = adaptation.estimate
+
+
+def align(
+    take, text: str, voice: str, mllr: str | None = None, adapt: bool = False, means_only: bool = False
+) -> list[TimedLabel]:
+    if means_only:
+        adaptation.estimate = _means_only
+    try:
+        return _align(take, text, voice, mllr, adapt)
+    finally:
+        adaptation.estimate = ESTIMATE
+
+
+def _align(take, text: str, voice: str, mllr: str | None, adapt: bool) -> list[TimedLabel]:
     options = {"mllr": mllr} if mllr else {}
     module = phone_alignment._pocketsphinx()
     saved = phone_alignment._pocketsphinx
@@ -145,6 +168,7 @@ def run_set(
     sphinxtrain: bool,
     unsupervised: bool = False,
     check_front_end: bool = False,
+    means_only: bool = False,
 ) -> str:
     which, voices, rates = SETS[name]
     groups: dict[str, list[list[dict]]] = {}
@@ -174,7 +198,7 @@ def run_set(
                 phone_alignment._aligned_entries = captured
                 began = time.process_time()
                 try:
-                    first = align(take, text, voice)
+                    first = align(take, text, voice, adapt=means_only, means_only=means_only)
                 finally:
                     phone_alignment._aligned_entries = captured.original
                 if sphinxtrain:
@@ -209,6 +233,7 @@ def main(argv=None) -> int:
     parser.add_argument("--sphinxtrain", action="store_true", help="the transform from sphinxtrain (bw, mllr_solve)")
     parser.add_argument("--unsupervised", action="store_true", help="without a transcript: the phone loop, adapted")
     parser.add_argument("--front-end", action="store_true", help="adaptation.cepstra against sphinx_fe")
+    parser.add_argument("--means-only", action="store_true", help="before: the means adapted alone (session 13)")
     parser.add_argument("--scores", action="store_true", help="per-frame scores of right and wrong transcripts")
     args = parser.parse_args(argv)
     if args.scores:
@@ -219,7 +244,9 @@ def main(argv=None) -> int:
         parser.error(f"sets: {', '.join(unknown) or 'none given'} (choose from {', '.join(SETS)})")
     with tempfile.TemporaryDirectory() as folder:
         for name in args.sets:
-            found = run_set(name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised, args.front_end)
+            found = run_set(
+                name, args.limit, Path(folder), args.sphinxtrain, args.unsupervised, args.front_end, args.means_only
+            )
             print(found, flush=True)
     return 0
 

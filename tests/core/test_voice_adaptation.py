@@ -58,12 +58,34 @@ def test_a_known_affine_transform_comes_back():
     assert len(frames) >= adaptation.MIN_FRAMES
     feats = moved.transpose(0, 2, 1, 3).reshape(-1, 2, 3)[frames]  # senone s = codebook * 5 + density
     found = adaptation.estimate([(feats, senones[frames], codebooks[frames])], model)
-    np.testing.assert_allclose(found, truth, atol=1e-9)
+    np.testing.assert_allclose(found.means, truth, atol=1e-9)
+    # every frame at its moved mean: no spread left, the variances' scales at their floor
+    np.testing.assert_allclose(found.variances, adaptation.MIN_VARIANCE_SCALE)
     # the statistics of two pieces add: the take cut in two gives the same transform
     half = len(frames) // 2
     pieces = [(feats[:half], senones[frames][:half], codebooks[frames][:half])]
     pieces.append((feats[half:], senones[frames][half:], codebooks[frames][half:]))
-    np.testing.assert_allclose(adaptation.estimate(pieces, model), truth, atol=1e-9)
+    np.testing.assert_allclose(adaptation.estimate(pieces, model).means, truth, atol=1e-9)
+
+
+def test_variance_scale_by_hand():
+    """Means 0 and 1 with variances 1 and 4; frames 2 and 4 in the first Gaussian, 4 and 6 in the second. By
+    hand: G = 2 [[0, 0], [0, 1]] + 2 / 4 [[1, 1], [1, 1]] = [[0.5, 0.5], [0.5, 2.5]], k = 6 [0, 1] + 10 / 4 [1, 1]
+    = [2.5, 8.5], so w = [2, 3] (the frames' means 3 and 5 exactly); the residuals (+-1 around 3 and around 5)
+    over their variances sum to 1 + 1 + 1 / 4 + 1 / 4 = 2.5 over 4 frames: h = 0.625."""
+    means = np.array([0.0, 1.0]).reshape(1, 1, 2, 1)
+    variances = np.array([1.0, 4.0]).reshape(1, 1, 2, 1)
+    model, senones, codebooks = _model(means, variances)
+    feats = np.array([2.0, 4.0, 4.0, 6.0]).reshape(4, 1, 1)
+    at = np.array([0, 0, 1, 1])
+    counts = adaptation.counts(feats, senones[at], codebooks[at], model)
+    np.testing.assert_allclose(counts.occupancy[0, 0], [2, 2])
+    g, k = adaptation.mean_statistics(counts, model)
+    np.testing.assert_allclose(g[0, 0], [[0.5, 0.5], [0.5, 2.5]])
+    np.testing.assert_allclose(k[0, 0], [2.5, 8.5])
+    w = adaptation.solve(g, k)
+    np.testing.assert_allclose(w, [[[2.0, 3.0]]])
+    np.testing.assert_allclose(adaptation.variance_scales(counts, model, w), [[0.625]])
 
 
 def test_too_few_frames_give_no_transform():
@@ -75,15 +97,20 @@ def test_too_few_frames_give_no_transform():
 
 def test_mllr_file_round_trip_and_layout(tmp_path):
     """sphinxtrain's layout, as PocketSphinx's ps_mllr_read reads it: classes, streams, then per stream its
-    length, A row by row, b, the variance scaling."""
+    length, A row by row, b, the variances' scales."""
     w = np.array([[[1.5, -0.25, 3.0], [0.125, 2.0, -1.0]]])
     path = tmp_path / "mllr_matrix"
-    adaptation.write_mllr(path, w)
-    assert path.read_text().split("\n") == ["1", "1", "2", "1.5 -0.25", "0.125 2", "3 -1", "1 1", ""]
-    np.testing.assert_array_equal(adaptation.read_mllr(path), w)
-    many = np.random.default_rng(0).normal(size=(3, 13, 14))
+    adaptation.write_mllr(path, adaptation.Transform(w, np.array([[0.5, 2.0]])))
+    assert path.read_text().split("\n") == ["1", "1", "2", "1.5 -0.25", "0.125 2", "3 -1", "0.5 2", ""]
+    back = adaptation.read_mllr(path)
+    np.testing.assert_array_equal(back.means, w)
+    np.testing.assert_array_equal(back.variances, [[0.5, 2.0]])
+    rng = np.random.default_rng(0)
+    many = adaptation.Transform(rng.normal(size=(3, 13, 14)), rng.uniform(0.5, 2.0, size=(3, 13)))
     adaptation.write_mllr(path, many)
-    np.testing.assert_allclose(adaptation.read_mllr(path), many, rtol=1e-8)
+    back = adaptation.read_mllr(path)
+    np.testing.assert_allclose(back.means, many.means, rtol=1e-8)
+    np.testing.assert_allclose(back.variances, many.variances, rtol=1e-8)
 
 
 def test_gaussian_file_round_trip(tmp_path):
@@ -151,7 +178,9 @@ def test_an_identity_transform_aligns_as_the_unadapted_model(monkeypatch):
     made = []
     new_decoder = phone_alignment._new_decoder
     monkeypatch.setattr(phone_alignment, "_new_decoder", lambda *a, **k: made.append(k) or new_decoder(*a, **k))
-    identity = np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0)
+    identity = adaptation.Transform(
+        np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0), np.ones((3, 13))
+    )
     monkeypatch.setattr(adaptation, "estimate", lambda pieces, model: identity)
     assert phone_alignment.run(phone_alignment.alignment_steps(take, text)) == plain
     assert [sorted(k) for k in made] == [["dict", "mllr"]]
@@ -171,7 +200,9 @@ def test_recognition_adapted_with_the_identity_recognises_as_before(monkeypatch)
     made = []
     new_decoder = phone_alignment._new_decoder
     monkeypatch.setattr(phone_alignment, "_new_decoder", lambda *a, **k: made.append(a[0]) or new_decoder(*a, **k))
-    identity = np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0)
+    identity = adaptation.Transform(
+        np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0), np.ones((3, 13))
+    )
     monkeypatch.setattr(adaptation, "estimate", lambda pieces, model: identity)
     assert phone_alignment.run(phone_alignment.recognition_steps(take, adapt=True)) == plain
     assert made[-1] == "recognise"
@@ -202,3 +233,31 @@ def test_pieces_are_decoded_from_their_own_cepstral_mean(monkeypatch):
     own = adaptation.cepstra(pcm, params).mean(axis=0)
     assert own[0] > 50.0
     np.testing.assert_allclose(handed[-1], own, rtol=1e-5, atol=1e-4)
+
+
+@needs_pocketsphinx
+def test_an_adapted_decoders_dictionary_holds_only_what_its_search_uses(monkeypatch):
+    """The adapted alignment decoder's dictionary is the take's words alone: alignment takes each piece's mean
+    from its own cepstra and never searches the mean word (the same phones with it as without, measured on 186
+    dev-side takes). Recognition measures the mean under a one-word grammar, so its dictionary keeps that word."""
+    from addon.speech import phone_alignment
+
+    read: list[list[str]] = []
+    new_decoder = phone_alignment._new_decoder
+
+    def spy(task, accuracy, **files):
+        with open(files["dict"], encoding="utf-8") as lines:
+            read.append([line.split()[0] for line in lines])
+        return new_decoder(task, accuracy, **files)
+
+    monkeypatch.setattr(phone_alignment, "_new_decoder", spy)
+    identity = adaptation.Transform(
+        np.concatenate([np.eye(13), np.zeros((13, 1))], axis=1)[None].repeat(3, axis=0), np.ones((3, 13))
+    )
+    words = {"bob__b_aa_b": ("B", "AA", "B"), "map__m_ae_p": ("M", "AE", "P")}
+    decoder = phone_alignment._adapted_decoder("align", "STANDARD", identity, words)
+    assert read[-1] == list(words)
+    assert decoder.lookup_word(phone_alignment._MEAN_WORD) is None
+    decoder = phone_alignment._adapted_decoder("recognise", "STANDARD", identity, {})
+    assert read[-1] == [phone_alignment._MEAN_WORD]
+    assert decoder.lookup_word(phone_alignment._MEAN_WORD) == "AH"
