@@ -204,6 +204,34 @@ def margin_members(
     return out[0], out[1]
 
 
+def vertex_neighbours(triangles: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh's edges as compressed rows: vertex k's neighbours are `indices[indptr[k]:indptr[k + 1]]`."""
+    tri = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    pairs = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    pairs = np.unique(np.concatenate([pairs, pairs[:, ::-1]]), axis=0)
+    return np.searchsorted(pairs[:, 0], np.arange(n + 1)), pairs[:, 1]
+
+
+def one_row_deep(margin: np.ndarray, neighbours: tuple, elev: np.ndarray, member: np.ndarray, side: float) -> bool:
+    """Whether a lid's mask is its margin row alone: for more than half of the lid's margin vertices `margin`
+    (indices), the neighbour that climbs farthest onto the lid (`side` (+1 the upper lid, -1 the lower) times its
+    elevation `elev` over the margin vertex's) is no member (`member` below 0.5). Such a lid turns its margin and
+    leaves the skin one edge away, however far that is: on a mesh decimated after its masks were painted (the
+    collapses blend the groups) the upper lid is the margin row, the next row 12-14 degrees up stays, and the closed
+    lid is one strip of faces 45 degrees across, crumpled where that row zig-zags. The rows behind a painted margin
+    on a finer mesh are members, whatever the count of rows: the test asks for one row, not a depth in mm."""
+    indptr, indices = neighbours
+    shallow = counted = 0
+    for m in np.asarray(margin, dtype=np.intp):
+        around = indices[indptr[m] : indptr[m + 1]]
+        climb = side * (elev[around] - elev[m])
+        if not len(around) or climb.max() <= 0.0:
+            continue
+        counted += 1
+        shallow += member[around[np.argmax(climb)]] < 0.5
+    return counted > 0 and 2 * shallow > counted
+
+
 def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | None:
     """Share of the lids' turn along the eye: the opening between the traced `margins` at `t` over the
     opening under the mid-lid FPs (`t_mid`), so that lids that meet under the FPs meet along the whole eye."""
@@ -248,6 +276,9 @@ class EyelidRig:
     # (K,) the lids' traced opening at each vertex's place along the eye over the mid one (`meeting_curve`), where
     # `meet_lids` stops the lids; None: stopped under the mid-lid FPs only
     meeting: np.ndarray | None = None
+    # (eye, lid) pairs (0 left / 1 right, 0 upper / 1 lower) whose mask was the margin row alone (`one_row_deep`) and
+    # turn by the memberships made from the FPs where those are larger
+    deepened: tuple = ()
 
 
 def bind_eyelids(
@@ -260,6 +291,7 @@ def bind_eyelids(
     axes: np.ndarray = BLENDER_FACE_AXES,
     triangles: np.ndarray | None = None,
     trace_opening: bool = True,
+    made_lids: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> EyelidRig | None:
     """Rig the lids of a rest face; None when an eye's lid FPs are missing.
 
@@ -274,6 +306,10 @@ def bind_eyelids(
     toward closure where it sees none (the skin shut across the eye at rest, as a scan of closed eyes: the sine
     arch turned the Lee Perry-Smith scan's upper lids through the lower, up to 150 crossing pairs at the demo's
     blink); a sine arch between the corners (`lid_profile`) where the weights trace no opening.
+
+    `made_lids` (N,) x 2: the upper and lower lids' memberships as set-up would make them from the FPs
+    (`auto_masks`); a lid whose own mask is its margin row alone (`one_row_deep`, with `triangles`) turns as the
+    larger of the two (`EyelidRig.deepened` says which), so the rows behind its margin turn with it.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -293,6 +329,9 @@ def bind_eyelids(
     in_front = face[:, 2] > centres[eye, 2]
     up = np.clip(np.asarray(upper_lid, dtype=np.float64), 0.0, 1.0)
     low = np.clip(np.asarray(lower_lid, dtype=np.float64), 0.0, 1.0)
+    painted = (up, low)
+    neighbours = None if made_lids is None or triangles is None else vertex_neighbours(triangles, len(face))
+    deepened = []
     keep = np.flatnonzero((fade > 0.0) & in_front)
     eye, fade, up, low = eye[keep], fade[keep], up[keep], low[keep]
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
@@ -310,6 +349,15 @@ def bind_eyelids(
         closure = None  # traced margins: the share of their own mid opening
         if trace_opening:
             margins = trace_margins(t, elev, up[on], low[on])
+            if margins is not None and neighbours is not None:
+                elev_all = elevation(face, centres[e])
+                for k, (lid, made, side) in enumerate(zip((up, low), made_lids, (1.0, -1.0), strict=True)):
+                    picked = margins[k][2]
+                    if one_row_deep(keep[on][picked[picked >= 0]], neighbours, elev_all, painted[k], side):
+                        lid[on] = np.maximum(lid[on], np.clip(np.asarray(made, dtype=np.float64)[keep[on]], 0.0, 1.0))
+                        deepened.append((e, k))
+                if deepened and deepened[-1][0] == e:
+                    margins = trace_margins(t, elev, up[on], low[on])
             profile = opening_profile(margins, t, mid) if margins is not None else None
         elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
             margins = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
@@ -371,6 +419,7 @@ def bind_eyelids(
         turn_range=turn_range,
         opening=opening,
         meeting=meeting,
+        deepened=tuple(deepened),
     )
 
 
