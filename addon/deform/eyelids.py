@@ -229,7 +229,7 @@ def one_row_deep(margin: np.ndarray, neighbours: tuple, elev: np.ndarray, member
             continue
         counted += 1
         shallow += member[around[np.argmax(climb)]] < 0.5
-    return counted > 0 and 2 * shallow > counted
+    return bool(counted > 0 and 2 * shallow > counted)
 
 
 def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | None:
