@@ -135,11 +135,24 @@ def seen_margins(
     margin can stand below its front). On `columns` lines of x evenly between the corners, the stretch of elevation
     the skin leaves open across the line between the corners is the opening there, its top the upper margin and its
     bottom the lower; a line that sees none (past the eyeball's outline, or the skin of a corner) has the margins
-    meet on the line between the corners, as they do at the corners themselves. None when fewer than 3 lines see
-    an opening (an eye closed at rest, or no eye opening in the mesh)."""
+    meet on the line between the corners, as they do at the corners themselves, except the lines between a corner
+    and the first line that sees an opening, whose margins run straight from the one to the other. None when fewer
+    than 3 lines see an opening (an eye closed at rest, or no eye opening in the mesh)."""
     ts, margins, _points, seen = _seen_margin_points(local, triangles, radius, corners, columns)
     if seen.sum() < 3:
         return None
+    # the lines between a corner and the first line that sees an opening (the inner corner's caruncle fills them)
+    # take the margins from the corner to that line: counted as shut, they stepped the turn from none to most across
+    # one edge of a coarse mesh, where the margins in front of the caruncle are apart (the decimated head: a share of
+    # 0.01 at one margin vertex and 0.72 at the next turned the face between them over, and Unfold Skin, opening it,
+    # pulled the margin 2 mm back up: the lids stayed 1.7 mm apart)
+    # (within the eyeball's outline: past it the lids cover no eye, and the margins meet on the corners' line there)
+    first, last = np.flatnonzero(seen)[[0, -1]]
+    ends = np.zeros(len(ts), bool)
+    ends[1:first] = ends[last + 1 : -1] = True
+    x = np.asarray(corners, dtype=np.float64)[:, 0]
+    ends &= np.abs(x[0] + ts * (x[1] - x[0])) < radius
+    margins = np.array([np.where(ends, np.interp(ts, ts[~ends], m[~ends]), m) for m in margins])
     return [(ts, margin, np.full(len(ts), -1)) for margin in margins]
 
 

@@ -454,6 +454,34 @@ def test_the_seen_margins_are_the_shells_margins_by_hand():
     assert np.all(up[np.abs(x) >= R_EYE] == 0.0) and np.all(up[np.abs(x) < 0.9 * CORNER] > 0.0)
 
 
+def test_seen_margins_run_straight_from_a_corner_across_the_skin_that_fills_it():
+    """A patch of skin behind the inner corner (a caruncle, 0.5 mm off the eyeball, from the corner 3 mm in) fills the
+    first three lines: they see no opening, and their margins run straight from the corner to the first line that
+    sees one, for both lids; every other line is as without the patch. Before, those lines counted as shut (the
+    margins on the corners' line), and the turn stepped from none to most across them."""
+    rest, _upper, _lower, neutral, _margins = _eye(fuller=True)
+    triangles = _shell_triangles(len(rest), len(XS))
+    corners = neutral[[fp_index("3.11"), fp_index("3.7")]] - CENTRES[0]
+    plain = seen_margins(rest - CENTRES[0], triangles, R_EYE, corners)
+    x0, x1 = corners[0, 0] - 0.0005, corners[0, 0] + 0.003
+    patch = [_on_shell(CENTRES[0], x, np.radians(a), 0.0125) for x in (x0, x1) for a in (-30.0, 30.0)]
+    n = len(rest)
+    filled = seen_margins(
+        np.concatenate([rest, patch]) - CENTRES[0],
+        np.concatenate([triangles, [[n, n + 2, n + 3], [n, n + 3, n + 1]]]),
+        R_EYE,
+        corners,
+    )
+    ts = plain[0][0]
+    hidden = (corners[0, 0] + ts * (corners[1, 0] - corners[0, 0]) < x1) & (ts > 0.0)
+    first = np.flatnonzero(hidden)[-1] + 1  # the first line that sees the opening
+    assert hidden.sum() == 3
+    for (_ts, seen, _rows), (_ts, bare, _rows) in zip(filled, plain, strict=True):
+        np.testing.assert_allclose(seen[~hidden], bare[~hidden], atol=1e-12)
+        np.testing.assert_allclose(seen[: first + 1], bare[first] * ts[: first + 1] / ts[first], atol=1e-12)
+        assert np.all(np.abs(seen[hidden]) > 0.0)
+
+
 def test_the_seen_margin_points_lie_on_the_shells_margins():
     """`seen_margin_points` are points of the skin on the margins `seen_margins` finds: on `_eye`'s shell, each lies on
     the chord between two neighbouring margin vertices (the triangle's edge the line crosses), on its line's x and
