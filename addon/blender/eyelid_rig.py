@@ -100,7 +100,10 @@ def notes(face) -> list[str]:
     if rig is None or not rig.deepened:
         return []
     names = ", ".join(f"{('left', 'right')[e]} {('upper', 'lower')[k]}" for e, k in rig.deepened)
-    return [f"the {names} lid masks are one row of vertices deep: those lids also turn the skin the FPs' masks reach"]
+    return [
+        f"lid masks one row of vertices deep ({names}): those lids also turn the skin that masks made from the"
+        " feature points reach (the vertex groups are unchanged; paint the lids deeper to decide it yourself)"
+    ]
 
 
 def _rig(face, binding: Binding) -> EyelidRig | None:
