@@ -9,6 +9,8 @@ positions by the lid and pupil FPs (3.1-3.6), which live.py reads with the contr
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..deform.auto_masks import make_masks
@@ -71,17 +73,18 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     if made is not None and binding_store.same_inputs(made[0], inputs):
         return made[1]  # a setting's rebind: the lids' fold-free weights (0.2 s at 68k vertices) are as they were
     rig = bind_eyelids(
-        *inputs[:7], triangles=triangles, trace_opening=trace, made_lids=_made_lids(face, binding, trace)
+        *inputs[:7],
+        triangles=triangles,
+        trace_opening=trace,
+        made_lids=functools.partial(_made_lids, face, binding) if trace else None,
     )
     _made[face.session_uid] = inputs, rig
     return rig
 
 
-def _made_lids(face, binding: Binding, painted: bool) -> tuple[np.ndarray, np.ndarray] | None:
+def _made_lids(face, binding: Binding) -> tuple[np.ndarray, np.ndarray] | None:
     """The upper and lower lids' memberships set-up would make from the FPs, for painted lid masks whose lid is
-    their margin row alone (`eyelids.one_row_deep`); None for masks set-up made, or without the FPs to make them."""
-    if not painted:
-        return None
+    their margin row alone (`eyelids.one_row_deep`); None without the FPs to make them."""
     made = make_masks(
         binding.rest_vertices, face_data.mesh_edges(face.data), face_data.neutral_positions(face_data.fp_empties(face))
     )

@@ -30,6 +30,7 @@ turn with a rising lid, not with a blink (where the sculpted expressions leave i
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -304,7 +305,7 @@ def bind_eyelids(
     axes: np.ndarray = BLENDER_FACE_AXES,
     triangles: np.ndarray | None = None,
     trace_opening: bool = True,
-    made_lids: tuple[np.ndarray, np.ndarray] | None = None,
+    made_lids: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
 ) -> EyelidRig | None:
     """Rig the lids of a rest face; None when an eye's lid FPs are missing.
 
@@ -320,9 +321,10 @@ def bind_eyelids(
     arch turned the Lee Perry-Smith scan's upper lids through the lower, up to 150 crossing pairs at the demo's
     blink); a sine arch between the corners (`lid_profile`) where the weights trace no opening.
 
-    `made_lids` (N,) x 2: the upper and lower lids' memberships as set-up would make them from the FPs
-    (`auto_masks`); a lid whose own mask is its margin row alone (`one_row_deep`, with `triangles`) turns as the
-    larger of the two (`EyelidRig.deepened` says which), so the rows behind its margin turn with it.
+    `made_lids`: a function giving (N,) x 2, the upper and lower lids' memberships as set-up would make them from
+    the FPs (`auto_masks`; called only when needed, once, for it costs 0.4 s at 17k vertices; None: none made); a
+    lid whose own mask is its margin row alone (`one_row_deep`, with `triangles`) turns as the larger of the two
+    (`EyelidRig.deepened` says which), so the rows behind its margin turn with it.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -342,7 +344,7 @@ def bind_eyelids(
     in_front = face[:, 2] > centres[eye, 2]
     up = np.clip(np.asarray(upper_lid, dtype=np.float64), 0.0, 1.0)
     low = np.clip(np.asarray(lower_lid, dtype=np.float64), 0.0, 1.0)
-    painted = (up, low)
+    painted, made = (up, low), None
     neighbours = None if made_lids is None or triangles is None else vertex_neighbours(triangles, len(face))
     deepened = []
     keep = np.flatnonzero((fade > 0.0) & in_front)
@@ -364,10 +366,13 @@ def bind_eyelids(
             margins = trace_margins(t, elev, up[on], low[on])
             if margins is not None and neighbours is not None:
                 elev_all = elevation(face, centres[e])
-                for k, (lid, made, side) in enumerate(zip((up, low), made_lids, (1.0, -1.0), strict=True)):
+                for k, (lid, side) in enumerate(zip((up, low), (1.0, -1.0), strict=True)):
                     picked = margins[k][2]
-                    if one_row_deep(keep[on][picked[picked >= 0]], neighbours, elev_all, painted[k], side):
-                        lid[on] = np.maximum(lid[on], np.clip(np.asarray(made, dtype=np.float64)[keep[on]], 0.0, 1.0))
+                    if not one_row_deep(keep[on][picked[picked >= 0]], neighbours, elev_all, painted[k], side):
+                        continue
+                    made = made if made is not None else made_lids() or ()
+                    if made:
+                        lid[on] = np.maximum(lid[on], np.clip(np.asarray(made[k], dtype=np.float64)[keep[on]], 0, 1))
                         deepened.append((e, k))
                 if deepened and deepened[-1][0] == e:
                     margins = trace_margins(t, elev, up[on], low[on])

@@ -396,7 +396,8 @@ def test_a_lid_one_row_deep_turns_the_rows_behind_its_margin_with_the_masks_made
         _turned_fp(fps, up, e, LOW0 - UP0)
     spans = []
     for made in (None, (made_upper, made_lower)):
-        rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, radii, AXES, triangles, made_lids=made)
+        made_lids = None if made is None else lambda made=made: made
+        rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, radii, AXES, triangles, made_lids=made_lids)
         out = rest.copy()
         apply_eyelids(rig, out, fps)
         for eye in (0, 1):
@@ -414,9 +415,20 @@ def test_a_lid_one_row_deep_turns_the_rows_behind_its_margin_with_the_masks_made
     assert spans[1] < 1.5 * row  # the next row turned with the margin
     # a lid with rows behind its margin keeps its own mask
     rest, upper, lower, neutral, _margins = _eye(shares=(1.0, 1.0, 0.7, 0.0, 0.0, 0.0, 0.0, 0.0))
-    rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, radii, AXES, triangles, made_lids=(made_upper, made_lower))
+    asked = []
+    rig = bind_eyelids(
+        rest,
+        upper,
+        lower,
+        neutral,
+        CENTRES,
+        radii,
+        AXES,
+        triangles,
+        made_lids=lambda: asked.append(1) or (made_upper, made_lower),
+    )
     plain = bind_eyelids(rest, upper, lower, neutral, CENTRES, radii, AXES, triangles)
-    assert rig.deepened == ()
+    assert rig.deepened == () and not asked  # not made at all: no lid needed them
     np.testing.assert_array_equal(rig.upper, plain.upper)
 
 
