@@ -9,8 +9,11 @@ positions by the lid and pupil FPs (3.1-3.6), which live.py reads with the contr
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
+from ..deform.auto_masks import make_masks
 from ..deform.eyelids import EYE_FPS, EyelidRig, apply_eyelids, bind_eyelids, hold_lids
 from ..deform.planar_bones import Binding
 from ..mpeg4.decode import eye_centres
@@ -69,9 +72,41 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     made = _made.get(face.session_uid)
     if made is not None and binding_store.same_inputs(made[0], inputs):
         return made[1]  # a setting's rebind: the lids' fold-free weights (0.2 s at 68k vertices) are as they were
-    rig = bind_eyelids(*inputs[:7], triangles=triangles, trace_opening=trace)
+    rig = bind_eyelids(
+        *inputs[:7],
+        triangles=triangles,
+        trace_opening=trace,
+        made_lids=functools.partial(_made_lids, face, binding) if trace else None,
+    )
     _made[face.session_uid] = inputs, rig
     return rig
+
+
+def _made_lids(face, binding: Binding) -> tuple[np.ndarray, np.ndarray] | None:
+    """The upper and lower lids' memberships set-up would make from the FPs, for painted lid masks whose lid is
+    their margin row alone (`eyelids.one_row_deep`); None without the FPs to make them."""
+    made = make_masks(
+        binding.rest_vertices, face_data.mesh_edges(face.data), face_data.neutral_positions(face_data.fp_empties(face))
+    )
+    if "upper_eyelid" not in made:
+        return None
+    upper, lower = 1.0 - made["lower_eyelid"], 1.0 - made["upper_eyelid"]
+    parts = inner_parts.rigid_parts(face, binding.rest_vertices)
+    if parts is not None:
+        upper[parts.all_vertices] = lower[parts.all_vertices] = 0.0
+    return upper, lower
+
+
+def notes(face) -> list[str]:
+    """What set-up tells of the lids' rig just made for `face`: the lid masks that were their margin row alone."""
+    rig = current(face)
+    if rig is None or not rig.deepened:
+        return []
+    names = ", ".join(f"{('left', 'right')[e]} {('upper', 'lower')[k]}" for e, k in rig.deepened)
+    return [
+        f"lid masks one row of vertices deep ({names}): those lids also turn the skin that masks made from the"
+        " feature points reach (the vertex groups are unchanged; paint the lids deeper to decide it yourself)"
+    ]
 
 
 def _rig(face, binding: Binding) -> EyelidRig | None:

@@ -27,6 +27,7 @@ from . import (
     bake,
     binding_store,
     elastic_rig,
+    eyelid_rig,
     face_data,
     followers,
     fp_empties,
@@ -332,6 +333,7 @@ def set_up(face) -> list[str]:
     notes.extend(hook_followers(face, p.empties))
     settings.status = ""
     settings.enabled = True
+    notes.extend(eyelid_rig.notes(face))  # the lids' rig is made as Deform turns on
     scene = bpy.context.scene
     if not scene.render.use_lock_interface:
         scene.render.use_lock_interface = True

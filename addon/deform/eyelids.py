@@ -30,6 +30,7 @@ turn with a rising lid, not with a blink (where the sculpted expressions leave i
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -135,11 +136,24 @@ def seen_margins(
     margin can stand below its front). On `columns` lines of x evenly between the corners, the stretch of elevation
     the skin leaves open across the line between the corners is the opening there, its top the upper margin and its
     bottom the lower; a line that sees none (past the eyeball's outline, or the skin of a corner) has the margins
-    meet on the line between the corners, as they do at the corners themselves. None when fewer than 3 lines see
-    an opening (an eye closed at rest, or no eye opening in the mesh)."""
+    meet on the line between the corners, as they do at the corners themselves, except the lines between a corner
+    and the first line that sees an opening, whose margins run straight from the one to the other. None when fewer
+    than 3 lines see an opening (an eye closed at rest, or no eye opening in the mesh)."""
     ts, margins, _points, seen = _seen_margin_points(local, triangles, radius, corners, columns)
     if seen.sum() < 3:
         return None
+    # the lines between a corner and the first line that sees an opening (the inner corner's caruncle fills them)
+    # take the margins from the corner to that line: counted as shut, they stepped the turn from none to most across
+    # one edge of a coarse mesh, where the margins in front of the caruncle are apart (the decimated head: a share of
+    # 0.01 at one margin vertex and 0.72 at the next turned the face between them over, and Unfold Skin, opening it,
+    # pulled the margin 2 mm back up: the lids stayed 1.7 mm apart)
+    # (within the eyeball's outline: past it the lids cover no eye, and the margins meet on the corners' line there)
+    first, last = np.flatnonzero(seen)[[0, -1]]
+    ends = np.zeros(len(ts), bool)
+    ends[1:first] = ends[last + 1 : -1] = True
+    x = np.asarray(corners, dtype=np.float64)[:, 0]
+    ends &= np.abs(x[0] + ts * (x[1] - x[0])) < radius
+    margins = np.array([np.where(ends, np.interp(ts, ts[~ends], m[~ends]), m) for m in margins])
     return [(ts, margin, np.full(len(ts), -1)) for margin in margins]
 
 
@@ -204,6 +218,34 @@ def margin_members(
     return out[0], out[1]
 
 
+def vertex_neighbours(triangles: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """The mesh's edges as compressed rows: vertex k's neighbours are `indices[indptr[k]:indptr[k + 1]]`."""
+    tri = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
+    pairs = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    pairs = np.unique(np.concatenate([pairs, pairs[:, ::-1]]), axis=0)
+    return np.searchsorted(pairs[:, 0], np.arange(n + 1)), pairs[:, 1]
+
+
+def one_row_deep(margin: np.ndarray, neighbours: tuple, elev: np.ndarray, member: np.ndarray, side: float) -> bool:
+    """Whether a lid's mask is its margin row alone: for more than half of the lid's margin vertices `margin`
+    (indices), the neighbour that climbs farthest onto the lid (`side` (+1 the upper lid, -1 the lower) times its
+    elevation `elev` over the margin vertex's) is no member (`member` below 0.5). Such a lid turns its margin and
+    leaves the skin one edge away, however far that is: on a mesh decimated after its masks were painted (the
+    collapses blend the groups) the upper lid is the margin row, the next row 12-14 degrees up stays, and the closed
+    lid is one strip of faces 45 degrees across, crumpled where that row zig-zags. The rows behind a painted margin
+    on a finer mesh are members, whatever the count of rows: the test asks for one row, not a depth in mm."""
+    indptr, indices = neighbours
+    shallow = counted = 0
+    for m in np.asarray(margin, dtype=np.intp):
+        around = indices[indptr[m] : indptr[m + 1]]
+        climb = side * (elev[around] - elev[m])
+        if not len(around) or climb.max() <= 0.0:
+            continue
+        counted += 1
+        shallow += member[around[np.argmax(climb)]] < 0.5
+    return bool(counted > 0 and 2 * shallow > counted)
+
+
 def opening_profile(margins: list, t: np.ndarray, t_mid: float) -> np.ndarray | None:
     """Share of the lids' turn along the eye: the opening between the traced `margins` at `t` over the
     opening under the mid-lid FPs (`t_mid`), so that lids that meet under the FPs meet along the whole eye."""
@@ -248,6 +290,9 @@ class EyelidRig:
     # (K,) the lids' traced opening at each vertex's place along the eye over the mid one (`meeting_curve`), where
     # `meet_lids` stops the lids; None: stopped under the mid-lid FPs only
     meeting: np.ndarray | None = None
+    # (eye, lid) pairs (0 left / 1 right, 0 upper / 1 lower) whose mask was the margin row alone (`one_row_deep`) and
+    # turn by the memberships made from the FPs where those are larger
+    deepened: tuple = ()
 
 
 def bind_eyelids(
@@ -260,6 +305,7 @@ def bind_eyelids(
     axes: np.ndarray = BLENDER_FACE_AXES,
     triangles: np.ndarray | None = None,
     trace_opening: bool = True,
+    made_lids: Callable[[], tuple[np.ndarray, np.ndarray] | None] | None = None,
 ) -> EyelidRig | None:
     """Rig the lids of a rest face; None when an eye's lid FPs are missing.
 
@@ -274,6 +320,11 @@ def bind_eyelids(
     toward closure where it sees none (the skin shut across the eye at rest, as a scan of closed eyes: the sine
     arch turned the Lee Perry-Smith scan's upper lids through the lower, up to 150 crossing pairs at the demo's
     blink); a sine arch between the corners (`lid_profile`) where the weights trace no opening.
+
+    `made_lids`: a function giving (N,) x 2, the upper and lower lids' memberships as set-up would make them from
+    the FPs (`auto_masks`; called only when needed, once, for it costs 0.4 s at 17k vertices; None: none made); a
+    lid whose own mask is its margin row alone (`one_row_deep`, with `triangles`) turns as the larger of the two
+    (`EyelidRig.deepened` says which), so the rows behind its margin turn with it.
     """
     axes = np.asarray(axes, dtype=np.float64)
     face = np.asarray(rest, dtype=np.float64) @ axes.T
@@ -293,6 +344,9 @@ def bind_eyelids(
     in_front = face[:, 2] > centres[eye, 2]
     up = np.clip(np.asarray(upper_lid, dtype=np.float64), 0.0, 1.0)
     low = np.clip(np.asarray(lower_lid, dtype=np.float64), 0.0, 1.0)
+    painted, made = (up, low), None
+    neighbours = None if made_lids is None or triangles is None else vertex_neighbours(triangles, len(face))
+    deepened = []
     keep = np.flatnonzero((fade > 0.0) & in_front)
     eye, fade, up, low = eye[keep], fade[keep], up[keep], low[keep]
     up_weight, low_weight = np.zeros(len(keep)), np.zeros(len(keep))
@@ -310,6 +364,18 @@ def bind_eyelids(
         closure = None  # traced margins: the share of their own mid opening
         if trace_opening:
             margins = trace_margins(t, elev, up[on], low[on])
+            if margins is not None and neighbours is not None:
+                elev_all = elevation(face, centres[e])
+                for k, (lid, side) in enumerate(zip((up, low), (1.0, -1.0), strict=True)):
+                    picked = margins[k][2]
+                    if not one_row_deep(keep[on][picked[picked >= 0]], neighbours, elev_all, painted[k], side):
+                        continue
+                    made = made if made is not None else made_lids() or ()
+                    if made:
+                        lid[on] = np.maximum(lid[on], np.clip(np.asarray(made[k], dtype=np.float64)[keep[on]], 0, 1))
+                        deepened.append((e, k))
+                if deepened and deepened[-1][0] == e:
+                    margins = trace_margins(t, elev, up[on], low[on])
             profile = opening_profile(margins, t, mid) if margins is not None else None
         elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
             margins = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
@@ -371,6 +437,7 @@ def bind_eyelids(
         turn_range=turn_range,
         opening=opening,
         meeting=meeting,
+        deepened=tuple(deepened),
     )
 
 

@@ -327,6 +327,26 @@ def test_lids_of_a_remesh_do_not_shred():
         assert at_blink < at_rest + 0.00025
 
 
+def test_a_decimated_faces_one_row_lids_close_without_crumpling():
+    # the sample decimated to half its vertices with its painted groups (the collapses blend them): its upper lids are
+    # the margin row alone, the next row 12-14 degrees up at no weight. A full blink (`scripts.bench.variant_blink`)
+    # turned the margin onto the lower lid and left that row: the closed lid one crumpled strip of faces, its edge
+    # 9.3 / 7.3 mm off a smooth curve (2.05 / 2.42 at rest) and 8 crossing pairs at the right inner corner. Now those
+    # lids also turn the skin the masks made from the FPs reach (`eyelids.one_row_deep`), and set-up says so
+    from scripts.bench.variant_blink import measure
+
+    head = unset_sample()
+    variants.decimate(head)
+    notes = face_setup.set_up(head)
+    for row in measure(head):
+        straight, _below = row["seen"]
+        assert straight < 0.05  # mm
+        assert row["edge"] < row["rest_edge"] + 0.1
+        assert row["folds"] == 0
+        assert row["crossings"] == 0
+    assert any("one row of vertices deep (left upper, right upper)" in str(note) for note in notes)
+
+
 def test_a_subdivided_face_with_its_new_vertices_moved_opens_the_lips_folds():
     # one cut per edge, the new vertices jittered along the surface (`variants.subdivide`): demo frames 116-125 fold
     # the skin inside the mouth corners (25 faces, the sample's 6 cut in 4), which Unfold Skin must open within a

@@ -14,8 +14,10 @@ from addon.deform.eyelids import (
     hold_lids,
     lid_profile,
     lid_turns,
+    one_row_deep,
     seen_margin_points,
     seen_margins,
+    vertex_neighbours,
 )
 from addon.deform.overlaps import edge_roughness
 from addon.mpeg4.decode import meet_at_closure
@@ -346,6 +348,90 @@ def _closes_on_a_smooth_edge(xs, rest, upper, lower, neutral, margins, trace_ope
     assert np.all(np.einsum("ij,ij->i", chart_before, chart_after) > 0.0)  # no face turned over
 
 
+ONE_ROW = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # a lid mask that is its margin row alone (a decimated head's)
+
+
+@pytest.mark.parametrize(
+    ("shares", "one_row"),
+    [
+        (ONE_ROW, True),
+        ((1.0, 1.0, 0.7, 0.0, 0.0, 0.0, 0.0, 0.0), False),
+        ((0.6, 0.85, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0), False),
+    ],
+)
+def test_a_lid_mask_of_its_margin_row_alone_is_one_row_deep(shares, one_row):
+    """By hand on the shell eye: the upper lid's margin vertices' neighbours that climb farthest onto the lid are the
+    next row's, members unless the mask is the margin row alone (a mask blended across the margin is still deep)."""
+    rest, upper, _lower, _neutral, margins = _eye(shares=shares)
+    neighbours = vertex_neighbours(_shell_triangles(len(rest), len(XS)), len(rest))
+    for eye in (0, 1):
+        margin = margins[(eye, 0)][INSIDE]
+        assert one_row_deep(margin, neighbours, elevation(rest, CENTRES[eye]), upper, 1.0) is one_row
+
+
+def test_vertex_neighbours_by_hand():
+    indptr, indices = vertex_neighbours(np.array([[0, 1, 2], [2, 1, 3]]), 5)
+    assert [sorted(indices[indptr[k] : indptr[k + 1]].tolist()) for k in range(5)] == [
+        [1, 2],
+        [0, 2, 3],
+        [0, 1, 3],
+        [1, 2],
+        [],
+    ]
+
+
+def test_a_lid_one_row_deep_turns_the_rows_behind_its_margin_with_the_masks_made_from_the_fps():
+    """Painted lid masks that are their margin row alone (as decimating a painted head leaves it): at a full
+    blink its margin turned onto the lower lid and the next row stayed, so the face between them spanned the whole
+    opening and more (51 degrees here; the decimated head's closed lid was one crumpled strip of such faces). Given
+    the masks set-up would make from the FPs (`made_lids`), that lid turns by the larger of the two: the next row
+    follows the margin down, the lids still shut along the eye, and no face turns over. A lid mask with rows behind
+    its margin is left as painted (the sample's)."""
+    rest, upper, lower, neutral, margins = _eye(shares=ONE_ROW)
+    _rest, made_upper, made_lower, _neutral, _margins = _eye()
+    triangles = _shell_triangles(len(rest), len(XS))
+    radii = np.array([R_EYE, R_EYE])
+    fps = neutral.copy()
+    for e, up in enumerate(("3.1", "3.2")):
+        _turned_fp(fps, up, e, LOW0 - UP0)
+    spans = []
+    for made in (None, (made_upper, made_lower)):
+        made_lids = None if made is None else lambda made=made: made
+        rig = bind_eyelids(rest, upper, lower, neutral, CENTRES, radii, AXES, triangles, made_lids=made_lids)
+        out = rest.copy()
+        apply_eyelids(rig, out, fps)
+        for eye in (0, 1):
+            up = elevation(out[margins[(eye, 0)]], CENTRES[eye])[INSIDE]
+            low = elevation(out[margins[(eye, 1)]], CENTRES[eye])[INSIDE]
+            np.testing.assert_allclose(up, low + MEET_CLEARANCE, atol=3 * TRACE)  # shut either way
+        middle = margins[(0, 0)][len(XS) // 2]
+        spans.append(np.degrees(np.diff(elevation(out[[middle, middle + len(XS)]], CENTRES[0]))[0]))
+        before = np.cross(rest[triangles[:, 1]] - rest[triangles[:, 0]], rest[triangles[:, 2]] - rest[triangles[:, 0]])
+        after = np.cross(out[triangles[:, 1]] - out[triangles[:, 0]], out[triangles[:, 2]] - out[triangles[:, 0]])
+        assert np.all(np.einsum("ij,ij->i", before, after) > 0.0)
+        assert rig.deepened == (() if made is None else ((0, 0), (0, 1), (1, 0), (1, 1)))  # both lids, both eyes
+    row = np.degrees((np.radians(70.0) - UP0) / 7)  # the rows' spacing at rest in the middle
+    assert spans[0] > 45.0  # the margin row alone: the next row left at rest
+    assert spans[1] < 1.5 * row  # the next row turned with the margin
+    # a lid with rows behind its margin keeps its own mask
+    rest, upper, lower, neutral, _margins = _eye(shares=(1.0, 1.0, 0.7, 0.0, 0.0, 0.0, 0.0, 0.0))
+    asked = []
+    rig = bind_eyelids(
+        rest,
+        upper,
+        lower,
+        neutral,
+        CENTRES,
+        radii,
+        AXES,
+        triangles,
+        made_lids=lambda: asked.append(1) or (made_upper, made_lower),
+    )
+    plain = bind_eyelids(rest, upper, lower, neutral, CENTRES, radii, AXES, triangles)
+    assert rig.deepened == () and not asked  # not made at all: no lid needed them
+    np.testing.assert_array_equal(rig.upper, plain.upper)
+
+
 def test_lids_whose_masks_set_up_made_close_an_opening_fuller_than_the_sine_arch():
     """Lid masks made from the FPs (`trace_opening` False) on an eye whose opening is fuller toward the corners
     than a sine arch (s (2 - s), as a real eye's outer corner: 0.52 of the middle at 0.8 of the way out, the arch
@@ -378,6 +464,34 @@ def test_the_seen_margins_are_the_shells_margins_by_hand():
     ts, up, _rows = seen_margins(rest - CENTRES[0], triangles, R_EYE, wide)[0]
     x = wide[0, 0] + ts * (wide[1, 0] - wide[0, 0])
     assert np.all(up[np.abs(x) >= R_EYE] == 0.0) and np.all(up[np.abs(x) < 0.9 * CORNER] > 0.0)
+
+
+def test_seen_margins_run_straight_from_a_corner_across_the_skin_that_fills_it():
+    """A patch of skin behind the inner corner (a caruncle, 0.5 mm off the eyeball, from the corner 3 mm in) fills the
+    first three lines: they see no opening, and their margins run straight from the corner to the first line that
+    sees one, for both lids; every other line is as without the patch. Before, those lines counted as shut (the
+    margins on the corners' line), and the turn stepped from none to most across them."""
+    rest, _upper, _lower, neutral, _margins = _eye(fuller=True)
+    triangles = _shell_triangles(len(rest), len(XS))
+    corners = neutral[[fp_index("3.11"), fp_index("3.7")]] - CENTRES[0]
+    plain = seen_margins(rest - CENTRES[0], triangles, R_EYE, corners)
+    x0, x1 = corners[0, 0] - 0.0005, corners[0, 0] + 0.003
+    patch = [_on_shell(CENTRES[0], x, np.radians(a), 0.0125) for x in (x0, x1) for a in (-30.0, 30.0)]
+    n = len(rest)
+    filled = seen_margins(
+        np.concatenate([rest, patch]) - CENTRES[0],
+        np.concatenate([triangles, [[n, n + 2, n + 3], [n, n + 3, n + 1]]]),
+        R_EYE,
+        corners,
+    )
+    ts = plain[0][0]
+    hidden = (corners[0, 0] + ts * (corners[1, 0] - corners[0, 0]) < x1) & (ts > 0.0)
+    first = np.flatnonzero(hidden)[-1] + 1  # the first line that sees the opening
+    assert hidden.sum() == 3
+    for (_ts, seen, _rows), (_ts, bare, _rows) in zip(filled, plain, strict=True):
+        np.testing.assert_allclose(seen[~hidden], bare[~hidden], atol=1e-12)
+        np.testing.assert_allclose(seen[: first + 1], bare[first] * ts[: first + 1] / ts[first], atol=1e-12)
+        assert np.all(np.abs(seen[hidden]) > 0.0)
 
 
 def test_the_seen_margin_points_lie_on_the_shells_margins():
