@@ -31,7 +31,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define PBK_ABI_VERSION 15
+#define PBK_ABI_VERSION 14
 #define PBK_MAX_THREADS 16
 #define CHUNKS_PER_THREAD 8 /* chunks of work per thread, claimed in turn */
 #define PARALLEL_WORK 150000 /* grouped entry point: below this much work (pairs, an apex pair twice) one thread */

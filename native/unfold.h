@@ -70,16 +70,6 @@ static inline void unfold_load(const UnfoldWork *w, int64_t call, const float *p
     for (int c = 0; c < 3; ++c) w->p[3 * (int64_t)v + c] = positions[3 * (int64_t)v + c];
 }
 
-/* vertex v into this batch's region (stamp): loaded, and where it was not in the last batch's region (before), its
- * last position its own, so that it joins the momentum still while the others keep theirs (unfold.unfold) */
-static inline void unfold_join(const UnfoldWork *w, int64_t call, const float *positions, int32_t v, int64_t before,
-                               int64_t stamp) {
-    unfold_load(w, call, positions, v);
-    if (w->region[v] != before)
-        for (int c = 0; c < 3; ++c) w->last[3 * (int64_t)v + c] = w->p[3 * (int64_t)v + c];
-    w->region[v] = stamp;
-}
-
 static int unfold_ascending(const void *a, const void *b) {
     int32_t x = *(const int32_t *)a, y = *(const int32_t *)b;
     return (x > y) - (x < y);
@@ -88,7 +78,7 @@ static int unfold_ascending(const void *a, const void *b) {
 /* positions (n x 3 float32) in place. The first look is at the triangles at the n_start vertices `start` (at
  * every triangle when n_start < 0): the caller vouches that no other triangle is turned over. work: the mesh's
  * work space (pbk_unfold_work_bytes). momentum: each step from Nesterov's look-ahead point x + k / (k + 3)
- * (x - x_last), k the steps of this call, a vertex new to the region joining still (unfold.unfold). moved (n) receives the vertices it may have moved, ascending, and result[0]
+ * (x - x_last), k the steps since the region last grew (unfold.unfold). moved (n) receives the vertices it may have moved, ascending, and result[0]
  * their count, result[1] the steps made, result[2] the triangles left turned over (where the steps ended with no
  * fewer than they found, none moved and that many are left); share[0] the share of the membrane's change
  * kept. Returns 0. */
@@ -126,20 +116,20 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
     int64_t rings = 1, steps = 0, best = count, stall = 0, n_moved = 0, since = 0, before = -1;
     while (count && steps < max_steps) {
         /* the region: the bad triangles' corners, then `rings` rings of neighbours (a stamp marks membership;
-         * `before` the last batch's, so that a vertex new to the region is seen: it joins the momentum still) */
+         * `before` the last batch's, so that a vertex new to the region is seen: the momentum starts again) */
         const int64_t stamp = ++*w.counter;
-        int64_t size = 0;
+        int64_t size = 0, grew = 0;
         for (int64_t b = 0; b < n_bad; ++b)
             for (int c = 0; c < 3; ++c) {
                 int32_t v = triangles[3 * (int64_t)bad[b] + c];
-                if (region[v] != stamp) unfold_join(&w, call, positions, v, before, stamp), list[size++] = v;
+                if (region[v] != stamp) grew |= region[v] != before, region[v] = stamp, list[size++] = v;
             }
         for (int64_t r = 0, from = 0; r < rings; ++r) {
             int64_t to = size;
             for (int64_t m = from; m < to; ++m)
                 for (int32_t e = neighbour_start[list[m]]; e < neighbour_start[list[m] + 1]; ++e) {
                     int32_t v = neighbours[e];
-                    if (region[v] != stamp) unfold_join(&w, call, positions, v, before, stamp), list[size++] = v;
+                    if (region[v] != stamp) grew |= region[v] != before, region[v] = stamp, list[size++] = v;
                 }
             from = to;
         }
@@ -150,10 +140,12 @@ PBK_EXPORT int pbk_unfold(int64_t n, int64_t k, const double *rest, const int32_
             if (neighbour_start[v + 1] == neighbour_start[v]) continue;
             list[kept++] = v;
             if (w.marked[v] != call) w.marked[v] = call, moved[n_moved++] = v;
-            for (int32_t e = neighbour_start[v]; e < neighbour_start[v + 1]; ++e) /* every neighbour a step reads */
+            unfold_load(&w, call, positions, v); /* the vertex and every neighbour a step reads */
+            for (int32_t e = neighbour_start[v]; e < neighbour_start[v + 1]; ++e)
                 unfold_load(&w, call, positions, neighbours[e]);
         }
         size = kept;
+        if (grew) since = 0;
         int64_t batch = max_steps - steps < check_every ? max_steps - steps : check_every;
         for (int64_t s = 0; s < batch; ++s, ++steps) {
             if (momentum) { /* the step is taken from y = x + beta (x - x_last), in p; x_last <- x */

@@ -48,7 +48,7 @@ import numpy as np
 from .inputs import DeformError
 from .regions import APEX, FACE, Location, TriangleFrames, deformation_basis
 
-ABI_VERSION = 15  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
+ABI_VERSION = 14  # must equal PBK_ABI_VERSION in native/planar_bones_kernel.c
 PACKAGE = "mpeg4_face_kernel"  # the wheel's import name; its LIBRARY is the shared library's path
 DISABLE = "MPEG4_FACE_NO_KERNEL"  # "1" forces the numpy path
 THREADS_VARIABLE = "MPEG4_FACE_KERNEL_THREADS"  # a thread count, overriding the choice below

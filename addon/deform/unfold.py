@@ -19,14 +19,13 @@ limits in places. The Planar Bones paper does not treat fold-overs. This pass re
    vertices jittered, the lips at demo frame 120: 565 steps over 3,645 vertices with the plain mean, the fold
    spreading to 78 triangles on the way; 25 steps over 12 vertices with these weights). With ``MOMENTUM`` each
    step is taken from Nesterov's look-ahead point y = x + k / (k + 3) (x − x_last) instead of x (Nesterov 1983;
-   k counts the call's steps). A vertex the region takes in joins still: its last position is set to its own, so
-   its first look-ahead is where it is, while the vertices already in keep their momentum. A fold that needs its
-   region grown by many rings needs the change carried far, which plain Jacobi steps do in about the square of
-   the distance: the Lee Perry-Smith scan's lip line in the demo (frames 16-24, a frame's first opening) took
-   515-655 steps over 2,400-3,200 vertices, with the momentum restarted for the whole region whenever it grew
-   340-375 over 1,130-1,140 (3.5-5.0x fewer vertex-steps), and with the joining vertices alone starting still
-   265-280 over 716-755 (another 2.1-2.4x: each of the 16 rings the region grows by had thrown the momentum of
-   every vertex away). The momentum lives within one call, so a frame still depends on its own positions alone;
+   k counts the steps since the momentum last started again, which it does whenever the region takes in a vertex
+   it did not have, that vertex having no last step). A fold that needs its region grown by many rings needs the
+   change carried far, which plain Jacobi steps do in about the square of the distance: the Lee Perry-Smith
+   scan's sealed lip line in the demo (frames 16-24, a frame's first opening) took 515-655 steps over 2,400-3,200
+   vertices, with the momentum 340-375 over 1,130-1,140 (3.5-5.0x fewer vertex-steps); without the restarts,
+   1,410-1,565 steps over all 8,838. The momentum lives within one call, so a frame still depends on its own
+   positions alone;
 3. look again; stop once no triangle is turned over, or after ``MAX_STEPS`` steps (what is left then stays, and
    where the steps have not left fewer triangles turned over than they found, the positions stay as they were
    found: the subdivided variant's lip fold, 25 faces, became 65 when a frame's budget ended mid-way).
@@ -60,7 +59,7 @@ from . import fused
 from .inputs import DeformError, check_points
 
 STEP = 0.5  # λ of a Jacobi step: half way to the neighbours' mean (the damped Jacobi of a membrane)
-MOMENTUM = True  # each step taken from Nesterov's look-ahead point, a vertex joining the region still (step 2)
+MOMENTUM = True  # each step taken from Nesterov's look-ahead point, restarted where the region grows (step 2)
 CHECK_EVERY = 5  # steps between looks at the folds
 STALL_CHECKS = 4  # looks without fewer folds before the region widens by a ring
 GUARD_ROUNDS = 6  # a guard and the membrane taking turns after a frame's first unfold (`open_folds_guarded`), at most
@@ -260,8 +259,8 @@ def unfold(
         for _ in range(rings):
             region = _grow(mesh, region)
         region &= degree > 0
-        joined = region & ~before  # new to the region: it joins still (its last position its own), the rest
-        last[joined] = points[joined]  # keep their momentum
+        if np.any(region & ~before):  # the region grew: the momentum starts again
+            since = 0
         before = region
         moved |= region
         if watched is not None:
@@ -269,7 +268,7 @@ def unfold(
         inside = np.flatnonzero(region)
         padded, weights = mesh.padded[inside], mesh.padded_weights[inside]
         for _ in range(min(CHECK_EVERY, max_steps - steps)):
-            if momentum:  # the step from y = x + β (x − x_last), β = k / (k + 3) after the call's k steps
+            if momentum:  # the step from y = x + β (x − x_last), β = k / (k + 3) after k steps since the restart
                 ahead = points[inside]
                 if since:
                     ahead = ahead + since / (since + 3) * (ahead - last[inside])

@@ -476,9 +476,8 @@ def test_a_frames_budget_is_work_so_a_small_fold_on_a_large_mesh_opens():
 def test_momentum_opens_a_fold_that_needs_the_region_grown_in_fewer_steps_to_the_same_bounds(kernel):
     """A 5 x 5 block pushed 15 spacings sideways over its neighbours: the membrane opens it only once its region
     has grown by rings (the Lee Perry-Smith scan's sealed lip line in the demo: 655 steps over 3,215 vertices at
-    frame 24). Each step taken from Nesterov's look-ahead point opens it in 20 steps over 100 vertices where the
-    plain Jacobi steps took 45 over 106 (25 over 103 with the momentum restarted as the region grew), and to the
-    same bounds: no triangle
+    frame 24). Each step taken from Nesterov's look-ahead point, restarted where the region grows, opens it in 25
+    steps over 103 vertices where the plain Jacobi steps took 45 over 106, and to the same bounds: no triangle
     turned over, the change kept near the fold and as large. The kernel equals the numpy bit for bit, with the
     momentum and without."""
     size = 51
@@ -504,38 +503,7 @@ def test_momentum_opens_a_fold_that_needs_the_region_grown_in_fewer_steps_to_the
             assert np.array_equal(compiled, positions)
         results[momentum] = done, np.abs(positions - folded).max()
     (plain, plain_change), (fast, fast_change) = results[False], results[True]
-    assert (plain.steps, fast.steps) == (45, 20)
+    assert (plain.steps, fast.steps) == (45, 25)
     assert fast.steps * len(fast.moved) < 0.6 * plain.steps * len(plain.moved)
     assert abs(fast_change - plain_change) < 0.1 * plain_change
     assert unfold.MOMENTUM and unfold.open_folds(mesh, folded.copy()).steps == fast.steps
-
-
-@pytest.mark.parametrize("kernel", [False, True])
-def test_a_vertex_joining_the_region_starts_still_and_the_others_keep_their_momentum(kernel):
-    """A 5 x 5 block pushed 25 spacings sideways over its neighbours: the region grows by several rings before the
-    fold opens. Restarting the whole region's momentum whenever a vertex joined (each joining vertex has no last
-    step) threw the momentum of every other vertex away at each ring: 45 steps over 138 vertices. With a joining
-    vertex's last position set to its own (its first look-ahead is where it is) and the others keeping theirs, 25
-    steps over 127 vertices, to the same bounds (no triangle turned over, the change kept near the block and as
-    large within 5 %). The Lee Perry-Smith scan's first opening at demo frame 24: 375 steps over 1,140 vertices,
-    then 280 over 755. The kernel equals the numpy bit for bit."""
-    size = 51
-    rest, triangles = grid(size)
-    mesh = unfold.prepare(rest, triangles)
-    middle = (size // 2) * size + size // 2
-    block = middle + (np.arange(-2, 3)[:, None] * size + np.arange(-2, 3)[None]).ravel()
-    folded = rest.astype(np.float32)
-    folded[block, 0] += 25e-3
-    positions = folded.copy()
-    done = unfold.unfold(mesh, positions)
-    assert (done.steps, len(done.moved), done.left) == (25, 127, 0)
-    assert not inverted_faces(rest, positions, triangles).any()
-    assert np.linalg.norm(rest[done.moved] - rest[middle], axis=1).max() < 9e-3
-    assert abs(np.abs(positions - folded).max() - 21.6e-3) < 0.05 * 21.6e-3  # the restarts' change: 21.6 mm
-    if kernel:
-        if not fused.available():
-            pytest.skip("compiled kernel not installed")
-        compiled = folded.copy()
-        got = _kernel_unfold(mesh, compiled)
-        assert np.array_equal(got[0], done.moved) and got[1:] == (done.steps, done.left, done.share)
-        assert np.array_equal(compiled, positions)
