@@ -1,0 +1,264 @@
+"""A mouth with no opening in the mesh: its lips meet along a slit (a scan, a face modelled with its lips
+closed). The inner lip points are read off the skin where the lips meet, its corners where they stop meeting.
+
+In a plane across the face (normal the face's left) the skin's section, seen from in front (per band of
+height the most forward point of the section, what a viewer in front of the face sees), has between the two
+lip bulges a notch: the crease where the lips meet, the point of the seen profile lying deepest below the
+lower of the two highest points on either side of it (the lips' fronts; `crease`). The upper lip's point
+there is the section point nearest the crease among those nearer over the skin to the upper lip's front
+than to the lower's, and the lower lip's point likewise (`Lips`): where the lips touch the two are a slit's
+two walls, each on its own lip; where the skin is one surface (lips welded shut, a crease in smooth skin)
+they are one point, the crease's bottom.
+
+The slit: the two points are a slit's walls when the section joins them only the long way round (through
+the mouth's pocket behind the lips, or not at all): the shortest way along the section's own segments is
+more than SLIT_DETOUR times their distance. Planes are cut outward from the middle, each looking for the
+crease near the last one's; the mouth's corners (2.4, 2.5) are where the slit stops, found by halving the
+step between the last plane with a slit and the first without; 2.2/2.3 are read in the middle plane and
+2.6/2.8, 2.7/2.9 halfway to the corners, as for a mouth with an opening (`openings`). The outer lip points
+keep the heights the registration gave them above and below the mouth line: each moves as the mouth line
+under it moved (8.1, 8.2, 8.9, 8.10 with the middle, 8.5/8.7 and 8.6/8.8 with their half-way plane, 8.3/8.4
+with their corner) and is snapped back onto the skin.
+
+Only a mouth whose middle plane holds a slit is changed; otherwise (lips apart, the crease of welded lips:
+nothing says where a welded mouth's corners are) the registration's points stay.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mpeg4.feature_points import fp_index
+from .nicp import edges_of
+from .scipy_modules import csr_matrix, dijkstra
+from .surface import Surface
+
+BAND = 0.25  # the crease is looked for this share of the carried mouth width above and below the guess
+TRACK = 0.1  # in the next plane out, this share of the width above and below the last crease
+BANDS = 40  # the seen profile in bands of this share of the looked-at height
+SAMPLES = 64  # at most this many samples along each triangle's cut
+STEPS = 40  # planes out from the middle: a step of the carried mouth width over this
+HALVINGS = 6  # the corner's plane found to a step / 2**HALVINGS
+SLIT_DETOUR = 2.0  # a slit's walls are joined along the section only by a way this many times their distance
+REACH = 0.5  # the lips' fronts are reached over the skin within this share of the mouth width
+
+INNER = (("2.2", "2.3", 0.0), ("2.6", "2.8", 0.5), ("2.7", "2.9", -0.5))
+# an outer lip point not on its own lip moves with an inner one of its lip (0 upper, 1 lower); the outer corners
+# move with the inner ones
+OUTER = {
+    "8.1": ("2.2", 0),
+    "8.9": ("2.2", 0),
+    "8.10": ("2.2", 0),
+    "8.5": ("2.6", 0),
+    "8.6": ("2.7", 0),
+    "8.2": ("2.3", 1),
+    "8.7": ("2.8", 1),
+    "8.8": ("2.9", 1),
+}
+OUTER_CORNERS = {"8.3": "2.4", "8.4": "2.5"}
+
+
+def _cut(vertices: np.ndarray, triangles: np.ndarray, left: np.ndarray, level: float):
+    """The plane left . x = level through the mesh: the crossings (C, 3) where it cuts edges, each crossing's
+    edge (C, 2), and the section's segments as pairs of crossing indices (S, 2), one per cut triangle."""
+    side = vertices @ left - level
+    d = side[triangles]
+    # a corner on the plane counts on its positive side, so each cut triangle has exactly two crossed edges
+    cut = (d.min(axis=1) < 0) & (d.max(axis=1) >= 0)
+    triangles, negative = triangles[cut], d[cut] < 0
+    if not len(triangles):
+        return np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64)
+    crossed = [negative[:, i] != negative[:, j] for i, j in ((0, 1), (1, 2), (2, 0))]
+    edge = [np.sort(triangles[:, [i, j]], axis=1) for i, j in ((0, 1), (1, 2), (2, 0))]
+    first = np.where(crossed[0][:, None], edge[0], edge[1])
+    second = np.where(crossed[2][:, None], edge[2], edge[1])
+    ends = np.concatenate([first, second])
+    edges, index = np.unique(ends, axis=0, return_inverse=True)
+    a, b = side[edges[:, 0]], side[edges[:, 1]]
+    t = a / (a - b)
+    crossings = vertices[edges[:, 0]] + t[:, None] * (vertices[edges[:, 1]] - vertices[edges[:, 0]])
+    return crossings, edges, index.reshape(2, -1).T
+
+
+def _seen(crossings: np.ndarray, segments: np.ndarray, centre: float, half: float, axes: np.ndarray):
+    """The section seen from in front within `half` of height `centre` (along up): per band (BANDS of
+    2 * half) the most forward sample of the segments; returns (points (B, 3), heights (B,), depths (B,))
+    in order of height."""
+    up, forward = axes[1], axes[2]
+    step = 2.0 * half / BANDS
+    a, b = crossings[segments[:, 0]], crossings[segments[:, 1]]
+    rise = np.abs((b - a) @ up)
+    count = int(np.clip(np.ceil(rise.max(initial=0.0) / step) + 2, 2, SAMPLES))
+    t = np.linspace(0.0, 1.0, count)[None, :, None]
+    samples = (a[:, None] + t * (b - a)[:, None]).reshape(-1, 3)
+    height = samples @ up - centre
+    keep = np.abs(height) < half
+    samples, height = samples[keep], height[keep]
+    depth = samples @ forward
+    bins = np.floor((height + half) / step).astype(np.int64)
+    order = np.lexsort((-depth, bins))
+    first = order[np.r_[True, bins[order][1:] != bins[order][:-1]]] if len(order) else order
+    return samples[first], samples[first] @ up, depth[first]
+
+
+def crease(points: np.ndarray, depths: np.ndarray):
+    """The seen profile's deepest notch (`points`, `depths` in order of height): the index of the point lying
+    deepest below the lower of the most forward points above and below it, with those two indices; None
+    when no point lies below both."""
+    if len(depths) < 3:
+        return None
+    below = np.maximum.accumulate(depths)  # the most forward at or below each
+    above = np.maximum.accumulate(depths[::-1])[::-1]
+    valley = np.minimum(below, above) - depths
+    notch = int(np.argmax(valley))
+    if valley[notch] <= 0.0:
+        return None
+    lower = int(np.argmax(depths[: notch + 1]))
+    upper = notch + int(np.argmax(depths[notch:]))
+    return notch, upper, lower
+
+
+@dataclass(frozen=True)
+class Reading:
+    upper: np.ndarray  # the upper lip's point nearest the crease
+    lower: np.ndarray  # the lower lip's
+    crease: np.ndarray
+    slit: bool  # the two are a slit's walls
+    paths: np.ndarray  # (2, V) over the skin from the upper and the lower lip's front (inf beyond reach)
+
+
+class Lips:
+    """The skin's edge graph, to tell a section's points on the upper lip from those on the lower (nearer
+    over the skin to the upper lip's front than to the lower's) and to read the slit in a plane."""
+
+    def __init__(self, surface: Surface, axes: np.ndarray, width: float):
+        self.surface, self.axes, self.width = surface, axes, width
+        self.vertices, self.triangles = surface.vertices, surface.triangles
+        edges = edges_of(self.triangles)
+        length = np.linalg.norm(self.vertices[edges[:, 0]] - self.vertices[edges[:, 1]], axis=1)
+        n = len(self.vertices)
+        self.graph = csr_matrix((length, (edges[:, 0], edges[:, 1])), shape=(n, n))
+
+    @staticmethod
+    def _over_skin(paths: np.ndarray, points: np.ndarray, corners: np.ndarray, vertices: np.ndarray) -> np.ndarray:
+        """(2, K) the way over the skin from each lip's front to `points` (K, 3), each through the nearest
+        of its `corners` (K, C: the edge's or triangle's vertices it lies on)."""
+        step = np.linalg.norm(vertices[corners] - points[:, None], axis=2)
+        return (paths[:, corners] + step[None]).min(axis=2)
+
+    def read(self, level: float, centre: float, half: float):
+        """In the plane left . x = `level`, looking within `half` of height `centre`: (upper lip's point,
+        lower lip's point, crease, whether they are a slit's walls), or None when no crease is seen."""
+        crossings, edges, segments = _cut(self.vertices, self.triangles, self.axes[0], level)
+        if not len(segments):
+            return None
+        points, _heights, depths = _seen(crossings, segments, centre, half, self.axes)
+        found = crease(points, depths)
+        if found is None:
+            return None
+        notch, upper, lower = (points[k] for k in found)
+        _d, sources = self.surface.tree.query(np.stack([upper, lower]))
+        paths = dijkstra(self.graph, directed=False, indices=sources, limit=REACH * self.width)
+        to_upper, to_lower = self._over_skin(paths, crossings, edges, self.vertices)
+        reached = np.isfinite(to_upper) | np.isfinite(to_lower)
+        distance = np.linalg.norm(crossings - notch, axis=1)
+        on_upper = reached & (to_upper < to_lower)
+        on_lower = reached & (to_lower <= to_upper)
+        if not on_upper.any() or not on_lower.any():
+            return None
+        u = int(np.flatnonzero(on_upper)[np.argmin(distance[on_upper])])
+        lo = int(np.flatnonzero(on_lower)[np.argmin(distance[on_lower])])
+        gap = float(np.linalg.norm(crossings[u] - crossings[lo]))
+        along = self._along(crossings, segments, u, lo)
+        return Reading(crossings[u], crossings[lo], notch, along > SLIT_DETOUR * gap, paths)
+
+    def on_own_lips(self, reading: Reading, upper: np.ndarray, lower: np.ndarray) -> bool:
+        """Whether `upper` is on the upper lip and `lower` on the lower one, as `reading` tells them apart."""
+        return self.on_lip(reading, upper, 0) and self.on_lip(reading, lower, 1)
+
+    def on_lip(self, reading: Reading, point: np.ndarray, lip: int) -> bool:
+        """Whether `point` is on the upper (`lip` 0) or lower (1) lip as `reading` tells them apart: nearer over
+        the skin (through the corners of the triangle holding it) to that lip's front than to the other's."""
+        _on, triangle, _w = self.surface.locate(point[None])
+        way = self._over_skin(reading.paths, point[None], self.triangles[triangle], self.vertices)[:, 0]
+        return bool(way[lip] < way[1 - lip])
+
+    @staticmethod
+    def _along(crossings: np.ndarray, segments: np.ndarray, a: int, b: int) -> float:
+        """The shortest way from crossing `a` to `b` along the section's segments (inf when none)."""
+        if a == b:
+            return 0.0
+        length = np.linalg.norm(crossings[segments[:, 0]] - crossings[segments[:, 1]], axis=1)
+        n = len(crossings)
+        graph = csr_matrix((length + 1e-12, (segments[:, 0], segments[:, 1])), shape=(n, n))
+        return float(dijkstra(graph, directed=False, indices=a)[b])
+
+
+def read_slit(placed: np.ndarray, surface: Surface, axes: np.ndarray) -> list[str]:
+    """Move the mouth's points of `placed` (84, 3; changed in place) onto the slit where the lips meet, when
+    the middle plane holds one (see the module's doc). Returns the FP ids moved."""
+    left, up = axes[0], axes[1]
+    corner_left, corner_right = placed[fp_index("2.4")], placed[fp_index("2.5")]
+    width = abs((corner_left - corner_right) @ left)
+    if width <= 0.0:
+        return []
+    lips = Lips(surface, axes, width)
+    middle = 0.5 * (placed[fp_index("2.2")] + placed[fp_index("2.3")])
+    level = float(middle @ left)
+    first = lips.read(level, float(middle @ up), BAND * width)
+    if first is None or not first.slit:
+        return []
+    ends = []
+    step = width / STEPS
+    track = {level: float(first.crease @ up)}  # the crease's height in each plane along the slit
+    for direction in (1.0, -1.0):
+        last, height, at = first, float(first.crease @ up), level
+        while True:
+            nxt = lips.read(at + direction * step, height, TRACK * width)
+            if nxt is None or not nxt.slit:
+                break
+            last, height, at = nxt, float(nxt.crease @ up), at + direction * step
+            track[at] = height
+            if abs(at - level) > width:
+                break
+        lo_level, span = at, step
+        for _ in range(HALVINGS):
+            span *= 0.5
+            mid = lo_level + direction * span
+            probe = lips.read(mid, height, TRACK * width)
+            if probe is not None and probe.slit:
+                last, height, lo_level = probe, float(probe.crease @ up), mid
+        ends.append((lo_level, last))
+    (left_level, left_end), (right_level, right_end) = ends
+    levels = sorted(track)
+
+    def height_at(at: float) -> float:
+        return float(np.interp(at, levels, [track[k] for k in levels]))
+
+    moved = []
+    old = placed.copy()
+    placed[fp_index("2.4")], placed[fp_index("2.5")] = left_end.crease, right_end.crease
+    moved += ["2.4", "2.5"]
+    for upper, lower, share in INNER:
+        # along the lip where the registration put the pair, between the middle and its corner
+        corner, read = ("2.4", left_level) if share >= 0 else ("2.5", right_level)
+        carried = 0.5 * (old[fp_index(upper)] + old[fp_index(lower)]) @ left
+        along = (carried - level) / ((old[fp_index(corner)] @ left) - level) if share else 0.0
+        at = level + along * (read - level)
+        reading = first if share == 0.0 else lips.read(at, height_at(at), TRACK * width)
+        if reading is None or lips.on_own_lips(reading, old[fp_index(upper)], old[fp_index(lower)]):
+            continue  # the registration's points are on their own lips: where on them, the skin does not say
+        placed[fp_index(upper)], placed[fp_index(lower)] = reading.upper, reading.lower
+        moved += [upper, lower]
+    for fp_id, (inner, lip) in OUTER.items():
+        point = old[fp_index(fp_id)]
+        reading = lips.read(float(point @ left), height_at(float(point @ left)), TRACK * width)
+        if inner in moved and reading is not None and reading.slit and not lips.on_lip(reading, point, lip):
+            placed[fp_index(fp_id)] = point + placed[fp_index(inner)] - old[fp_index(inner)]
+            moved.append(fp_id)
+    for fp_id, inner in OUTER_CORNERS.items():
+        placed[fp_index(fp_id)] = old[fp_index(fp_id)] + placed[fp_index(inner)] - old[fp_index(inner)]
+        moved.append(fp_id)
+    return moved
