@@ -97,6 +97,10 @@ def _seen(crossings: np.ndarray, segments: np.ndarray, centre: float, half: floa
     keep = np.abs(height) < half
     samples, height = samples[keep], height[keep]
     depth = samples @ forward
+    # what lies further behind the most forward than the looked-at height is not the lips (a hole in the
+    # section shows the head's far side)
+    keep = depth >= depth.max(initial=-np.inf) - 2.0 * half
+    samples, height, depth = samples[keep], height[keep], depth[keep]
     bins = np.floor((height + half) / step).astype(np.int64)
     order = np.lexsort((-depth, bins))
     first = order[np.r_[True, bins[order][1:] != bins[order][:-1]]] if len(order) else order
@@ -172,7 +176,9 @@ class Lips:
         lo = int(np.flatnonzero(on_lower)[np.argmin(distance[on_lower])])
         gap = float(np.linalg.norm(crossings[u] - crossings[lo]))
         along = self._along(crossings, segments, u, lo)
-        return Reading(crossings[u], crossings[lo], notch, along > SLIT_DETOUR * gap, paths)
+        # walls nearer than the seen profile's bands are one point to this reading
+        resolution = 2.0 * half / BANDS
+        return Reading(crossings[u], crossings[lo], notch, along > SLIT_DETOUR * max(gap, resolution), paths)
 
     def on_own_lips(self, reading: Reading, upper: np.ndarray, lower: np.ndarray) -> bool:
         """Whether `upper` is on the upper lip and `lower` on the lower one, as `reading` tells them apart."""
@@ -196,6 +202,12 @@ class Lips:
         return float(dijkstra(graph, directed=False, indices=a)[b])
 
 
+def _continues(reading: Reading | None, last: Reading, reach: float) -> bool:
+    """Whether `reading` is a slit that goes on from `last`'s: its crease no further from the last one than the
+    height the next plane looks within."""
+    return reading is not None and reading.slit and float(np.linalg.norm(reading.crease - last.crease)) <= reach
+
+
 def read_slit(placed: np.ndarray, surface: Surface, axes: np.ndarray) -> list[str]:
     """Move the mouth's points of `placed` (84, 3; changed in place) onto the slit where the lips meet, when
     the middle plane holds one (see the module's doc). Returns the FP ids moved."""
@@ -217,7 +229,7 @@ def read_slit(placed: np.ndarray, surface: Surface, axes: np.ndarray) -> list[st
         last, height, at = first, float(first.crease @ up), level
         while True:
             nxt = lips.read(at + direction * step, height, TRACK * width)
-            if nxt is None or not nxt.slit:
+            if not _continues(nxt, last, TRACK * width):
                 break
             last, height, at = nxt, float(nxt.crease @ up), at + direction * step
             track[at] = height
@@ -228,7 +240,7 @@ def read_slit(placed: np.ndarray, surface: Surface, axes: np.ndarray) -> list[st
             span *= 0.5
             mid = lo_level + direction * span
             probe = lips.read(mid, height, TRACK * width)
-            if probe is not None and probe.slit:
+            if _continues(probe, last, TRACK * width):
                 last, height, lo_level = probe, float(probe.crease @ up), mid
         ends.append((lo_level, last))
     (left_level, left_end), (right_level, right_end) = ends
