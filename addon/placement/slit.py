@@ -33,7 +33,7 @@ import numpy as np
 from ..mpeg4.feature_points import fp_index
 from .nicp import edges_of
 from .scipy_modules import csr_matrix, dijkstra
-from .surface import Surface
+from .surface import NEAR_VERTICES, Surface, closest_on_triangles
 
 BAND = 0.25  # the crease is looked for this share of the carried mouth width above and below the guess
 TRACK = 0.1  # in the next plane out, this share of the width above and below the last crease
@@ -131,6 +131,7 @@ class Reading:
     crease: np.ndarray
     slit: bool  # the two are a slit's walls
     paths: np.ndarray  # (2, V) over the skin from the upper and the lower lip's front (inf beyond reach)
+    resolution: float  # the seen profile's band: nearer than this, the two walls are one place to the reading
 
 
 class Lips:
@@ -178,18 +179,30 @@ class Lips:
         along = self._along(crossings, segments, u, lo)
         # walls nearer than the seen profile's bands are one point to this reading
         resolution = 2.0 * half / BANDS
-        return Reading(crossings[u], crossings[lo], notch, along > SLIT_DETOUR * max(gap, resolution), paths)
+        slit = along > SLIT_DETOUR * max(gap, resolution)
+        return Reading(crossings[u], crossings[lo], notch, slit, paths, resolution)
 
     def on_own_lips(self, reading: Reading, upper: np.ndarray, lower: np.ndarray) -> bool:
         """Whether `upper` is on the upper lip and `lower` on the lower one, as `reading` tells them apart."""
         return self.on_lip(reading, upper, 0) and self.on_lip(reading, lower, 1)
 
     def on_lip(self, reading: Reading, point: np.ndarray, lip: int) -> bool:
-        """Whether `point` is on the upper (`lip` 0) or lower (1) lip as `reading` tells them apart: nearer over
-        the skin (through the corners of the triangle holding it) to that lip's front than to the other's."""
-        _on, triangle, _w = self.surface.locate(point[None])
-        way = self._over_skin(reading.paths, point[None], self.triangles[triangle], self.vertices)[:, 0]
-        return bool(way[lip] < way[1 - lip])
+        """Whether `point` is on the upper (`lip` 0) or lower (1) lip as `reading` tells them apart: skin of that
+        lip lies within the reading's resolution of it, or is the nearest skin (a point on the slit's edge, where
+        the walls touch, is on both). A triangle is the lip's when the way over the skin from that lip's front
+        through its corners is shorter than from the other's."""
+        surface = self.surface
+        _d, nearest = surface.tree.query(point, k=min(2 * NEAR_VERTICES, len(self.vertices)))
+        triangles = np.unique(surface.vertex_triangles[np.atleast_1d(nearest)])
+        triangles = triangles[triangles >= 0]
+        corners = self.triangles[triangles]
+        q = closest_on_triangles(
+            np.repeat(point[None], len(corners), axis=0), *(self.vertices[corners[:, j]] for j in range(3))
+        )
+        distance = np.linalg.norm(q - point, axis=1)
+        ways = (reading.paths[:, corners] + np.linalg.norm(self.vertices[corners] - point, axis=2)).min(axis=2)
+        own = ways[lip] < ways[1 - lip]  # (T,): through the nearer of its corners
+        return bool(own[np.argmin(distance)] or np.any(own & (distance <= reading.resolution)))
 
     @staticmethod
     def _along(crossings: np.ndarray, segments: np.ndarray, a: int, b: int) -> float:
