@@ -1,27 +1,29 @@
-"""A mouth with no opening in the mesh: its lips meet along a slit (a scan, a face modelled with its lips
-closed). The inner lip points are read off the skin where the lips meet, its corners where they stop meeting.
+"""A mouth with no opening in the mesh whose lips meet along a slit (a scan: the lips touch along a crease, a
+pocket of skin behind them): the inner lip points on the crease, each on its own lip, the corners where the slit
+ends. Read off the skin in planes across the face, so no constant is fitted to any head.
 
-In a plane across the face (normal the face's left) the skin's section, seen from in front (per band of
-height the most forward point of the section, what a viewer in front of the face sees), has between the two
-lip bulges a notch: the crease where the lips meet, the point of the seen profile lying deepest below the
-lower of the two highest points on either side of it (the lips' fronts; `crease`). The upper lip's point
-there is the section point nearest the crease among those nearer over the skin to the upper lip's front
-than to the lower's, and the lower lip's point likewise (`Lips`): where the lips touch the two are a slit's
-two walls, each on its own lip; where the skin is one surface (lips welded shut, a crease in smooth skin)
-they are one point, the crease's bottom.
+In a plane across the face (normal the face's left) the skin's section seen from in front (per band of height
+the most forward point of the section: what a viewer in front of the face sees) has between the two lip bulges
+a notch, the crease where the lips meet: the seen point lying deepest below the lower of the most forward points
+above and below it (the lips' fronts; `crease`). The section's points are told apart by lip: nearer over the
+skin to the upper lip's front than to the lower's, or the other way (`Lips`). The two lips' section points
+nearest the crease are a slit's two walls when the section joins them only the long way round (through the
+pocket, or not at all: more than SLIT_DETOUR times their distance, or the reading's resolution); where the skin
+is one surface there (lips welded shut, a fold of skin, past a slit's end) the way between them is short.
 
-The slit: the two points are a slit's walls when the section joins them only the long way round (through
-the mouth's pocket behind the lips, or not at all): the shortest way along the section's own segments is
-more than SLIT_DETOUR times their distance. Planes are cut outward from the middle, each looking for the
-crease near the last one's; the mouth's corners (2.4, 2.5) are where the slit stops, found by halving the
-step between the last plane with a slit and the first without; 2.2/2.3 are read in the middle plane and
-2.6/2.8, 2.7/2.9 halfway to the corners, as for a mouth with an opening (`openings`). The outer lip points
-keep the heights the registration gave them above and below the mouth line: each moves as the mouth line
-under it moved (8.1, 8.2, 8.9, 8.10 with the middle, 8.5/8.7 and 8.6/8.8 with their half-way plane, 8.3/8.4
-with their corner) and is snapped back onto the skin.
+`read_slit`: when the middle plane holds a slit, planes are cut outward from the middle, each looking for the
+crease near the last one's (a crease that jumps further ends the slit); the corners 2.4/2.5 are the crease where
+the slit stops, found by halving the step between the last plane with a slit and the first without. An inner
+lip pair (2.2/2.3 in the middle plane, 2.6/2.8 and 2.7/2.9 as far along the read slit as the registration had
+them along its own) is kept where the registration put each point on its own lip (where on its lip's inner face
+the contour runs, the skin does not say); otherwise it is read: each lip's vertex nearest the crease (set-up
+reads an FP as its nearest vertex, and where the walls touch that of a point on one wall can be the other's).
+The outer lip points stay where they are on their own lips; one on the other lip moves as its lip's inner point
+moved, and the outer corners 8.3/8.4 move as the inner ones did. The caller snaps the moved points to the skin.
 
-Only a mouth whose middle plane holds a slit is changed; otherwise (lips apart, the crease of welded lips:
-nothing says where a welded mouth's corners are) the registration's points stay.
+Nothing changes where the middle plane holds no slit (lips apart, lips welded shut: nothing says where a welded
+mouth's corners are): the registration's points stay, as they do where an opening in the mesh gave them
+(`openings`).
 """
 
 from __future__ import annotations
@@ -126,7 +128,7 @@ def crease(points: np.ndarray, depths: np.ndarray):
 
 @dataclass(frozen=True)
 class Reading:
-    upper: np.ndarray  # the upper lip's point nearest the crease
+    upper: np.ndarray  # the upper lip's vertex nearest the crease
     lower: np.ndarray  # the lower lip's
     crease: np.ndarray
     slit: bool  # the two are a slit's walls
@@ -180,7 +182,15 @@ class Lips:
         # walls nearer than the seen profile's bands are one point to this reading
         resolution = 2.0 * half / BANDS
         slit = along > SLIT_DETOUR * max(gap, resolution)
-        return Reading(crossings[u], crossings[lo], notch, slit, paths, resolution)
+        # each lip's point is its own vertex nearest the crease (of the cut edges' ends): set-up reads an FP as
+        # the vertex nearest it, and where the walls touch that of a point on one wall can be the other's
+        ends = np.unique(edges)
+        ends = ends[np.isfinite(paths[:, ends]).any(axis=0)]
+        own = [ends[paths[0, ends] < paths[1, ends]], ends[paths[1, ends] < paths[0, ends]]]
+        if not len(own[0]) or not len(own[1]):
+            return None
+        at = [self.vertices[k[np.argmin(np.linalg.norm(self.vertices[k] - notch, axis=1))]] for k in own]
+        return Reading(at[0], at[1], notch, slit, paths, resolution)
 
     def on_own_lips(self, reading: Reading, upper: np.ndarray, lower: np.ndarray) -> bool:
         """Whether `upper` is on the upper lip and `lower` on the lower one, as `reading` tells them apart."""

@@ -20,6 +20,7 @@ HALF_SLIT = 20 * MM  # the slit's ends
 POCKET = 10 * MM  # the pocket's depth behind the crease in the middle
 GAP = 0.05 * MM  # the walls' distance where they touch
 SMILE = 8.0  # the crease rises by SMILE * x**2 (metres) towards the corners
+ROWS, UPPER_WALL, LOWER_WALL = 17, 5, 11  # each column of `_mouth`: its rows, the upper and lower wall's at the crease
 
 
 def _depth(x):
@@ -106,7 +107,10 @@ def test_inner_points_on_the_crease_and_corners_at_the_slits_ends(degrees):
         crease = _at(x, -40 * x * x, SMILE * x * x)
         assert np.linalg.norm(u - crease) < 0.3 * MM and np.linalg.norm(lo - crease) < 0.3 * MM
         assert u[2] > lo[2]
-        assert abs(u[0] - lo[0]) < 1e-9
+        # and each is its own wall's vertex (the vertex nearest it, as set-up reads an FP, is on its own lip)
+        rows = np.argmin(np.linalg.norm(vertices - u, axis=1)), np.argmin(np.linalg.norm(vertices - lo, axis=1))
+        assert [row % ROWS for row in rows] == [UPPER_WALL, LOWER_WALL]
+        assert abs(u[0] - lo[0]) < 0.5 * MM
     # 2.2 in the middle, 2.6/2.7 where the registration had them along the lip (11 of 27 mm), on the read slit
     assert abs(placed[fp_index("2.2"), 0]) < 1e-9
     assert placed[fp_index("2.6"), 0] == pytest.approx(11 / 27 * HALF_SLIT, abs=0.5 * MM)
