@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 from pathlib import Path
 
 import bpy
@@ -34,7 +35,7 @@ GROUPS = {
 }
 
 
-def render(face, out: Path) -> None:
+def render(face, out: Path, scratch: str) -> None:
     scene = bpy.context.scene
     at = {fp_id: ob.matrix_world.translation.copy() for fp_id, ob in face_data.fp_empties(face).items()}
     left = (at["3.7"] - at["3.12"]).normalized()
@@ -73,7 +74,7 @@ def render(face, out: Path) -> None:
         camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
         if (camera.matrix_world.to_3x3() @ Vector((0.0, 1.0, 0.0))).dot(up) < 0:
             camera.rotation_euler.rotate_axis("Z", 3.141592653589793)
-        scene.render.filepath = str(out.with_name(f"{out.stem}_{view}.png"))
+        scene.render.filepath = str(Path(scratch) / f"{view}.png")
         bpy.ops.render.render(write_still=True)
         tiles.append(bpy.data.images.load(scene.render.filepath))
     pixels = [list(image.pixels) for image in tiles]
@@ -98,7 +99,8 @@ def main() -> int:
     try:
         face, _low, _seconds = place(args.head, None, ())
         if face is not None:
-            render(face, args.out)
+            with tempfile.TemporaryDirectory() as scratch:
+                render(face, args.out, scratch)
     finally:
         addon.unregister()
     return 0
