@@ -21,7 +21,7 @@ from mathutils import Vector
 
 import addon
 from addon.blender import face_data
-from scripts.docs.render_auto_placement import ROOT, place
+from scripts.docs.render_auto_placement import ROOT, aim, place, workbench_camera
 
 SIZE = 700
 MARK_SHARE = 0.006  # a mark's radius against the ear-to-ear width
@@ -58,22 +58,10 @@ def render(face, out: Path, scratch: str) -> None:
                 radius=MARK_SHARE * width, location=at[fp_id], segments=12, ring_count=8
             )
             bpy.context.active_object.data.materials.append(material)
-    scene.render.engine = "BLENDER_WORKBENCH"
-    scene.display.shading.light = "STUDIO"
-    scene.display.shading.color_type = "MATERIAL"
-    scene.render.resolution_x = scene.render.resolution_y = SIZE
-    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    camera.data.type = "ORTHO"
-    camera.data.ortho_scale = 0.5 * width
-    camera.data.clip_end = 100.0 * width
+    camera = workbench_camera(scene, SIZE, 0.5 * width, 100.0 * width)
     tiles = []
     for view, direction in {"front": forward, "left": (forward + left).normalized()}.items():
-        camera.location = centre + direction * 5.0 * width
-        camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
-        if (camera.matrix_world.to_3x3() @ Vector((0.0, 1.0, 0.0))).dot(up) < 0:
-            camera.rotation_euler.rotate_axis("Z", 3.141592653589793)
+        aim(camera, centre + direction * 5.0 * width, direction, up)
         scene.render.filepath = str(Path(scratch) / f"{view}.png")
         bpy.ops.render.render(write_still=True)
         tiles.append(bpy.data.images.load(scene.render.filepath))
