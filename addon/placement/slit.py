@@ -46,7 +46,7 @@ HALVINGS = 6  # the corner's plane found to a step / 2**HALVINGS
 SLIT_DETOUR = 2.0  # a slit's walls are joined along the section only by a way this many times their distance
 REACH = 0.5  # the lips' fronts are reached over the skin within this share of the mouth width
 
-INNER = (("2.2", "2.3", 0.0), ("2.6", "2.8", 0.5), ("2.7", "2.9", -0.5))
+INNER = (("2.2", "2.3", None), ("2.6", "2.8", "2.4"), ("2.7", "2.9", "2.5"))  # upper, lower, the corner they lie to
 # an outer lip point not on its own lip moves with an inner one of its lip (0 upper, 1 lower); the outer corners
 # move with the inner ones
 OUTER = {
@@ -276,13 +276,14 @@ def read_slit(placed: np.ndarray, surface: Surface, axes: np.ndarray) -> list[st
     old = placed.copy()
     placed[fp_index("2.4")], placed[fp_index("2.5")] = left_end.crease, right_end.crease
     moved += ["2.4", "2.5"]
-    for upper, lower, share in INNER:
-        # along the lip where the registration put the pair, between the middle and its corner
-        corner, read = ("2.4", left_level) if share >= 0 else ("2.5", right_level)
-        carried = 0.5 * (old[fp_index(upper)] + old[fp_index(lower)]) @ left
-        along = (carried - level) / ((old[fp_index(corner)] @ left) - level) if share else 0.0
-        at = level + along * (read - level)
-        reading = first if share == 0.0 else lips.read(at, height_at(at), TRACK * width)
+    for upper, lower, corner in INNER:
+        if corner is None:
+            reading = first
+        else:  # as far along the read slit as the registration had the pair along its own
+            read = left_level if corner == "2.4" else right_level
+            carried = 0.5 * (old[fp_index(upper)] + old[fp_index(lower)]) @ left
+            at = level + (carried - level) / ((old[fp_index(corner)] @ left) - level) * (read - level)
+            reading = lips.read(at, height_at(at), TRACK * width)
         if reading is None or lips.on_own_lips(reading, old[fp_index(upper)], old[fp_index(lower)]):
             continue  # the registration's points are on their own lips: where on them, the skin does not say
         placed[fp_index(upper)], placed[fp_index(lower)] = reading.upper, reading.lower
