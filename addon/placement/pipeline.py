@@ -29,6 +29,7 @@ from .rigid import TEMPLATE_AXES, Similarity, align
 from .scipy_modules import cKDTree
 from .shape import fit_shape
 from .skull import head_frame, read_skull
+from .slit import read_slit
 from .subnasale import subnasale
 from .surface import Surface, area_samples, loose_parts, triangle_areas
 from .symmetry import MidPlane, surface_mid_plane, symmetrise
@@ -263,9 +264,15 @@ def _symmetric(template, placed, surface):
     placed[on_skin], _normals = surface.closest(placed[on_skin])
     placed = refine(placed, surface, TEMPLATE_AXES[2], plane)
     loops = boundary_loops(len(surface.vertices), surface.triangles)
+    moved = []
     if loops:
         skin, _normals = area_samples(surface.vertices, surface.triangles, FEATURE_SAMPLES)
-        refine_openings(placed, surface.vertices, surface.triangles, loops, TEMPLATE_AXES, skin)
+        moved = refine_openings(placed, surface.vertices, surface.triangles, loops, TEMPLATE_AXES, skin)
+    if "2.2" not in moved:  # no opening between the lips: where they meet, if they meet along a slit
+        outer = [fp_index(fp_id) for fp_id in read_slit(placed, surface, TEMPLATE_AXES)]
+        outer = [row for row in outer if template.fp_vertices[row] >= 0]
+        if outer:
+            placed[outer], _normals = surface.closest(placed[outer])
     reference = (template.fp_positions, TEMPLATE_AXES)
     placed = subnasale(surface.vertices, surface.triangles, placed, plane.normal)
     axes = head_frame(placed, plane.normal, TEMPLATE_AXES[1], *reference)

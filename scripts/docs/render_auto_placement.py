@@ -86,6 +86,29 @@ def place(path: Path, face_name: str | None, parts: tuple[str, ...]):
     return face, low, seconds
 
 
+def workbench_camera(scene, size: int, ortho_scale: float, clip_end: float) -> bpy.types.Object:
+    """Square `size`-pixel Workbench stills in the materials' colours through a new orthographic camera."""
+    scene.render.engine = "BLENDER_WORKBENCH"
+    scene.display.shading.light = "STUDIO"
+    scene.display.shading.color_type = "MATERIAL"
+    scene.render.resolution_x = scene.render.resolution_y = size
+    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    camera.data.type = "ORTHO"
+    camera.data.ortho_scale = ortho_scale
+    camera.data.clip_end = clip_end
+    return camera
+
+
+def aim(camera, location: Vector, direction: Vector, up: Vector) -> None:
+    """`camera` at `location` looking along -`direction`, the picture's up on the side of `up`."""
+    camera.location = location
+    camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
+    if (camera.matrix_world.to_3x3() @ Vector((0.0, 1.0, 0.0))).dot(up) < 0:
+        camera.rotation_euler.rotate_axis("Z", np.pi)
+
+
 def render(face, low: list[str], out: Path, name: str) -> None:
     scene = bpy.context.scene
     empties = face_data.fp_empties(face)
@@ -105,22 +128,9 @@ def render(face, low: list[str], out: Path, name: str) -> None:
     for fp_id, position in at.items():
         bpy.ops.mesh.primitive_uv_sphere_add(radius=MARK_SHARE * width, location=position, segments=12, ring_count=8)
         bpy.context.active_object.data.materials.append(marks["low" if fp_id in low else "sure"])
-    scene.render.engine = "BLENDER_WORKBENCH"
-    scene.display.shading.light = "STUDIO"
-    scene.display.shading.color_type = "MATERIAL"
-    scene.render.resolution_x = scene.render.resolution_y = SIZE
-    camera = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    camera.data.type = "ORTHO"
-    camera.data.ortho_scale = 1.6 * width
-    camera.data.clip_end = 100.0 * width
+    camera = workbench_camera(scene, SIZE, 1.6 * width, 100.0 * width)
     for view, direction in {"front": forward, "three_quarter": (forward + 0.8 * left).normalized()}.items():
-        camera.location = centre + direction * 5.0 * width
-        camera.rotation_euler = (-direction).to_track_quat("-Z", "Y").to_euler()
-        alignment = camera.matrix_world.to_3x3() @ Vector((0.0, 1.0, 0.0))
-        if alignment.dot(up) < 0:
-            camera.rotation_euler.rotate_axis("Z", np.pi)
+        aim(camera, centre + direction * 5.0 * width, direction, up)
         scene.render.filepath = str(out / f"auto_placement_{name}_{view}.png")
         bpy.ops.render.render(write_still=True)
         print(scene.render.filepath)
