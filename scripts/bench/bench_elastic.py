@@ -29,7 +29,8 @@ import numpy as np
 
 import addon
 from addon.blender import live
-from scripts.bench.bench import DEMO, SAMPLE, WARM_UP, _operator, _read, _select
+from scripts import convert
+from scripts.bench.bench import DEMO, SAMPLE, WARM_UP, _operator, _read
 
 
 def _append_sample(scene: bpy.types.Scene) -> bpy.types.Object:
@@ -65,7 +66,7 @@ def _move_to_new_scene(head, scene: bpy.types.Scene) -> bpy.types.Scene:
 
 def _set_up(head, level: int, stream: Path, engine: str) -> float:
     """Remove the sample's set-up, subdivide, set up, switch engine, import; returns the switch time."""
-    _select(head)
+    convert.select_only(head)
     coll = head.mpeg4_face.fp_collection
     _operator(bpy.ops.mpeg4.remove_face)
     coll.name = f"{head.name} FPs"  # a second copy's is "Head FPs.001": set-up finds it by the face's name
