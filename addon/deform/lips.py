@@ -58,11 +58,14 @@ def mouth_sides(
     corners, where the two lips are one, belongs to neither). `neutral` is the (84, 3) FP rows in FP_IDS
     order (mesh coordinates).
 
-    With the mesh's `triangles` (K, 3), the box also takes the crease behind the corners, BOX_MARGIN deep: where the
-    lips meet behind the corner FPs their masks say both (ICT's inner corners: 1/2 each), so there each vertex of the
-    lips (the masks' sum above 1/2) goes by the way its skin faces at rest: facing down, the upper lip's underside;
-    facing up, the lower lip's top. Left out, that crease was only carried with the lips beside it, and in the smile
-    the pushes of both lips sheared it through itself (ICT, demo frame 121: 10 of its 12 crossing pairs).
+    With the mesh's `triangles` (K, 3), the box also takes the crease behind the corners, where the lips' meeting line
+    runs on into the mouth: BOX_MARGIN deep, and within BOX_MARGIN in height of that line (straight between the
+    SEAM_PAIRS' midpoints, as at rest). Where the lips meet behind the corner FPs their masks say both (ICT's inner
+    corners: 1/2 each), so there each vertex of the lips (the masks' sum above 1/2) goes by the way its skin faces at
+    rest: facing down, the upper lip's underside; facing up, the lower lip's top. Left out, that crease was only
+    carried with the lips beside it, and in the smile the pushes of both lips sheared it through itself (ICT, demo
+    frame 121: 10 of its 12 crossing pairs). Without the band in height, the scan's inner lips behind its corners' depth
+    (its lip line rises 5 mm over the corners 10 mm in) were taken as well, and crossed the skin carried beside them.
     """
     face = np.asarray(rest, dtype=np.float64) @ np.asarray(axes).T
     fps = np.asarray(neutral, dtype=np.float64) @ np.asarray(axes).T
@@ -76,7 +79,10 @@ def mouth_sides(
     lower = front & (np.asarray(lower_mask) > 0.5)
     upper = front & (np.asarray(upper_mask) > 0.5) & ~lower
     if triangles is not None:
-        crease = box & ~front & (face[:, 2] >= back - margin)
+        line = np.array([0.5 * (fps[fp_index(u)] + fps[fp_index(b)]) for u, b in SEAM_PAIRS])
+        line = line[np.argsort(line[:, 0])]
+        near = np.abs(face[:, 1] - np.interp(face[:, 0], line[:, 0], line[:, 1])) <= margin
+        crease = box & ~front & (face[:, 2] >= back - margin) & near
         crease &= np.asarray(upper_mask) + np.asarray(lower_mask) > 0.5
         facing = vertex_normals(face, np.asarray(triangles, np.intp))[:, 1]
         upper |= crease & (facing < 0.0)
