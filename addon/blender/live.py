@@ -170,12 +170,14 @@ def _lip_guard(face, state: _State) -> tuple[LipGuard | None, np.ndarray | None]
     if not np.isfinite(neutral[MOUTH_BOX_ROWS]).all():
         return None, None
     axes = face_data.face_axes(face)
-    upper, lower = mouth_sides(binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral, axes=axes)
+    triangles = face_data.mesh_fans(face.data)[0]
+    upper, lower = mouth_sides(
+        binding.rest_vertices, masks["upper_lip"], masks["lower_lip"], neutral, axes=axes, triangles=triangles
+    )
     if state.parts is not None:  # teeth and tongue in the mouth are no lip
         upper[state.parts.all_vertices] = lower[state.parts.all_vertices] = False
     if not (upper.any() and lower.any()):
         return None, None
-    triangles = face_data.mesh_fans(face.data)[0]
     inputs = (binding.rest_vertices, binding.control_rest, np.array(control_ids), triangles, upper, lower, axes)
     made = state.guard_made
     if made is not None and binding_store.same_inputs(made[0], inputs):

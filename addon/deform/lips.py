@@ -49,6 +49,7 @@ def mouth_sides(
     neutral: np.ndarray,
     *,
     axes: np.ndarray = BLENDER_FACE_AXES,
+    triangles: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(N,) upper-lip and lower-lip vertices: the mask's side (weight above 1/2) within the mouth box.
 
@@ -56,6 +57,15 @@ def mouth_sides(
     BOX_MARGIN more above and below, and reaches back to the corners (the skin inside the mouth behind the
     corners, where the two lips are one, belongs to neither). `neutral` is the (84, 3) FP rows in FP_IDS
     order (mesh coordinates).
+
+    With the mesh's `triangles` (K, 3), the box also takes the crease behind the corners, where the lips' meeting line
+    runs on into the mouth: BOX_MARGIN deep, and within BOX_MARGIN in height of that line (straight between the
+    SEAM_PAIRS' midpoints, as at rest). Where the lips meet behind the corner FPs their masks say both (ICT's inner
+    corners: 1/2 each), so there each vertex of the lips (the masks' sum above 1/2) goes by the way its skin faces at
+    rest: facing down, the upper lip's underside; facing up, the lower lip's top. Left out, that crease was only
+    carried with the lips beside it, and in the smile the pushes of both lips sheared it through itself (ICT, demo
+    frame 121: 10 of its 12 crossing pairs). Without the band in height, the scan's inner lips behind its corners' depth
+    (its lip line rises 5 mm over the corners 10 mm in) were taken as well, and crossed the skin carried beside them.
     """
     face = np.asarray(rest, dtype=np.float64) @ np.asarray(axes).T
     fps = np.asarray(neutral, dtype=np.float64) @ np.asarray(axes).T
@@ -65,9 +75,18 @@ def mouth_sides(
     top, bottom = fps[fp_index("8.1"), 1] + margin, fps[fp_index("8.2"), 1] - margin
     back = min(fps[fp_index("2.4"), 2], fps[fp_index("2.5"), 2])  # the lips, not the mouth's inside behind them
     box = (np.abs(face[:, 0] - mid_x) <= half_width) & (face[:, 1] <= top) & (face[:, 1] >= bottom)
-    box &= face[:, 2] >= back
-    lower = box & (np.asarray(lower_mask) > 0.5)
-    upper = box & (np.asarray(upper_mask) > 0.5) & ~lower
+    front = box & (face[:, 2] >= back)
+    lower = front & (np.asarray(lower_mask) > 0.5)
+    upper = front & (np.asarray(upper_mask) > 0.5) & ~lower
+    if triangles is not None:
+        line = np.array([0.5 * (fps[fp_index(u)] + fps[fp_index(b)]) for u, b in SEAM_PAIRS])
+        line = line[np.argsort(line[:, 0])]
+        near = np.abs(face[:, 1] - np.interp(face[:, 0], line[:, 0], line[:, 1])) <= margin
+        crease = box & ~front & (face[:, 2] >= back - margin) & near
+        crease &= np.asarray(upper_mask) + np.asarray(lower_mask) > 0.5
+        facing = vertex_normals(face, np.asarray(triangles, np.intp))[:, 1]
+        upper |= crease & (facing < 0.0)
+        lower |= crease & (facing > 0.0)
     return upper, lower
 
 

@@ -65,7 +65,8 @@ def random_frames(n: int, seed: int, dense: bool = False) -> np.ndarray:
 def sample_lips(face: evaluate.SampleFace, neutral: np.ndarray):
     """(lip triangles, upper, lower, guard) of the sample head."""
     triangles = face.fans[0]
-    upper, lower = mouth_sides(face.rest, face.vertex_masks["upper_lip"], face.vertex_masks["lower_lip"], neutral)
+    masks = face.vertex_masks
+    upper, lower = mouth_sides(face.rest, masks["upper_lip"], masks["lower_lip"], neutral, triangles=triangles)
     return triangles, upper, lower, bind_lip_guard(face.rest, face.control_rest, face.fp_ids, triangles, upper, lower)
 
 
@@ -115,7 +116,7 @@ def time_guard(level: int, neutral: np.ndarray) -> None:
     rest = evaluate.read_vertices(head.data).astype(np.float64)
     masks = group_weights(head, MASK_NAMES)
     triangles = mesh_fans(head.data)[0]
-    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
+    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral, triangles=triangles)
     ids = control_fp_ids(FP_IDS)
     control = neutral[[fp_index(fp_id) for fp_id in ids]]
     guard = bind_lip_guard(rest, control, ids, triangles, upper, lower)

@@ -48,7 +48,7 @@ def core_result(head, stream_path, frame_index):
     driving = hold_lids(ids, points[[fp_index(i) for i in ids]], rest_control)
     out = evaluate(binding, driving)
     triangles = face_data.mesh_fans(head.data)[0]
-    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
+    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral, triangles=triangles)
     guard = bind_lip_guard(rest, rest_control, tuple(ids), triangles, upper, lower)
     guard_lips(guard, out, driving)
     centres = fap_io.eye_pivots(head)

@@ -26,7 +26,7 @@ def sample():
     )  # fmt: skip
     binding = bound.binding
     triangles = mesh_fans(head.data)[0]
-    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral)
+    upper, lower = mouth_sides(rest, masks["upper_lip"], masks["lower_lip"], neutral, triangles=triangles)
     guard = bind_lip_guard(rest, neutral[rows], ids, triangles, upper, lower)
     return rest, neutral, fapu, rows, binding, triangles, upper, lower, guard
 

@@ -4,8 +4,10 @@ import numpy as np
 import pytest
 
 from addon.deform.folds import count_inverted
-from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration, press_apart
+from addon.deform.lips import bind_lip_guard, guard_lips, lip_penetration, mouth_sides, press_apart
 from addon.deform.overlaps import crossing_pairs, crossings
+from addon.mpeg4.feature_points import FP_IDS as ALL_FP_IDS
+from addon.mpeg4.feature_points import fp_index
 
 FACE = np.eye(3)  # the test mesh is built in the face frame
 XS = np.linspace(-0.025, 0.025, 11)  # 5 mm apart, mirror-symmetric about x = 0
@@ -294,3 +296,44 @@ def test_lips_overlapping_at_rest_by_less_than_a_touch_are_parted_as_they_slide(
     assert press_apart(guard, out)
     assert crossings(out, triangles, None, at_rest) == 0
     assert depth(out, triangles, upper, lower) <= 1e-12
+
+
+def cornered_mouth():
+    """The hand-made mouth with its corners' FPs 1 mm in front of its back row (z = 0): that row is the crease behind
+    the corners where the lips are one (both masks 1/2, as ICT's inner mouth corners), the upper sheet's row facing
+    down onto the lower sheet's, facing up. Rest, triangles, the masks and the (84, 3) neutral FPs (8.1, 8.2 5 mm
+    above and below the lips)."""
+    rest, triangles, upper, lower, fps = mouth()
+    fps = fps + [0.0, 0.0, -0.003]
+    neutral = np.zeros((len(ALL_FP_IDS), 3))
+    for fp_id, point in zip(FP_IDS, fps, strict=True):
+        neutral[fp_index(fp_id)] = point
+    neutral[fp_index("8.1")], neutral[fp_index("8.2")] = [0.0, 0.005, 0.001], [0.0, -0.005, 0.001]
+    crease = rest[:, 2] < fps[0, 2]
+    masks = [np.where(crease, 0.5, side.astype(float)) for side in (upper, lower)]
+    return rest, triangles, masks, fps, neutral, crease
+
+
+def test_the_crease_behind_the_mouth_corners_is_guarded_by_the_way_its_skin_faces():
+    """Behind the corners' FPs the box once ended (`mouth_sides`): the crease there, whose masks say both lips, was
+    only carried, and where the deformer put its lower wall up through the upper one (ICT's inner corners in the
+    smile: 12 crossing pairs, 10 of them made by the carry shearing the crease) nothing parted them. Now the skin up
+    to the box's margin behind the corners is in, its side the way it faces: the upper wall faces down, the lower up."""
+    rest, triangles, masks, fps, neutral, crease = cornered_mouth()
+    upper, lower = mouth_sides(rest, *masks, neutral, axes=FACE, triangles=triangles)
+    top = np.arange(len(rest)) < len(rest) // 2
+    np.testing.assert_array_equal(upper, top)
+    np.testing.assert_array_equal(lower, ~top)
+    old_upper, old_lower = mouth_sides(rest, *masks, neutral, axes=FACE)
+    np.testing.assert_array_equal(old_upper | old_lower, ~crease)  # without the faces: the crease is in neither
+    deformed = rest.copy()
+    wall = ~top & crease
+    deformed[wall] += [0.0, 0.0015, 0.001] * np.cos(np.pi * rest[wall, :1] / 0.05) ** 2  # up through the upper wall
+    assert crossings(deformed, triangles) > 0
+    for sides, crossed in (((old_upper, old_lower), True), ((upper, lower), False)):
+        guard = bind_lip_guard(rest, fps, FP_IDS, triangles, *sides, axes=FACE)
+        out = deformed.copy()
+        guard_lips(guard, out, fps)
+        assert (crossings(out, triangles) > 0) == crossed
+    assert depth(out, triangles, upper, lower) <= 1e-12
+    assert count_inverted(rest, out, triangles) == 0
