@@ -289,9 +289,11 @@ def read_slit(placed: np.ndarray, surface: Surface, axes: np.ndarray) -> list[st
         placed[fp_index(upper)], placed[fp_index(lower)] = reading.upper, reading.lower
         moved += [upper, lower]
     for fp_id, (inner, lip) in OUTER.items():
+        if inner not in moved:  # its lip's inner point stayed: so does it, and no plane need be read for it
+            continue
         point = old[fp_index(fp_id)]
         reading = lips.read(float(point @ left), height_at(float(point @ left)), TRACK * width)
-        if inner in moved and reading is not None and reading.slit and not lips.on_lip(reading, point, lip):
+        if reading is not None and reading.slit and not lips.on_lip(reading, point, lip):
             placed[fp_index(fp_id)] = point + placed[fp_index(inner)] - old[fp_index(inner)]
             moved.append(fp_id)
     for fp_id, inner in OUTER_CORNERS.items():
