@@ -33,6 +33,8 @@ phonetically-tied model) and the quantised mixture weights (`sendump`).
 
 from __future__ import annotations
 
+import functools
+import operator
 import struct
 from dataclasses import dataclass
 from pathlib import Path
@@ -361,9 +363,8 @@ def estimate(pieces: list[tuple[np.ndarray, np.ndarray, np.ndarray]], model: Mod
     model as it is). None when the pieces have too few frames or their statistics are singular."""
     if sum(len(feats) for feats, _, _ in pieces) < MIN_FRAMES:
         return None
-    total = sum(
-        (counts(feats, np.asarray(s), np.asarray(c), model) for feats, s, c in pieces[1:]),
-        counts(pieces[0][0], np.asarray(pieces[0][1]), np.asarray(pieces[0][2]), model),
+    total = functools.reduce(
+        operator.add, (counts(feats, np.asarray(s), np.asarray(c), model) for feats, s, c in pieces)
     )
     try:
         w = solve(*mean_statistics(total, model))
