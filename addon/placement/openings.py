@@ -18,13 +18,13 @@ from ..deform.face_checks import joined_over_skin
 from ..mpeg4.feature_points import fp_index
 from .nicp import edges_of
 from .scipy_modules import cKDTree, csr_matrix, dijkstra
+from .section import front, section
 from .surface import loose_parts
 
 REACH = 0.5  # an opening's centre lies within this share of the carried corners' distance of their midpoint
 SIZE = (0.5, 2.0)  # and its width along the face's left is within these shares of that distance
 SEALED_BAND = 0.25  # a sealed mouth's lips are looked for this share of its width above and below its opening
 NOTCH_BANDS = 40  # the section seen from in front of the lips in bands of this share of the lips' height
-NOTCH_SAMPLES = 64  # at most this many samples along each triangle's cut
 VISIBLE_SHARE = 0.05  # the neighbourhood, against the opening's width, in which skin in front hides its loop
 
 # (outer or left corner, inner or right corner, [(upper FP, lower FP, share of the way from the middle to
@@ -102,47 +102,21 @@ def refine_openings(
 
 def _notch(segments: np.ndarray, centre: np.ndarray, axes: np.ndarray, band: float) -> np.ndarray | None:
     """Where lips that meet begin to touch, seen from the front: the section's `segments` (S, 2, 3: each
-    triangle's cut by the plane) sampled along their length, the most forward sample per NOTCH_BANDS-th of
-    `band` of height (what a viewer in front sees), and of those between the most forward one above
-    `centre` (the upper lip's front) and the most forward one below it (the lower lip's) the one furthest
-    back: the bottom of the groove between the lips. None when either lip has no front."""
-    step = band / NOTCH_BANDS
-    rise = np.abs((segments[:, 1] - segments[:, 0]) @ axes[1])
-    count = int(np.clip(np.ceil(rise.max(initial=0.0) / step) + 2, 2, NOTCH_SAMPLES))  # each band is reached
-    t = np.linspace(0.0, 1.0, count)[None, :, None]
-    samples = (segments[:, :1] + t * (segments[:, 1:] - segments[:, :1])).reshape(-1, 3)
-    height = (samples - centre) @ axes[1]
-    depth = (samples - centre) @ axes[2]
-    keep = (np.abs(height) < band) & (depth > 0)
-    samples, height, depth = samples[keep], height[keep], depth[keep]
-    bins = np.floor(height / step).astype(np.int64)
-    order = np.lexsort((-depth, bins))
-    front = order[np.r_[True, bins[order][1:] != bins[order][:-1]]]  # by height, the most forward of each
-    above, below = front[height[front] > 0], front[height[front] <= 0]
-    if not len(above) or not len(below):
+    triangle's cut by the plane) seen from in front (`section.front`: per NOTCH_BANDS-th of `band` of height
+    the most forward sample), in front of `centre`, and of those between the most forward one above `centre`
+    (the upper lip's front) and the most forward one below it (the lower lip's) the one furthest back: the
+    bottom of the groove between the lips. None when either lip has no front."""
+    points, height, depth = front(segments, axes[1], axes[2], float(centre @ axes[1]), band, band / NOTCH_BANDS)
+    depth = depth - centre @ axes[2]
+    keep = depth > 0
+    points, height, depth = points[keep], height[keep], depth[keep]
+    above, below = height > 0, height <= 0
+    if not above.any() or not below.any():
         return None
-    low = height[below[np.argmax(depth[below])]]
-    high = height[above[np.argmax(depth[above])]]
-    between = front[(height[front] >= low) & (height[front] <= high)]
-    return samples[between[np.argmin(depth[between])]]
-
-
-def _cuts(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarray, level: float) -> np.ndarray:
-    """The segments (S, 2, 3) in which the plane normal . x = level cuts the triangles that cross it."""
-    side = vertices @ normal - level
-    d = side[triangles]
-    crossed = (d.min(axis=1) < 0) & (d.max(axis=1) > 0)
-    triangles, d = triangles[crossed], d[crossed]
-    ends = []
-    for i, j in ((0, 1), (1, 2), (2, 0)):
-        a, b = d[:, i], d[:, j]
-        t = np.where(a != b, a / np.where(a != b, a - b, 1.0), 0.0)
-        cut = (a * b <= 0) & (a != b)
-        point = vertices[triangles[:, i]] + t[:, None] * (vertices[triangles[:, j]] - vertices[triangles[:, i]])
-        ends.append((cut, point))
-    first = np.where(ends[0][0][:, None], ends[0][1], ends[1][1])
-    second = np.where(ends[2][0][:, None], ends[2][1], ends[1][1])
-    return np.stack([first, second], axis=1)
+    low = height[below][np.argmax(depth[below])]
+    high = height[above][np.argmax(depth[above])]
+    between = (height >= low) & (height <= high)
+    return points[between][np.argmin(depth[between])]
 
 
 class _Sealed:
@@ -172,26 +146,21 @@ class _Sealed:
         """The upper and lower lip's points where the lips meet in the plane left . x = `level`, from the
         opening's upper and lower edge there (`top`, `bottom`); those unchanged when no notch is found."""
         left, up, forward = axes
-        a = self.vertices[self.edges[:, 0]] @ left - level
-        b = self.vertices[self.edges[:, 1]] @ left - level
-        crossing = (a * b <= 0) & (a != b)
-        t = (a[crossing] / (a[crossing] - b[crossing]))[:, None]
-        ends = self.edges[crossing]
-        section = self.vertices[ends[:, 0]] + t * (self.vertices[ends[:, 1]] - self.vertices[ends[:, 0]])
+        crossings, ends, segments = section(self.vertices, self.triangles, left, level)
         centre = 0.5 * (top + bottom)
         band = SEALED_BAND * self.reach
-        near = ((section - centre) @ forward > 0) & (np.abs((section - centre) @ up) < band)
-        notch = _notch(_cuts(self.vertices, self.triangles, left, level), centre, axes, band)
+        near = ((crossings - centre) @ forward > 0) & (np.abs((crossings - centre) @ up) < band)
+        notch = _notch(crossings[segments], centre, axes, band)
         if notch is None or not near.any():
             return top, bottom
-        lips = self._nearer_lip(ends[near], t[near, 0], top, bottom)
-        section = section[near]
+        points, ends = crossings[near], ends[near]
+        lips = self._nearer_lip(points, ends, top, bottom)
         found = []
         for lip in (0, 1):
             own = np.flatnonzero(lips == lip)
             if not len(own):
                 return top, bottom
-            found.append(section[own[np.argmin(np.linalg.norm(section[own] - notch, axis=1))]])
+            found.append(points[own[np.argmin(np.linalg.norm(points[own] - notch, axis=1))]])
         # lips that are one surface where they meet (sealed in front) part only at the opening behind them:
         # their points stay on its edge, where Set Up Face can open the mouth; judged as Set Up Face judges
         # it, from the vertices nearest the two points
@@ -200,13 +169,14 @@ class _Sealed:
             return top, bottom
         return found[0], found[1]
 
-    def _nearer_lip(self, ends: np.ndarray, t: np.ndarray, top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
-        """0 for the section points (edges `ends` at `t`) nearer the opening's upper edge over the skin, 1
-        for those nearer its lower edge."""
+    def _nearer_lip(self, points: np.ndarray, ends: np.ndarray, top: np.ndarray, bottom: np.ndarray) -> np.ndarray:
+        """0 for the section `points` (on edges `ends`) nearer the opening's upper edge over the skin (through
+        their edge's nearer end), 1 for those nearer its lower edge."""
         ring = self.vertices[self.loop_vertices]
         sources = [self.loop_vertices[np.argmin(np.linalg.norm(ring - p, axis=1))] for p in (top, bottom)]
         paths = dijkstra(self.graph, directed=False, indices=sources, limit=3.0 * self.reach)
-        nearest = np.where(t < 0.5, ends[:, 0], ends[:, 1])
+        start, end = (np.linalg.norm(points - self.vertices[ends[:, k]], axis=1) for k in (0, 1))
+        nearest = np.where(start < end, ends[:, 0], ends[:, 1])
         return np.argmin(paths[:, nearest], axis=0)
 
 

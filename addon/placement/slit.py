@@ -35,12 +35,12 @@ import numpy as np
 from ..mpeg4.feature_points import fp_index
 from .nicp import edges_of
 from .scipy_modules import csr_matrix, dijkstra
+from .section import front, section
 from .surface import NEAR_VERTICES, Surface, closest_on_triangles
 
 BAND = 0.25  # the crease is looked for this share of the carried mouth width above and below the guess
 TRACK = 0.1  # in the next plane out, this share of the width above and below the last crease
 BANDS = 40  # the seen profile in bands of this share of the looked-at height
-SAMPLES = 64  # at most this many samples along each triangle's cut
 STEPS = 40  # planes out from the middle: a step of the carried mouth width over this
 HALVINGS = 6  # the corner's plane found to a step / 2**HALVINGS
 SLIT_DETOUR = 2.0  # a slit's walls are joined along the section only by a way this many times their distance
@@ -62,51 +62,15 @@ OUTER = {
 OUTER_CORNERS = {"8.3": "2.4", "8.4": "2.5"}
 
 
-def _cut(vertices: np.ndarray, triangles: np.ndarray, left: np.ndarray, level: float):
-    """The plane left . x = level through the mesh: the crossings (C, 3) where it cuts edges, each crossing's
-    edge (C, 2), and the section's segments as pairs of crossing indices (S, 2), one per cut triangle."""
-    side = vertices @ left - level
-    d = side[triangles]
-    # a corner on the plane counts on its positive side, so each cut triangle has exactly two crossed edges
-    cut = (d.min(axis=1) < 0) & (d.max(axis=1) >= 0)
-    triangles, negative = triangles[cut], d[cut] < 0
-    if not len(triangles):
-        return np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros((0, 2), np.int64)
-    crossed = [negative[:, i] != negative[:, j] for i, j in ((0, 1), (1, 2), (2, 0))]
-    edge = [np.sort(triangles[:, [i, j]], axis=1) for i, j in ((0, 1), (1, 2), (2, 0))]
-    first = np.where(crossed[0][:, None], edge[0], edge[1])
-    second = np.where(crossed[2][:, None], edge[2], edge[1])
-    ends = np.concatenate([first, second])
-    edges, index = np.unique(ends, axis=0, return_inverse=True)
-    a, b = side[edges[:, 0]], side[edges[:, 1]]
-    t = a / (a - b)
-    crossings = vertices[edges[:, 0]] + t[:, None] * (vertices[edges[:, 1]] - vertices[edges[:, 0]])
-    return crossings, edges, index.reshape(2, -1).T
-
-
 def _seen(crossings: np.ndarray, segments: np.ndarray, centre: float, half: float, axes: np.ndarray):
     """The section seen from in front within `half` of height `centre` (along up): per band (BANDS of
-    2 * half) the most forward sample of the segments; returns (points (B, 3), heights (B,), depths (B,))
-    in order of height."""
-    up, forward = axes[1], axes[2]
-    step = 2.0 * half / BANDS
-    a, b = crossings[segments[:, 0]], crossings[segments[:, 1]]
-    rise = np.abs((b - a) @ up)
-    count = int(np.clip(np.ceil(rise.max(initial=0.0) / step) + 2, 2, SAMPLES))
-    t = np.linspace(0.0, 1.0, count)[None, :, None]
-    samples = (a[:, None] + t * (b - a)[:, None]).reshape(-1, 3)
-    height = samples @ up - centre
-    keep = np.abs(height) < half
-    samples, height = samples[keep], height[keep]
-    depth = samples @ forward
+    2 * half) the most forward sample of the segments; returns (points (B, 3), depths (B,)) in order of
+    height."""
+    points, _heights, depths = front(crossings[segments], axes[1], axes[2], centre, half, 2.0 * half / BANDS)
     # what lies further behind the most forward than the looked-at height is not the lips (a hole in the
     # section shows the head's far side)
-    keep = depth >= depth.max(initial=-np.inf) - 2.0 * half
-    samples, height, depth = samples[keep], height[keep], depth[keep]
-    bins = np.floor((height + half) / step).astype(np.int64)
-    order = np.lexsort((-depth, bins))
-    first = order[np.r_[True, bins[order][1:] != bins[order][:-1]]] if len(order) else order
-    return samples[first], samples[first] @ up, depth[first]
+    keep = depths >= depths.max(initial=-np.inf) - 2.0 * half
+    return points[keep], depths[keep]
 
 
 def crease(points: np.ndarray, depths: np.ndarray):
@@ -158,10 +122,10 @@ class Lips:
     def read(self, level: float, centre: float, half: float):
         """In the plane left . x = `level`, looking within `half` of height `centre`: (upper lip's point,
         lower lip's point, crease, whether they are a slit's walls), or None when no crease is seen."""
-        crossings, edges, segments = _cut(self.vertices, self.triangles, self.axes[0], level)
+        crossings, edges, segments = section(self.vertices, self.triangles, self.axes[0], level)
         if not len(segments):
             return None
-        points, _heights, depths = _seen(crossings, segments, centre, half, self.axes)
+        points, depths = _seen(crossings, segments, centre, half, self.axes)
         found = crease(points, depths)
         if found is None:
             return None

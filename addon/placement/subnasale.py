@@ -15,6 +15,7 @@ import numpy as np
 
 from ..mpeg4.feature_points import fp_index
 from .scipy_modules import coo_matrix, dijkstra
+from .section import section
 from .skull import ear_centre
 
 
@@ -22,26 +23,13 @@ def mid_line_chain(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarr
     """Points (K, 3) of the section of the mesh by the plane normal . x = offset, followed through the
     triangles from the crossing nearest `start` to the one nearest `end` (shortest path); empty when the
     plane misses the mesh or the two are not joined."""
-    sides = np.stack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]], axis=1)  # (T, 3, 2)
-    ends = np.sort(sides.reshape(-1, 2), axis=1)
-    codes, side_edge = np.unique(ends[:, 0] * len(vertices) + ends[:, 1], return_inverse=True)
-    keys = np.stack([codes // len(vertices), codes % len(vertices)], axis=1)
-    side_edge = side_edge.reshape(-1, 3)
-    a = vertices[keys[:, 0]] @ normal - offset
-    b = vertices[keys[:, 1]] @ normal - offset
-    crosses = (a * b < 0) | ((a == 0) & (b != 0))
-    if not crosses.any():
+    points, _edges, segments = section(vertices, triangles, normal, offset)
+    if not len(points):
         return np.zeros((0, 3))
-    t = np.where(crosses, a / np.where(a != b, a - b, 1.0), 0.0)
-    points = vertices[keys[:, 0]] + t[:, None] * (vertices[keys[:, 1]] - vertices[keys[:, 0]])
-    crossed = crosses[side_edge]  # (T, 3)
-    two = crossed.sum(axis=1) == 2
-    pairs = np.sort(np.where(crossed[two], side_edge[two], -1), axis=1)[:, 1:]  # the two crossed sides
-    length = np.linalg.norm(points[pairs[:, 0]] - points[pairs[:, 1]], axis=1) + 1e-12
-    graph = coo_matrix((length, (pairs[:, 0], pairs[:, 1])), shape=(len(keys), len(keys))).tocsr()
-    index = np.flatnonzero(crosses)
-    first = index[np.argmin(np.linalg.norm(points[index] - start, axis=1))]
-    last = index[np.argmin(np.linalg.norm(points[index] - end, axis=1))]
+    length = np.linalg.norm(points[segments[:, 0]] - points[segments[:, 1]], axis=1) + 1e-12
+    graph = coo_matrix((length, (segments[:, 0], segments[:, 1])), shape=(len(points), len(points))).tocsr()
+    first = np.argmin(np.linalg.norm(points - start, axis=1))
+    last = np.argmin(np.linalg.norm(points - end, axis=1))
     distance, previous = dijkstra(graph, directed=False, indices=first, return_predecessors=True)
     if not np.isfinite(distance[last]):
         return np.zeros((0, 3))

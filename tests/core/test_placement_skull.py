@@ -120,16 +120,6 @@ def test_a_fit_turned_about_up_faces_the_other_way_about_the_same_centre():
     assert np.isclose(np.linalg.det(turned.rotation), 1.0) and turned.scale == 2.0
 
 
-def test_a_plane_cuts_a_triangle_in_one_segment():
-    from addon.placement.openings import _cuts
-
-    vertices = np.array([[-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 2.0, 0.0], [3.0, 0.0, 0.0]])
-    triangles = np.array([[0, 1, 2], [1, 3, 2]])  # the second lies wholly on the plane's far side
-    cuts = _cuts(vertices, triangles, np.array([1.0, 0.0, 0.0]), 0.5)
-    assert cuts.shape == (1, 2, 3)
-    assert np.allclose(sorted(cuts[0].tolist()), [[0.5, 0.0, 0.0], [0.5, 1.5, 0.0]])
-
-
 def test_the_notch_between_lips_that_meet_is_the_bottom_of_their_groove():
     from addon.placement.openings import _notch
 
