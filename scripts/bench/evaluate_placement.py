@@ -1,6 +1,6 @@
 """Accuracy of automatic feature point placement against known FPs.
 
-    .venv/bin/python -m scripts.bench.evaluate_placement --heads DIR [--json OUT] [--template NPZ]
+    .venv/bin/python -m scripts.bench.evaluate_placement --heads DIR [--json OUT] [--template NPZ] [--dump DIR]
 
 Every .blend in DIR holds a face mesh named Head whose 84 FP empties are the truth (the development heads
 of `scripts.bench.placement_heads`). Its meshes are read as the operator reads them, placement runs on them
@@ -10,7 +10,8 @@ the top of the spine, is scored against its definition (`landmarks.spine_top`: t
 ear lobes), not against MakeHuman's head joint marker, which the sample places elsewhere. The skull points
 11.1-11.6 are scored against their definitions read off the truth's own mesh (`defined_truth`), as placement
 reads them. `--template` places
-with another template file (one built with `build_placement_template --leave-out`, docs/auto_placement.md).
+with another template file (one built with `build_placement_template --leave-out`, docs/auto_placement.md);
+`--dump DIR` saves each head's mesh, truth and placement for `scripts.bench.placement_readings`.
 Prints the mean, 95th percentile and maximum error per FP and overall, the time each head took, which FPs
 hold the errors above the overall 95th percentile (what the p95 is made of), and each FP's mean signed error
 along the face's own left, up and forward axes (a slide shows as one large component on every head).
@@ -42,7 +43,7 @@ HEAD = "Head"
 LARGE_ERROR = 3.0  # mm: the issue's 95th percentile target; a point this far off should be listed
 
 
-def measure(path: Path) -> dict:
+def measure(path: Path, dump: Path | None = None) -> dict:
     bpy.ops.wm.open_mainfile(filepath=str(path))
     face = bpy.data.objects[HEAD]
     for ob in bpy.context.view_layer.objects:
@@ -60,6 +61,17 @@ def measure(path: Path) -> dict:
     factor = float(face.get(BENCH_SCALE, 1.0))
     errors = np.linalg.norm(placement.positions - truth, axis=1) * 1000.0 / factor
     offsets = (placement.positions - truth) @ placement.axes.T * 1000.0 / factor
+    if dump is not None:  # what `placement_readings` reads the skin's features off
+        dump.mkdir(parents=True, exist_ok=True)
+        np.savez(
+            dump / f"{path.stem}.npz",
+            vertices=vertices,
+            triangles=triangles,
+            truth=truth,
+            placed=placement.positions,
+            axes=placement.axes,
+            factor=factor,
+        )
     return {
         "head": path.name,
         "vertices": int(len(vertices)),
@@ -111,6 +123,7 @@ def main() -> int:
     parser.add_argument("--heads", type=Path, required=True, help="folder of .blend heads with truth FPs")
     parser.add_argument("--json", type=Path, help="write the figures here")
     parser.add_argument("--template", type=Path, help="place with this template .npz instead of the shipped one")
+    parser.add_argument("--dump", type=Path, help="save each head's mesh, truth and placement here (.npz)")
     args = parser.parse_args()
     if args.template is not None:
         template.TEMPLATE_FILE = args.template
@@ -121,7 +134,7 @@ def main() -> int:
         return 1
     addon.register()
     try:
-        heads = [measure(path) for path in paths]
+        heads = [measure(path, args.dump) for path in paths]
     finally:
         addon.unregister()
     errors = np.array([head["errors_mm"] for head in heads])  # (heads, 84)
