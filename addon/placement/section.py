@@ -7,6 +7,8 @@ crossed edges, a triangle touching the plane at a corner from the positive side 
 from the negative side gives a segment of no length at that corner; a vertex on the plane belongs to each
 section once, as the crossing of the edges from it to the negative side).
 
+`chain_graph`: the crossings joined by the segments, for shortest ways along the section.
+
 `front`: the section seen from in front: its segments sampled along their length and, per band of height, the
 most forward sample (what a viewer in front of the face sees). The bands' edges lie on the looked-at height
 `centre` (the reading chosen: the bands are counted from there, up and down, so the two halves of the looked-at
@@ -16,6 +18,8 @@ height are whole bands each).
 from __future__ import annotations
 
 import numpy as np
+
+from .scipy_modules import csr_matrix
 
 SAMPLES = 64  # at most this many samples along each segment
 
@@ -38,6 +42,14 @@ def section(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarray, lev
     t = a / (a - b)
     crossings = vertices[edges[:, 0]] + t[:, None] * (vertices[edges[:, 1]] - vertices[edges[:, 0]])
     return crossings, edges, index.reshape(2, -1).T
+
+
+def chain_graph(crossings: np.ndarray, segments: np.ndarray):
+    """The section as a sparse graph (C, C) for shortest ways along it: crossings joined by their segments,
+    each weighted by its length (a segment of no length, a corner on the plane, by 1e-12 so that it still joins)."""
+    length = np.linalg.norm(crossings[segments[:, 0]] - crossings[segments[:, 1]], axis=1) + 1e-12
+    n = len(crossings)
+    return csr_matrix((length, (segments[:, 0], segments[:, 1])), shape=(n, n))
 
 
 def front(segments: np.ndarray, up: np.ndarray, forward: np.ndarray, centre: float, half: float, step: float):

@@ -35,7 +35,7 @@ import numpy as np
 from ..mpeg4.feature_points import fp_index
 from .nicp import edges_of
 from .scipy_modules import csr_matrix, dijkstra
-from .section import front, section
+from .section import chain_graph, front, section
 from .surface import NEAR_VERTICES, Surface, closest_on_triangles
 
 BAND = 0.25  # the crease is looked for this share of the carried mouth width above and below the guess
@@ -183,10 +183,7 @@ class Lips:
         """The shortest way from crossing `a` to `b` along the section's segments (inf when none)."""
         if a == b:
             return 0.0
-        length = np.linalg.norm(crossings[segments[:, 0]] - crossings[segments[:, 1]], axis=1)
-        n = len(crossings)
-        graph = csr_matrix((length + 1e-12, (segments[:, 0], segments[:, 1])), shape=(n, n))
-        return float(dijkstra(graph, directed=False, indices=a)[b])
+        return float(dijkstra(chain_graph(crossings, segments), directed=False, indices=a)[b])
 
 
 def _continues(reading: Reading | None, last: Reading, reach: float) -> bool:

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..mpeg4.feature_points import fp_index
-from .scipy_modules import coo_matrix, dijkstra
-from .section import section
+from .scipy_modules import dijkstra
+from .section import chain_graph, section
 from .skull import ear_centre
 
 
@@ -26,8 +26,7 @@ def mid_line_chain(vertices: np.ndarray, triangles: np.ndarray, normal: np.ndarr
     points, _edges, segments = section(vertices, triangles, normal, offset)
     if not len(points):
         return np.zeros((0, 3))
-    length = np.linalg.norm(points[segments[:, 0]] - points[segments[:, 1]], axis=1) + 1e-12
-    graph = coo_matrix((length, (segments[:, 0], segments[:, 1])), shape=(len(points), len(points))).tocsr()
+    graph = chain_graph(points, segments)
     first = np.argmin(np.linalg.norm(points - start, axis=1))
     last = np.argmin(np.linalg.norm(points - end, axis=1))
     distance, previous = dijkstra(graph, directed=False, indices=first, return_predecessors=True)
