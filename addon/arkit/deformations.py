@@ -113,6 +113,9 @@ BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
 # each side's point on the nose's bottom edge (no FAP moves it), with the nostril's border above it, which the
 # alar cartilage holds, and the upper lip's outer point below it, which a lip's push moves (`nose_base_push`)
 NOSE_BASE_SKIN = {"9.5": ("9.1", "8.5"), "9.4": ("9.2", "8.6")}
+# each cheek bone point (no FAP but lift_cheek moves it), with the lower lid's centre above it, which holds the skin
+# there, and the upper lip's points below it whose rise lifts the infraorbital triangle (`infraorbital_lift`)
+INFRAORBITAL = {"5.3": ("3.3", ("8.3", "8.5")), "5.4": ("3.4", ("8.4", "8.6"))}
 # the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
 CHEEKS = ("5.1", "5.2")
 # how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
@@ -426,6 +429,26 @@ def bow_follow(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLEND
     return _blend_between(neutral, points, axes, BOW_PEAKS, across=0)
 
 
+def infraorbital_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each cheek bone point (5.3, 5.4) that no FAP moved raised by
+    the rise of the upper lip's point below it that rose the most (the corner 8.3 or the lip's side point 8.5 on
+    the left), times how far down from the lower lid's centre (3.3), which holds it, to that point it lies at
+    rest (face y); not lowered when the lip came down."""
+    axes = np.asarray(axes, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    moved = np.array(points, dtype=np.float64)
+    for bone, (lid, lips) in INFRAORBITAL.items():
+        k = fp_index(bone)
+        if not np.all(np.isfinite(moved[k] - neutral[k])) or np.any(moved[k] != neutral[k]):
+            continue
+        rises = {lip: (moved[fp_index(lip)] - neutral[fp_index(lip)]) @ axes[1] for lip in lips}
+        lip = max(rises, key=lambda fp: rises[fp] if np.isfinite(rises[fp]) else -np.inf)
+        share = _share_between(neutral, k, fp_index(lid), fp_index(lip), axes[1])
+        if share is not None and np.isfinite(rises[lip]) and rises[lip] > 0.0:
+            moved[k] += share * rises[lip] * axes[1]
+    return moved
+
+
 def deform_points(
     name: str | None,
     neutral: np.ndarray,
@@ -435,9 +458,11 @@ def deform_points(
 ) -> np.ndarray:
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
     that moves the skin or a part rather than feature points), the Cupid's bow's peaks then following the upper
-    lip's outer contour (`bow_follow`, every recipe); `normals` (84, 3): the face's outward surface normals at the
+    lip's outer contour (`bow_follow`, every recipe) after the cheek bones rise with a raised lip
+    (`infraorbital_lift`, every recipe); `normals` (84, 3): the face's outward surface normals at the
     FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
-    return bow_follow(neutral, _named(name, neutral, points, axes, normals), axes)
+    moved = infraorbital_lift(neutral, _named(name, neutral, points, axes, normals), axes)
+    return bow_follow(neutral, moved, axes)
 
 
 def _named(name, neutral, points, axes, normals) -> np.ndarray:

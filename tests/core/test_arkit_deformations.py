@@ -9,6 +9,7 @@ from addon.arkit.deformations import (
     deform_points,
     hinge_angle,
     hinge_axis,
+    infraorbital_lift,
     jaw_hinge,
     nose_base_lift,
     nostril_lift,
@@ -281,7 +282,9 @@ def test_the_nose_base_rises_with_the_upper_lip_below_it_and_the_nostril_stays()
     np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)  # 9.1, 9.4, 9.15 among them
     np.testing.assert_array_equal(
         deform_points("nose_base_lift", neutral, lifted, FACE_FRAME),
-        bow_follow(neutral, nose_base_lift(neutral, lifted, FACE_FRAME), FACE_FRAME),
+        bow_follow(
+            neutral, infraorbital_lift(neutral, nose_base_lift(neutral, lifted, FACE_FRAME), FACE_FRAME), FACE_FRAME
+        ),
     )
 
 
@@ -304,7 +307,8 @@ def test_the_cupids_bow_peaks_follow_the_upper_lips_outer_contour_where_they_lie
     np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)
     # every recipe's points end so, a uniform shift staying a shift
     np.testing.assert_allclose(
-        deform_points(None, neutral, lifted, FACE_FRAME), bow_follow(neutral, lifted, FACE_FRAME)
+        deform_points(None, neutral, lifted, FACE_FRAME),
+        bow_follow(neutral, infraorbital_lift(neutral, lifted, FACE_FRAME), FACE_FRAME),
     )
 
 
@@ -382,3 +386,36 @@ def test_the_surface_normal_at_a_point_is_the_mean_of_the_skins_normals_around_i
     assert np.all(np.isfinite(surface_normals(neutral, vertices, vertex_normals, fps=FP_IDS)))
     neutral[fp_index("3.6")] = np.nan  # no ES0
     assert np.isnan(surface_normals(neutral, vertices, vertex_normals)).all()
+
+
+def test_the_cheek_bone_rises_with_the_raised_lip_below_it_by_where_it_lies():
+    # 5.3 lies a quarter of the way down from the lower lid 3.3 to the lip's side point 8.5 (face y): the lip raised
+    # 4 mm (the corner 8.3 2 mm) raises it 0.25 x 4 mm; its other axes and every other point stay, the right side too
+    neutral = _face()
+    neutral[fp_index("3.3")] = (0.03, 0.02, 0.06)
+    neutral[fp_index("8.5")] = (0.015, -0.06, 0.08)
+    neutral[fp_index("8.3")] = (0.025, -0.065, 0.07)
+    neutral[fp_index("5.3")] = (0.035, 0.0, 0.06)
+    points = neutral.copy()
+    points[fp_index("8.5"), 1] += 0.004
+    points[fp_index("8.3"), 1] += 0.002
+    moved = infraorbital_lift(neutral, points, FACE_FRAME)
+    expected = points.copy()
+    expected[fp_index("5.3"), 1] += 0.25 * 0.004
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+    # the corner rising more than the side point: the corner's rise, by where 5.3 lies between 3.3 and 8.3
+    points[fp_index("8.3"), 1] += 0.006  # 8 mm
+    share = (0.02 - 0.0) / (0.02 - -0.065)
+    np.testing.assert_allclose(
+        infraorbital_lift(neutral, points, FACE_FRAME)[fp_index("5.3")],
+        neutral[fp_index("5.3")] + (0, share * 0.008, 0),
+    )
+    # a lip that comes down leaves it, and so does a cheek bone a FAP moved (lift_cheek: cheekSquint)
+    lowered = neutral.copy()
+    lowered[fp_index("8.5"), 1] -= 0.004
+    np.testing.assert_array_equal(infraorbital_lift(neutral, lowered, FACE_FRAME), lowered)
+    lifted = points.copy()
+    lifted[fp_index("5.3"), 1] += 0.003
+    np.testing.assert_array_equal(infraorbital_lift(neutral, lifted, FACE_FRAME), lifted)
+    # every recipe: deform_points ends with it
+    assert deform_points(None, neutral, points, FACE_FRAME)[fp_index("5.3"), 1] > neutral[fp_index("5.3"), 1]
