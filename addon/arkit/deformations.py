@@ -113,6 +113,8 @@ BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
 # each side's point on the nose's bottom edge (no FAP moves it), with the nostril's border above it, which the
 # alar cartilage holds, and the upper lip's outer point below it, which a lip's push moves (`nose_base_push`)
 NOSE_BASE_SKIN = {"9.5": ("9.1", "8.5"), "9.4": ("9.2", "8.6")}
+# the upper lip's side points, with the mid-point and the corner of their contour (`lip_sides_slide`)
+UPPER_LIP_SIDES = {"8.5": ("8.1", "8.3"), "8.6": ("8.1", "8.4"), "2.6": ("2.2", "2.4"), "2.7": ("2.2", "2.5")}
 # each cheek bone point (no FAP but lift_cheek moves it), with the lower lid's centre above it, which holds the skin
 # there, and the upper lip's points below it whose rise lifts the infraorbital triangle (`infraorbital_lift`)
 INFRAORBITAL = {"5.3": ("3.3", ("8.3", "8.5")), "5.4": ("3.4", ("8.4", "8.6"))}
@@ -449,6 +451,14 @@ def infraorbital_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray 
     return moved
 
 
+def lip_sides_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with the upper lip's side points (8.5 / 8.6 on its outer contour,
+    2.6 / 2.7 on its inner one) moved back or forward (face z) as the lip's contour does where they lie: the depth
+    motions of its mid-point and of the corner beside it, blended by how far across from the mid-point to the
+    corner the point lies at rest (face x). Their height and sideways motion stay."""
+    return _blend_between(neutral, points, axes, UPPER_LIP_SIDES, across=0, only=2)
+
+
 def deform_points(
     name: str | None,
     neutral: np.ndarray,
@@ -459,9 +469,11 @@ def deform_points(
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
     that moves the skin or a part rather than feature points), the Cupid's bow's peaks then following the upper
     lip's outer contour (`bow_follow`, every recipe) after the cheek bones rise with a raised lip
-    (`infraorbital_lift`, every recipe); `normals` (84, 3): the face's outward surface normals at the
+    (`infraorbital_lift`) and the upper lip's sides slide back or forward with its corners (`lip_sides_slide`,
+    both every recipe); `normals` (84, 3): the face's outward surface normals at the
     FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
     moved = infraorbital_lift(neutral, _named(name, neutral, points, axes, normals), axes)
+    moved = lip_sides_slide(neutral, moved, axes)
     return bow_follow(neutral, moved, axes)
 
 

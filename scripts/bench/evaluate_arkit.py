@@ -214,7 +214,8 @@ def print_table(report: dict, held: bool = False) -> None:
     )
     if report["count"] > 24:
         print(
-            f"the first 24 (MAKEHUMAN_UNITS): pooled E {report['e_pooled_first_24']:.4f}, {report['below_1_first_24']} below 1"
+            f"the first 24 (MAKEHUMAN_UNITS): pooled E {report['e_pooled_first_24']:.4f}, "
+            f"{report['below_1_first_24']} below 1"
         )
     print_breakdown(report["breakdown"])
     if held:

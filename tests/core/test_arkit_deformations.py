@@ -11,6 +11,7 @@ from addon.arkit.deformations import (
     hinge_axis,
     infraorbital_lift,
     jaw_hinge,
+    lip_sides_slide,
     nose_base_lift,
     nostril_lift,
     surface_normals,
@@ -238,7 +239,7 @@ def test_a_corner_moved_sideways_slides_on_the_face_back_going_out_and_forward_c
     moved_by_faps = neutral.copy()
     moved_by_faps[fp_index("2.4")] += (0.004, 0.001, 0.0)  # out 4 mm (stretch_l_cornerlip) and up 1 mm
     moved_by_faps[fp_index("8.4")] += (0.005, 0.0, 0.002)  # in 5 mm, and 2 mm forward another way
-    moved = deform_points("corner_slide", neutral @ axes, moved_by_faps @ axes, axes) @ axes.T
+    moved = corner_slide(neutral @ axes, moved_by_faps @ axes, axes) @ axes.T
     expected = moved_by_faps.copy()
     expected[fp_index("2.4"), 2] -= 0.8 * 0.004
     expected[fp_index("8.4"), 2] += 0.005
@@ -308,7 +309,11 @@ def test_the_cupids_bow_peaks_follow_the_upper_lips_outer_contour_where_they_lie
     # every recipe's points end so, a uniform shift staying a shift
     np.testing.assert_allclose(
         deform_points(None, neutral, lifted, FACE_FRAME),
-        bow_follow(neutral, infraorbital_lift(neutral, lifted, FACE_FRAME), FACE_FRAME),
+        bow_follow(
+            neutral,
+            lip_sides_slide(neutral, infraorbital_lift(neutral, lifted, FACE_FRAME), FACE_FRAME),
+            FACE_FRAME,
+        ),
     )
 
 
@@ -419,3 +424,26 @@ def test_the_cheek_bone_rises_with_the_raised_lip_below_it_by_where_it_lies():
     np.testing.assert_array_equal(infraorbital_lift(neutral, lifted, FACE_FRAME), lifted)
     # every recipe: deform_points ends with it
     assert deform_points(None, neutral, points, FACE_FRAME)[fp_index("5.3"), 1] > neutral[fp_index("5.3"), 1]
+
+
+def test_the_upper_lips_sides_slide_back_with_the_corner_by_where_they_lie():
+    # 8.5 lies 0.6 of the way across from 8.1 to the corner 8.3 (face x), 2.6 half way from 2.2 to 2.4: the left
+    # corners going 5 mm back (and 4 up), the side points go back 0.6 x 5 and 0.5 x 5 mm, not up; their own height and
+    # sideways motion stay, the right side (its corners still) and every other point too
+    neutral = _face()
+    for fp_id, x in (("8.1", 0.0), ("8.5", 0.015), ("8.3", 0.025), ("2.2", 0.0), ("2.6", 0.01), ("2.4", 0.02)):
+        neutral[fp_index(fp_id), 0] = x
+    for fp_id, x in (("8.6", -0.015), ("8.4", -0.025), ("2.7", -0.01), ("2.5", -0.02)):
+        neutral[fp_index(fp_id), 0] = x
+    points = neutral.copy()
+    points[[fp_index("8.3"), fp_index("2.4")]] += (0.0, 0.004, -0.005)
+    points[fp_index("8.5")] += (0.001, 0.002, 0.0)
+    moved = lip_sides_slide(neutral, points, FACE_FRAME)
+    expected = points.copy()
+    expected[fp_index("8.5"), 2] -= 0.6 * 0.005
+    expected[fp_index("2.6"), 2] -= 0.5 * 0.005
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+    # a push the lip was given (its mid-point forward) is blended the same way: a whole lip pushed stays pushed
+    pushed = neutral.copy()
+    pushed[[fp_index(f) for f in ("8.1", "8.5", "8.3", "8.6", "8.4", "2.2", "2.6", "2.4", "2.7", "2.5")], 2] += 0.004
+    np.testing.assert_allclose(lip_sides_slide(neutral, pushed, FACE_FRAME), pushed, atol=1e-12)
