@@ -39,7 +39,9 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   but only the corners have a sideways FAP (stretch_cornerlip; no FAP moves 2.2, 2.3, 8.1, 8.2 or the lips' sides
   sideways). After `corner_slide`, every other point of both lips moves sideways as far as the two corners did
   together (their mean): both corners going the same way by the recipe's size, the lips go with them; no size of
-  its own.
+  its own. Within it, `nose_base_shift`: the nose's bottom edge (9.5, 9.4 beside the nostrils and the mid-line's
+  9.15), which no FAP moves, goes sideways as the skin between the nose (the nostril's border, the tip) and the
+  upper lip's outer contour below it, by where it lies between them at rest, as `nose_base_push` does forward.
 - `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
   lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
@@ -57,6 +59,20 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   left the peaks standing: looked at). Each peak moves as the contour does where it lies: the motions of 8.1 and
   of the side point beside it, blended by how far across from 8.1 to that point the peak lies at rest (face x).
   No size of its own; a uniform motion of the lip stays uniform.
+- `infraorbital_lift` (every recipe, after its own deformation): FACS describes the upper lip's raiser (AU 10) and
+  the lip corner puller (AU 12) as raising the infraorbital triangle, the skin below the lower lid beside the
+  nose, which the cheek bone point 5.3 / 5.4 stands in and no FAP but lift_cheek moves. The skin there lies
+  between the lower lid's centre 3.3 / 3.4 above, which holds it (a lid's own motion does not carry the cheek),
+  and the upper lip below; when a recipe raises the lip (its corner 8.3 or its side point 8.5, whichever rises
+  more), the cheek bone point rises by that rise times how far down from the lid to that point it lies at rest
+  (0.34 of the corner's rise on the sample head). Not where a FAP moved it (cheekSquint's lift_cheek), not when
+  the lip comes down. No size of its own.
+- `lip_sides_slide` (every recipe, after its own deformation): the upper lip's side points 8.5 / 8.6 and 2.6 /
+  2.7 lie on the lip's contour between its mid-point and a corner, on the teeth's arch, and no FAP moves them
+  back or forward: a corner drawn back (the smile's, the dimple's, the stretch's `corner_slide`) drew the contour
+  back at its end only. Each side point moves back or forward as the contour does where it lies: the depth
+  motions of the mid-point and of the corner blended by how far across from the one to the other it lies at rest
+  (face x), as `bow_follow` blends the peaks. Its height and sideways motion stay. No size of its own.
 - `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
   (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
   pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
@@ -118,6 +134,9 @@ UPPER_LIP_SIDES = {"8.5": ("8.1", "8.3"), "8.6": ("8.1", "8.4"), "2.6": ("2.2", 
 # each cheek bone point (no FAP but lift_cheek moves it), with the lower lid's centre above it, which holds the skin
 # there, and the upper lip's points below it whose rise lifts the infraorbital triangle (`infraorbital_lift`)
 INFRAORBITAL = {"5.3": ("3.3", ("8.3", "8.5")), "5.4": ("3.4", ("8.4", "8.6"))}
+# the same with the mid-line's base 9.15 between the nose's tip and the upper lip's outer mid-point, for a sideways
+# shift of the lips (`nose_base_shift`)
+NOSE_BASE_SHIFT = {**NOSE_BASE_SKIN, "9.15": ("9.3", "8.1")}
 # the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
 CHEEKS = ("5.1", "5.2")
 # how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
@@ -349,7 +368,16 @@ def whole_lip_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = 
     if np.isfinite(shift):
         lips = [fp_index(fp) for mid, follow in LIP_FOLLOWERS.items() for fp in (mid, *follow)]
         moved[lips, 0] += shift
-    return moved @ axes
+    return nose_base_shift(neutral, moved @ axes, axes)
+
+
+def nose_base_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with the nose's bottom edge (9.5, 9.4 beside the nostrils, 9.15 at
+    the mid-line) moved sideways (face x) as the skin between the nose above it and the upper lip's outer contour
+    below it is where it lies: the sideways motions of the nostril's border (9.1, 9.2) or the nose's tip (9.3) and
+    of the lip's point below (8.5, 8.6, 8.1), blended by how far down from the one to the other it lies at rest
+    (face y). Its height and depth stay."""
+    return _blend_between(neutral, points, axes, NOSE_BASE_SHIFT, across=1, only=0)
 
 
 def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:

@@ -13,6 +13,7 @@ from addon.arkit.deformations import (
     jaw_hinge,
     lip_sides_slide,
     nose_base_lift,
+    nose_base_shift,
     nostril_lift,
     surface_normals,
     whole_lip_push,
@@ -338,8 +339,10 @@ def test_the_lips_slide_sideways_as_far_as_both_corners_go_together():
         slid = corner_slide(neutral, points, FACE_FRAME)
         for fp in lips:
             np.testing.assert_allclose(moved[fp_index(fp)] - slid[fp_index(fp)], [shift, 0.0, 0.0], atol=1e-12)
-        others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in lips}]
+        others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in (*lips, "9.4", "9.5", "9.15")}]
         np.testing.assert_array_equal(moved[others], slid[others])  # the corners as corner_slide put them
+        # the nose's bottom edge as `nose_base_shift` moves it with the shifted lips
+        np.testing.assert_allclose(moved, nose_base_shift(neutral, moved, FACE_FRAME), atol=1e-12)
 
 
 def test_a_puffed_cheek_goes_out_along_its_surface_normal_as_far_as_the_fap_moved_it():
@@ -447,3 +450,31 @@ def test_the_upper_lips_sides_slide_back_with_the_corner_by_where_they_lie():
     pushed = neutral.copy()
     pushed[[fp_index(f) for f in ("8.1", "8.5", "8.3", "8.6", "8.4", "2.2", "2.6", "2.4", "2.7", "2.5")], 2] += 0.004
     np.testing.assert_allclose(lip_sides_slide(neutral, pushed, FACE_FRAME), pushed, atol=1e-12)
+
+
+def test_the_nose_base_goes_sideways_with_the_shifted_lips_by_where_it_lies():
+    # 9.5 lies 0.4 of the way down from the nostril's border 9.1 to the lip's point 8.5 (face y), 9.15 a quarter of
+    # the way from the nose's tip 9.3 to 8.1: the lips 6 mm to the left (+x), they go 0.4 and 0.25 of it, sideways
+    # only; the nostril and the tip stay, and nothing else moves
+    neutral = _face()
+    for fp_id, y in (("9.1", 0.0), ("9.5", -0.004), ("8.5", -0.01), ("9.3", 0.0), ("9.15", -0.003), ("8.1", -0.012)):
+        neutral[fp_index(fp_id), 1] = y
+    points = neutral.copy()
+    points[[fp_index("8.5"), fp_index("8.1"), fp_index("8.6")], 0] += 0.006
+    moved = nose_base_shift(neutral, points, FACE_FRAME)
+    expected = points.copy()
+    expected[fp_index("9.5"), 0] += 0.4 * 0.006
+    expected[fp_index("9.15"), 0] += 0.25 * 0.006
+    expected[fp_index("9.4"), 0] += 0.006 * float(
+        np.clip(
+            (neutral[fp_index("9.4"), 1] - neutral[fp_index("9.2"), 1])
+            / (neutral[fp_index("8.6"), 1] - neutral[fp_index("9.2"), 1]),
+            0,
+            1,
+        )
+    )
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+    # whole_lip_shift ends with it: the mid-line's base goes with a mouth shifted by its corners
+    shifted = neutral.copy()
+    shifted[[fp_index("2.4"), fp_index("2.5")], 0] += 0.006
+    assert whole_lip_shift(neutral, shifted, FACE_FRAME)[fp_index("9.15"), 0] - neutral[fp_index("9.15"), 0] > 0.001
