@@ -67,12 +67,12 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   more), the cheek bone point rises by that rise times how far down from the lid to that point it lies at rest
   (0.34 of the corner's rise on the sample head). Not where a FAP moved it (cheekSquint's lift_cheek), not when
   the lip comes down. No size of its own.
-- `lip_sides_slide` (every recipe, after its own deformation): the upper lip's side points 8.5 / 8.6 and 2.6 /
-  2.7 lie on the lip's contour between its mid-point and a corner, on the teeth's arch, and no FAP moves them
-  back or forward: a corner drawn back (the smile's, the dimple's, the stretch's `corner_slide`) drew the contour
-  back at its end only. Each side point moves back or forward as the contour does where it lies: the depth
-  motions of the mid-point and of the corner blended by how far across from the one to the other it lies at rest
-  (face x), as `bow_follow` blends the peaks. Its height and sideways motion stay. No size of its own.
+- `lip_sides_slide` (within `corner_slide`): the upper lip's side points 8.5 / 8.6 and 2.6 / 2.7 lie on the
+  lip's contour between its mid-point and a corner, on the teeth's arch, and no FAP moves them back or forward: a
+  corner slid back (the smile's, the dimple's, the stretch's) or forward (the pucker's) drew the contour at its
+  end only. Each side point takes its share of its corner's slide, by how far across from the contour's
+  mid-point (held) to the corner it lies at rest (face x), as `bow_follow` blends the peaks. Its height,
+  sideways motion and any push the lip was given stay. No size of its own.
 - `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
   (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
   pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
@@ -344,17 +344,19 @@ def corner_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLE
     surface: seen from above, it slides along the line from the lip beside it (the mean of its lip's points
     there, 2.6 and 2.8 for 2.4) to the cheek's centre (5.1), the surface's direction at the corner, as far
     sideways as the FAPs moved it: back as it goes out, forward as it comes in. Its lift and any depth the
-    FAPs gave it stay."""
+    FAPs gave it stay. The upper lip's side points then take their share of the slide (`lip_sides_slide`)."""
     axes = np.asarray(axes, dtype=np.float64)
     face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
     moved = np.asarray(points, dtype=np.float64) @ axes.T
+    slides = np.zeros(len(moved))
     for corner, (upper, lower, cheek) in CORNER_SLIDES.items():
         k = fp_index(corner)
         line = face_neutral[fp_index(cheek)] - 0.5 * (face_neutral[fp_index(upper)] + face_neutral[fp_index(lower)])
         out = moved[k, 0] - face_neutral[k, 0]
         if np.isfinite(out) and np.all(np.isfinite(line)) and line[0] != 0.0:
-            moved[k, 2] += out * line[2] / line[0]
-    return moved @ axes
+            slides[k] = out * line[2] / line[0]
+            moved[k, 2] += slides[k]
+    return lip_sides_slide(neutral, moved @ axes, slides, axes)
 
 
 def whole_lip_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
@@ -479,12 +481,22 @@ def infraorbital_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray 
     return moved
 
 
-def lip_sides_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+def lip_sides_slide(
+    neutral: np.ndarray, points: np.ndarray, slides: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES
+) -> np.ndarray:
     """(84, 3) FP positions (mesh coordinates) with the upper lip's side points (8.5 / 8.6 on its outer contour,
-    2.6 / 2.7 on its inner one) moved back or forward (face z) as the lip's contour does where they lie: the depth
-    motions of its mid-point and of the corner beside it, blended by how far across from the mid-point to the
-    corner the point lies at rest (face x). Their height and sideways motion stay."""
-    return _blend_between(neutral, points, axes, UPPER_LIP_SIDES, across=0, only=2)
+    2.6 / 2.7 on its inner one) moved back or forward (face z) by their share of the (84,) `slides` (face z, by
+    FP; `corner_slide`'s) of the corner beside them: how far across from the contour's mid-point (8.1, 2.2) to
+    that corner the point lies at rest (face x). Their height, sideways motion and any depth given before stay."""
+    axes = np.asarray(axes, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    moved = np.array(points, dtype=np.float64)
+    for side, (mid, corner) in UPPER_LIP_SIDES.items():
+        k, c = fp_index(side), fp_index(corner)
+        share = _share_between(neutral, k, fp_index(mid), c, axes[0])
+        if share is not None and np.isfinite(slides[c]):
+            moved[k] += share * slides[c] * axes[2]
+    return moved
 
 
 def deform_points(
@@ -497,12 +509,9 @@ def deform_points(
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
     that moves the skin or a part rather than feature points), the Cupid's bow's peaks then following the upper
     lip's outer contour (`bow_follow`, every recipe) after the cheek bones rise with a raised lip
-    (`infraorbital_lift`) and the upper lip's sides slide back or forward with its corners (`lip_sides_slide`,
-    both every recipe); `normals` (84, 3): the face's outward surface normals at the
+    (`infraorbital_lift`, every recipe); `normals` (84, 3): the face's outward surface normals at the
     FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
-    moved = infraorbital_lift(neutral, _named(name, neutral, points, axes, normals), axes)
-    moved = lip_sides_slide(neutral, moved, axes)
-    return bow_follow(neutral, moved, axes)
+    return bow_follow(neutral, infraorbital_lift(neutral, _named(name, neutral, points, axes, normals), axes), axes)
 
 
 def _named(name, neutral, points, axes, normals) -> np.ndarray:

@@ -133,3 +133,24 @@ def test_the_facs_checks_read_the_skin_at_the_place_along_the_rule_and_mirror_th
     assert not rows[("mouthSmileRight", "infraorbital triangle", "up")]["passes"]
     assert not rows[("mouthSmileRight", "8.3", "out")]["passes"]  # +x is in on the right
     np.testing.assert_allclose(rows[("mouthSmileRight", "8.3", "out")]["mm"], -1.0)
+
+
+def test_the_mouth_shift_modifiers_move_the_lips_sideways_as_one_and_the_nose_base_a_share():
+    # MakeHuman's mouth-trans-out / -in (face-shape modifiers under targets/mouth): every lip point 6 mm to the face's
+    # left / right as one, the nose's bottom edge beside the nostril about half as far, the nostril and chin still:
+    # ARKit's mouthLeft / mouthRight ("movement of both lips to the left")
+    from scripts.bench.evaluate_arkit import MORE_UNITS, _unit_path
+
+    pairs = {units: names for names, units in MORE_UNITS}
+    for unit, sign, name in (("mouth/mouth-trans-out", 1.0, "mouthLeft"), ("mouth/mouth-trans-in", -1.0, "mouthRight")):
+        path = _unit_path(UNITS, unit)
+        offsets = load_target(path, BASE_VERTEX_COUNT)
+
+        def motion(fp_id, offsets=offsets):
+            return to_blender(offsets[list(FP_TABLE[fp_id][1])].mean(axis=0))
+
+        for fp_id in ("8.1", "8.2", "8.5", "8.7"):
+            assert sign * motion(fp_id)[0] > 0.005, (unit, fp_id)
+        assert 0.3 < motion("9.5")[0] / motion("8.5")[0] < 0.7
+        assert np.linalg.norm(motion("9.1")) < 0.001 and np.linalg.norm(motion("2.10")) < 0.001
+        assert pairs[(unit,)] == (name,)
