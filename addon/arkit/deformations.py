@@ -65,14 +65,8 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   between the lower lid's centre 3.3 / 3.4 above, which holds it (a lid's own motion does not carry the cheek),
   and the upper lip below; when a recipe raises the lip (its corner 8.3 or its side point 8.5, whichever rises
   more), the cheek bone point rises by that rise times how far down from the lid to that point it lies at rest
-  (0.34 of the corner's rise on the sample head). Not where a FAP moved it (cheekSquint's lift_cheek), not when
+  (0.31 of the corner's rise on the sample head). Not where a FAP moved it (cheekSquint's lift_cheek), not when
   the lip comes down. No size of its own.
-- `lip_sides_slide` (within `corner_slide`): the upper lip's side points 8.5 / 8.6 and 2.6 / 2.7 lie on the
-  lip's contour between its mid-point and a corner, on the teeth's arch, and no FAP moves them back or forward: a
-  corner slid back (the smile's, the dimple's, the stretch's) or forward (the pucker's) drew the contour at its
-  end only. Each side point takes its share of its corner's slide, by how far across from the contour's
-  mid-point (held) to the corner it lies at rest (face x), as `bow_follow` blends the peaks. Its height,
-  sideways motion and any push the lip was given stay. No size of its own.
 - `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
   (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
   pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
@@ -129,8 +123,6 @@ BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
 # each side's point on the nose's bottom edge (no FAP moves it), with the nostril's border above it, which the
 # alar cartilage holds, and the upper lip's outer point below it, which a lip's push moves (`nose_base_push`)
 NOSE_BASE_SKIN = {"9.5": ("9.1", "8.5"), "9.4": ("9.2", "8.6")}
-# the upper lip's side points, with the mid-point and the corner of their contour (`lip_sides_slide`)
-UPPER_LIP_SIDES = {"8.5": ("8.1", "8.3"), "8.6": ("8.1", "8.4"), "2.6": ("2.2", "2.4"), "2.7": ("2.2", "2.5")}
 # each cheek bone point (no FAP but lift_cheek moves it), with the lower lid's centre above it, which holds the skin
 # there, and the upper lip's points below it whose rise lifts the infraorbital triangle (`infraorbital_lift`)
 INFRAORBITAL = {"5.3": ("3.3", ("8.3", "8.5")), "5.4": ("3.4", ("8.4", "8.6"))}
@@ -344,19 +336,17 @@ def corner_slide(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLE
     surface: seen from above, it slides along the line from the lip beside it (the mean of its lip's points
     there, 2.6 and 2.8 for 2.4) to the cheek's centre (5.1), the surface's direction at the corner, as far
     sideways as the FAPs moved it: back as it goes out, forward as it comes in. Its lift and any depth the
-    FAPs gave it stay. The upper lip's side points then take their share of the slide (`lip_sides_slide`)."""
+    FAPs gave it stay."""
     axes = np.asarray(axes, dtype=np.float64)
     face_neutral = np.asarray(neutral, dtype=np.float64) @ axes.T
     moved = np.asarray(points, dtype=np.float64) @ axes.T
-    slides = np.zeros(len(moved))
     for corner, (upper, lower, cheek) in CORNER_SLIDES.items():
         k = fp_index(corner)
         line = face_neutral[fp_index(cheek)] - 0.5 * (face_neutral[fp_index(upper)] + face_neutral[fp_index(lower)])
         out = moved[k, 0] - face_neutral[k, 0]
         if np.isfinite(out) and np.all(np.isfinite(line)) and line[0] != 0.0:
-            slides[k] = out * line[2] / line[0]
-            moved[k, 2] += slides[k]
-    return lip_sides_slide(neutral, moved @ axes, slides, axes)
+            moved[k, 2] += out * line[2] / line[0]
+    return moved @ axes
 
 
 def whole_lip_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
@@ -478,24 +468,6 @@ def infraorbital_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray 
         share = _share_between(neutral, k, fp_index(lid), fp_index(lip), axes[1])
         if share is not None and np.isfinite(rises[lip]) and rises[lip] > 0.0:
             moved[k] += share * rises[lip] * axes[1]
-    return moved
-
-
-def lip_sides_slide(
-    neutral: np.ndarray, points: np.ndarray, slides: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES
-) -> np.ndarray:
-    """(84, 3) FP positions (mesh coordinates) with the upper lip's side points (8.5 / 8.6 on its outer contour,
-    2.6 / 2.7 on its inner one) moved back or forward (face z) by their share of the (84,) `slides` (face z, by
-    FP; `corner_slide`'s) of the corner beside them: how far across from the contour's mid-point (8.1, 2.2) to
-    that corner the point lies at rest (face x). Their height, sideways motion and any depth given before stay."""
-    axes = np.asarray(axes, dtype=np.float64)
-    neutral = np.asarray(neutral, dtype=np.float64)
-    moved = np.array(points, dtype=np.float64)
-    for side, (mid, corner) in UPPER_LIP_SIDES.items():
-        k, c = fp_index(side), fp_index(corner)
-        share = _share_between(neutral, k, fp_index(mid), c, axes[0])
-        if share is not None and np.isfinite(slides[c]):
-            moved[k] += share * slides[c] * axes[2]
     return moved
 
 

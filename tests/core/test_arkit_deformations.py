@@ -11,7 +11,6 @@ from addon.arkit.deformations import (
     hinge_axis,
     infraorbital_lift,
     jaw_hinge,
-    lip_sides_slide,
     nose_base_lift,
     nose_base_shift,
     nostril_lift,
@@ -244,10 +243,6 @@ def test_a_corner_moved_sideways_slides_on_the_face_back_going_out_and_forward_c
     expected = moved_by_faps.copy()
     expected[fp_index("2.4"), 2] -= 0.8 * 0.004
     expected[fp_index("8.4"), 2] += 0.005
-    # the upper lip's side point beside each slid corner takes its share (`lip_sides_slide`)
-    for side, mid, corner, slide in (("2.6", "2.2", "2.4", -0.8 * 0.004), ("8.6", "8.1", "8.4", 0.005)):
-        across = neutral[[fp_index(side), fp_index(corner)], 0] - neutral[fp_index(mid), 0]
-        expected[fp_index(side), 2] += np.clip(across[0] / across[1], 0.0, 1.0) * slide
     np.testing.assert_allclose(moved, expected, atol=1e-12)  # the corners that did not move sideways stay
     # the pursed lips' corners come in and so forward, on top of the lips' push
     pucker = moved_by_faps.copy()
@@ -431,32 +426,6 @@ def test_the_cheek_bone_rises_with_the_raised_lip_below_it_by_where_it_lies():
     np.testing.assert_array_equal(infraorbital_lift(neutral, lifted, FACE_FRAME), lifted)
     # every recipe: deform_points ends with it
     assert deform_points(None, neutral, points, FACE_FRAME)[fp_index("5.3"), 1] > neutral[fp_index("5.3"), 1]
-
-
-def test_the_upper_lips_sides_take_their_share_of_the_corners_slide_by_where_they_lie():
-    # 8.5 lies 0.6 of the way across from 8.1 to the corner 8.3 (face x), 2.6 half way from 2.2 to 2.4: the left
-    # corners slid 5 mm back, the side points go back 0.6 x 5 and 0.5 x 5 mm, not up; their own height, sideways
-    # motion and depth stay, the right side (its corners did not slide) and every other point too
-    neutral = _face()
-    for fp_id, x in (("8.1", 0.0), ("8.5", 0.015), ("8.3", 0.025), ("2.2", 0.0), ("2.6", 0.01), ("2.4", 0.02)):
-        neutral[fp_index(fp_id), 0] = x
-    points = neutral.copy()
-    points[fp_index("8.5")] += (0.001, 0.002, 0.003)
-    slides = np.zeros(N_FEATURE_POINTS)
-    slides[[fp_index("8.3"), fp_index("2.4")]] = -0.005
-    moved = lip_sides_slide(neutral, points, slides, FACE_FRAME)
-    expected = points.copy()
-    expected[fp_index("8.5"), 2] -= 0.6 * 0.005
-    expected[fp_index("2.6"), 2] -= 0.5 * 0.005
-    np.testing.assert_allclose(moved, expected, atol=1e-12)
-    # corner_slide ends with it: a corner moved out slides back, and the side point beside it takes its share
-    out = neutral.copy()
-    out[fp_index("8.3"), 0] += 0.004
-    slid = corner_slide(neutral, out, FACE_FRAME)
-    corner_back = slid[fp_index("8.3"), 2] - neutral[fp_index("8.3"), 2]
-    assert corner_back != 0.0
-    np.testing.assert_allclose(slid[fp_index("8.5"), 2] - neutral[fp_index("8.5"), 2], 0.6 * corner_back, atol=1e-12)
-    # a push the lip was given (whole_lip_push, mid_lip_push) is not a slide: the sides keep their own
 
 
 def test_the_nose_base_goes_sideways_with_the_shifted_lips_by_where_it_lies():
