@@ -15,7 +15,9 @@ region (`evaluate.REGIONS`, pooled over the targets). Files with other names are
 the sum of two units). The units were sculpted at MakeHuman's own strength, not ARKit's, so E is also given at
 the one weight (0..2) that fits each sculpt best: the gap between the two says how much is size, not shape. Under
 the table, where the pooled error lies (`arkit_ict.reach_breakdown`: on skin none of the compared keys moves, on
-skin the key under-reaches, and the pooled E at the best weights).
+skin the key under-reaches, and the pooled E at the best weights). Four more pairs, `MORE_UNITS`, move skin the
+first 24 keep still; the pooled E over the first 24 alone is printed too. Both `--targets` and
+`--makehuman-units` end with FACS's appearance changes checked on the keys (`arkit_facs`).
 
 `--speed-and-round-trip`: a 10-minute 60 fps Live Link Face capture (made from the demo stream's FAPs through the
 round trip, 36,000 rows) read and keyed onto the sample head as a FAP stream (Import ARKit Capture's FAPS target),
