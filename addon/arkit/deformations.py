@@ -39,7 +39,9 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   but only the corners have a sideways FAP (stretch_cornerlip; no FAP moves 2.2, 2.3, 8.1, 8.2 or the lips' sides
   sideways). After `corner_slide`, every other point of both lips moves sideways as far as the two corners did
   together (their mean): both corners going the same way by the recipe's size, the lips go with them; no size of
-  its own.
+  its own. Within it, `nose_base_shift`: the nose's bottom edge (9.5, 9.4 beside the nostrils and the mid-line's
+  9.15), which no FAP moves, goes sideways as the skin between the nose (the nostril's border, the tip) and the
+  upper lip's outer contour below it, by where it lies between them at rest, as `nose_base_push` does forward.
 - `nostril_lift` (noseSneer*): levator labii superioris alaeque nasi lifts the nostril's wing and the upper
   lip beside it together (AU 9; ARKit: "raising of the left side of the nose around the nostril"). The
   nostril's FPs 9.1 / 9.2 have only a sideways FAP (stretch_l/r_nose) and raise_nose moves the midline tip
@@ -57,6 +59,14 @@ stay with the recipes' FAP values (a stream carries FAPs, and a face plays a str
   left the peaks standing: looked at). Each peak moves as the contour does where it lies: the motions of 8.1 and
   of the side point beside it, blended by how far across from 8.1 to that point the peak lies at rest (face x).
   No size of its own; a uniform motion of the lip stays uniform.
+- `infraorbital_lift` (every recipe, after its own deformation): FACS describes the upper lip's raiser (AU 10) and
+  the lip corner puller (AU 12) as raising the infraorbital triangle, the skin below the lower lid beside the
+  nose, which the cheek bone point 5.3 / 5.4 stands in and no FAP but lift_cheek moves. The skin there lies
+  between the lower lid's centre 3.3 / 3.4 above, which holds it (a lid's own motion does not carry the cheek),
+  and the upper lip below; when a recipe raises the lip (its corner 8.3 or its side point 8.5, whichever rises
+  more), the cheek bone point rises by that rise times how far down from the lid to that point it lies at rest
+  (0.31 of the corner's rise on the sample head). Not where a FAP moved it (cheekSquint's lift_cheek), not when
+  the lip comes down. No size of its own.
 - `cheek_puff` (cheekPuff: "outward movement of both cheeks", the air's pressure on the cheeks' walls): puff_cheek
   (FAPs 39, 40) moves the cheek points 5.1 / 5.2 straight sideways, the standard's horizontal displacement, but a
   pressure pushes a wall along its normal, and the cheek there faces forward as much as sideways (on the sample
@@ -113,6 +123,12 @@ BOW_PEAKS = {"8.10": ("8.1", "8.5"), "8.9": ("8.1", "8.6")}
 # each side's point on the nose's bottom edge (no FAP moves it), with the nostril's border above it, which the
 # alar cartilage holds, and the upper lip's outer point below it, which a lip's push moves (`nose_base_push`)
 NOSE_BASE_SKIN = {"9.5": ("9.1", "8.5"), "9.4": ("9.2", "8.6")}
+# each cheek bone point (no FAP but lift_cheek moves it), with the lower lid's centre above it, which holds the skin
+# there, and the upper lip's points below it whose rise lifts the infraorbital triangle (`infraorbital_lift`)
+INFRAORBITAL = {"5.3": ("3.3", ("8.3", "8.5")), "5.4": ("3.4", ("8.4", "8.6"))}
+# the same with the mid-line's base 9.15 between the nose's tip and the upper lip's outer mid-point, for a sideways
+# shift of the lips (`nose_base_shift`)
+NOSE_BASE_SHIFT = {**NOSE_BASE_SKIN, "9.15": ("9.3", "8.1")}
 # the cheeks' points puff_cheek moves, whose motion `cheek_puff` turns onto the face's outward surface normal
 CHEEKS = ("5.1", "5.2")
 # how much skin around a point its surface normal is the mean over (`surface_normals`), per ES0: the cheek's
@@ -344,7 +360,16 @@ def whole_lip_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = 
     if np.isfinite(shift):
         lips = [fp_index(fp) for mid, follow in LIP_FOLLOWERS.items() for fp in (mid, *follow)]
         moved[lips, 0] += shift
-    return moved @ axes
+    return nose_base_shift(neutral, moved @ axes, axes)
+
+
+def nose_base_shift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with the nose's bottom edge (9.5, 9.4 beside the nostrils, 9.15 at
+    the mid-line) moved sideways (face x) as the skin between the nose above it and the upper lip's outer contour
+    below it is where it lies: the sideways motions of the nostril's border (9.1, 9.2) or the nose's tip (9.3) and
+    of the lip's point below (8.5, 8.6, 8.1), blended by how far down from the one to the other it lies at rest
+    (face y). Its height and depth stay."""
+    return _blend_between(neutral, points, axes, NOSE_BASE_SHIFT, across=1, only=0)
 
 
 def nostril_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
@@ -426,6 +451,26 @@ def bow_follow(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLEND
     return _blend_between(neutral, points, axes, BOW_PEAKS, across=0)
 
 
+def infraorbital_lift(neutral: np.ndarray, points: np.ndarray, axes: np.ndarray = BLENDER_FACE_AXES) -> np.ndarray:
+    """(84, 3) FP positions (mesh coordinates) with each cheek bone point (5.3, 5.4) that no FAP moved raised by
+    the rise of the upper lip's point below it that rose the most (the corner 8.3 or the lip's side point 8.5 on
+    the left), times how far down from the lower lid's centre (3.3), which holds it, to that point it lies at
+    rest (face y); not lowered when the lip came down."""
+    axes = np.asarray(axes, dtype=np.float64)
+    neutral = np.asarray(neutral, dtype=np.float64)
+    moved = np.array(points, dtype=np.float64)
+    for bone, (lid, lips) in INFRAORBITAL.items():
+        k = fp_index(bone)
+        if not np.all(np.isfinite(moved[k] - neutral[k])) or np.any(moved[k] != neutral[k]):
+            continue
+        rises = {lip: (moved[fp_index(lip)] - neutral[fp_index(lip)]) @ axes[1] for lip in lips}
+        lip = max(rises, key=lambda fp: rises[fp] if np.isfinite(rises[fp]) else -np.inf)
+        share = _share_between(neutral, k, fp_index(lid), fp_index(lip), axes[1])
+        if share is not None and np.isfinite(rises[lip]) and rises[lip] > 0.0:
+            moved[k] += share * rises[lip] * axes[1]
+    return moved
+
+
 def deform_points(
     name: str | None,
     neutral: np.ndarray,
@@ -435,9 +480,10 @@ def deform_points(
 ) -> np.ndarray:
     """The FP positions after the dedicated deformation `name` a recipe names (unchanged for none, or for one
     that moves the skin or a part rather than feature points), the Cupid's bow's peaks then following the upper
-    lip's outer contour (`bow_follow`, every recipe); `normals` (84, 3): the face's outward surface normals at the
+    lip's outer contour (`bow_follow`, every recipe) after the cheek bones rise with a raised lip
+    (`infraorbital_lift`, every recipe); `normals` (84, 3): the face's outward surface normals at the
     FPs (`surface_normals`), which `cheek_puff` moves the cheeks along."""
-    return bow_follow(neutral, _named(name, neutral, points, axes, normals), axes)
+    return bow_follow(neutral, infraorbital_lift(neutral, _named(name, neutral, points, axes, normals), axes), axes)
 
 
 def _named(name, neutral, points, axes, normals) -> np.ndarray:

@@ -95,6 +95,10 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
     # mouthLeft: "movement of both lips to the left" (+X): the lips' middle goes with the corners (0 before)
     for fp_id in ("2.2", "2.3", "8.1", "8.2"):
         assert offsets["mouthLeft"][near[fp_id], 0] > 0.004 and offsets["mouthRight"][near[fp_id], 0] < -0.004, fp_id
+    # ... and the nose's bottom edge a share of the way (`nose_base_shift`; MakeHuman's modifier that moves the
+    # mouth sideways takes it half as far; it stayed)
+    for fp_id in ("9.15", "9.5", "9.4"):
+        assert offsets["mouthLeft"][near[fp_id], 0] > 0.001 and offsets["mouthRight"][near[fp_id], 0] < -0.001, fp_id
     # the sneer lifts its own side's nostril with the upper lip beside it (no FAP raises 9.1 / 9.2)
     sneer = offsets["noseSneerLeft"]
     assert sneer[near["9.1"], 2] > 0.001 and abs(sneer[near["9.2"], 2]) < 0.0002
@@ -107,6 +111,11 @@ def test_the_52_keys_move_the_right_part_of_the_face_the_right_way():
         upper[near["9.4"]],
     )
     assert upper[near["9.1"], 2] < 0.5 * upper[near["9.5"], 2], upper[near["9.1"]]
+    # the infraorbital triangle rises with the raised lip (FACS AU 10 and AU 12; `infraorbital_lift`): the skin at
+    # the cheek bone 5.3 rises with the smile's corner and the lifted upper lip, on their side only (0 before)
+    for name in ("mouthSmileLeft", "mouthUpperUpLeft"):
+        assert offsets[name][near["5.3"], 2] > 0.001 and abs(offsets[name][near["5.4"], 2]) < 0.0002, name
+    assert abs(offsets["mouthFrownLeft"][near["5.3"], 2]) < 0.0002  # a lowered corner leaves it
     # the Cupid's bow's peaks (no FAP moves them) go with the upper lip's outer contour either side of them: the
     # rolled upper lip takes them down with it (they stayed up, standing out of the rolled lip; the roll's push
     # took them back already)

@@ -9,8 +9,10 @@ from addon.arkit.deformations import (
     deform_points,
     hinge_angle,
     hinge_axis,
+    infraorbital_lift,
     jaw_hinge,
     nose_base_lift,
+    nose_base_shift,
     nostril_lift,
     surface_normals,
     whole_lip_push,
@@ -237,7 +239,7 @@ def test_a_corner_moved_sideways_slides_on_the_face_back_going_out_and_forward_c
     moved_by_faps = neutral.copy()
     moved_by_faps[fp_index("2.4")] += (0.004, 0.001, 0.0)  # out 4 mm (stretch_l_cornerlip) and up 1 mm
     moved_by_faps[fp_index("8.4")] += (0.005, 0.0, 0.002)  # in 5 mm, and 2 mm forward another way
-    moved = deform_points("corner_slide", neutral @ axes, moved_by_faps @ axes, axes) @ axes.T
+    moved = corner_slide(neutral @ axes, moved_by_faps @ axes, axes) @ axes.T
     expected = moved_by_faps.copy()
     expected[fp_index("2.4"), 2] -= 0.8 * 0.004
     expected[fp_index("8.4"), 2] += 0.005
@@ -281,7 +283,9 @@ def test_the_nose_base_rises_with_the_upper_lip_below_it_and_the_nostril_stays()
     np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)  # 9.1, 9.4, 9.15 among them
     np.testing.assert_array_equal(
         deform_points("nose_base_lift", neutral, lifted, FACE_FRAME),
-        bow_follow(neutral, nose_base_lift(neutral, lifted, FACE_FRAME), FACE_FRAME),
+        bow_follow(
+            neutral, infraorbital_lift(neutral, nose_base_lift(neutral, lifted, FACE_FRAME), FACE_FRAME), FACE_FRAME
+        ),
     )
 
 
@@ -304,7 +308,12 @@ def test_the_cupids_bow_peaks_follow_the_upper_lips_outer_contour_where_they_lie
     np.testing.assert_allclose(moved[others], lifted[others], atol=1e-12)
     # every recipe's points end so, a uniform shift staying a shift
     np.testing.assert_allclose(
-        deform_points(None, neutral, lifted, FACE_FRAME), bow_follow(neutral, lifted, FACE_FRAME)
+        deform_points(None, neutral, lifted, FACE_FRAME),
+        bow_follow(
+            neutral,
+            infraorbital_lift(neutral, lifted, FACE_FRAME),
+            FACE_FRAME,
+        ),
     )
 
 
@@ -329,8 +338,10 @@ def test_the_lips_slide_sideways_as_far_as_both_corners_go_together():
         slid = corner_slide(neutral, points, FACE_FRAME)
         for fp in lips:
             np.testing.assert_allclose(moved[fp_index(fp)] - slid[fp_index(fp)], [shift, 0.0, 0.0], atol=1e-12)
-        others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in lips}]
+        others = [k for k in range(N_FEATURE_POINTS) if k not in {fp_index(fp) for fp in (*lips, "9.4", "9.5", "9.15")}]
         np.testing.assert_array_equal(moved[others], slid[others])  # the corners as corner_slide put them
+        # the nose's bottom edge as `nose_base_shift` moves it with the shifted lips
+        np.testing.assert_allclose(moved, nose_base_shift(neutral, moved, FACE_FRAME), atol=1e-12)
 
 
 def test_a_puffed_cheek_goes_out_along_its_surface_normal_as_far_as_the_fap_moved_it():
@@ -382,3 +393,64 @@ def test_the_surface_normal_at_a_point_is_the_mean_of_the_skins_normals_around_i
     assert np.all(np.isfinite(surface_normals(neutral, vertices, vertex_normals, fps=FP_IDS)))
     neutral[fp_index("3.6")] = np.nan  # no ES0
     assert np.isnan(surface_normals(neutral, vertices, vertex_normals)).all()
+
+
+def test_the_cheek_bone_rises_with_the_raised_lip_below_it_by_where_it_lies():
+    # 5.3 lies a quarter of the way down from the lower lid 3.3 to the lip's side point 8.5 (face y): the lip raised
+    # 4 mm (the corner 8.3 2 mm) raises it 0.25 x 4 mm; its other axes and every other point stay, the right side too
+    neutral = _face()
+    neutral[fp_index("3.3")] = (0.03, 0.02, 0.06)
+    neutral[fp_index("8.5")] = (0.015, -0.06, 0.08)
+    neutral[fp_index("8.3")] = (0.025, -0.065, 0.07)
+    neutral[fp_index("5.3")] = (0.035, 0.0, 0.06)
+    points = neutral.copy()
+    points[fp_index("8.5"), 1] += 0.004
+    points[fp_index("8.3"), 1] += 0.002
+    moved = infraorbital_lift(neutral, points, FACE_FRAME)
+    expected = points.copy()
+    expected[fp_index("5.3"), 1] += 0.25 * 0.004
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+    # the corner rising more than the side point: the corner's rise, by where 5.3 lies between 3.3 and 8.3
+    points[fp_index("8.3"), 1] += 0.006  # 8 mm
+    share = (0.02 - 0.0) / (0.02 - -0.065)
+    np.testing.assert_allclose(
+        infraorbital_lift(neutral, points, FACE_FRAME)[fp_index("5.3")],
+        neutral[fp_index("5.3")] + (0, share * 0.008, 0),
+    )
+    # a lip that comes down leaves it, and so does a cheek bone a FAP moved (lift_cheek: cheekSquint)
+    lowered = neutral.copy()
+    lowered[fp_index("8.5"), 1] -= 0.004
+    np.testing.assert_array_equal(infraorbital_lift(neutral, lowered, FACE_FRAME), lowered)
+    lifted = points.copy()
+    lifted[fp_index("5.3"), 1] += 0.003
+    np.testing.assert_array_equal(infraorbital_lift(neutral, lifted, FACE_FRAME), lifted)
+    # every recipe: deform_points ends with it
+    assert deform_points(None, neutral, points, FACE_FRAME)[fp_index("5.3"), 1] > neutral[fp_index("5.3"), 1]
+
+
+def test_the_nose_base_goes_sideways_with_the_shifted_lips_by_where_it_lies():
+    # 9.5 lies 0.4 of the way down from the nostril's border 9.1 to the lip's point 8.5 (face y), 9.15 a quarter of
+    # the way from the nose's tip 9.3 to 8.1: the lips 6 mm to the left (+x), they go 0.4 and 0.25 of it, sideways
+    # only; the nostril and the tip stay, and nothing else moves
+    neutral = _face()
+    for fp_id, y in (("9.1", 0.0), ("9.5", -0.004), ("8.5", -0.01), ("9.3", 0.0), ("9.15", -0.003), ("8.1", -0.012)):
+        neutral[fp_index(fp_id), 1] = y
+    points = neutral.copy()
+    points[[fp_index("8.5"), fp_index("8.1"), fp_index("8.6")], 0] += 0.006
+    moved = nose_base_shift(neutral, points, FACE_FRAME)
+    expected = points.copy()
+    expected[fp_index("9.5"), 0] += 0.4 * 0.006
+    expected[fp_index("9.15"), 0] += 0.25 * 0.006
+    expected[fp_index("9.4"), 0] += 0.006 * float(
+        np.clip(
+            (neutral[fp_index("9.4"), 1] - neutral[fp_index("9.2"), 1])
+            / (neutral[fp_index("8.6"), 1] - neutral[fp_index("9.2"), 1]),
+            0,
+            1,
+        )
+    )
+    np.testing.assert_allclose(moved, expected, atol=1e-12)
+    # whole_lip_shift ends with it: the mid-line's base goes with a mouth shifted by its corners
+    shifted = neutral.copy()
+    shifted[[fp_index("2.4"), fp_index("2.5")], 0] += 0.006
+    assert whole_lip_shift(neutral, shifted, FACE_FRAME)[fp_index("9.15"), 0] - neutral[fp_index("9.15"), 0] > 0.001

@@ -85,3 +85,72 @@ def test_held_fps_lists_the_fps_the_sculpt_moves_and_the_key_holds():
     fps = np.vstack([rest + 1e-4, np.full((1, 3), np.nan)])
     held = held_fps({"mouthSmileLeft": (generated, sculpted)}, rest, fps, ["8.3", "5.1", "9.5", "2.10"])
     assert held == {"mouthSmileLeft": [["5.1", [0.0, 0.0, 2.0], 0.5]]}
+
+
+def test_the_two_more_units_move_what_their_pairing_says_and_the_skin_the_others_keep_still():
+    # mouth-upward-retraction: AU 12's oblique pull (the corner back and up) with the lower lip's middle down
+    # (AU 16) and the upper lip's middle hardly raised, so mouthSmile + mouthLowerDown; it moves the cheek's centre 5.1
+    # and the chin boss 2.10, which the first 24 keep still
+    from scripts.bench.evaluate_arkit import MORE_UNITS
+
+    pairs = {units: names for names, units in MORE_UNITS}
+    out, back, up = unit_motion("mouth-upward-retraction", "2.4")
+    assert back > 0.008 and up > 0.005 and out > 0.002
+    assert unit_motion("mouth-upward-retraction", "2.3")[2] < -0.006
+    # the upper lip's middle rises less than half as far as its side beside the corner (AU 10 raises the middle most)
+    assert unit_motion("mouth-upward-retraction", "8.1")[2] < 0.5 * unit_motion("mouth-upward-retraction", "8.5")[2]
+    assert (
+        unit_motion("mouth-upward-retraction", "5.1")[2] > 0.003
+        and unit_motion("mouth-upward-retraction", "2.10")[2] < -0.003
+    )
+    assert set(pairs[("mouth-upward-retraction",)]) == {
+        "mouthSmileLeft",
+        "mouthSmileRight",
+        "mouthLowerDownLeft",
+        "mouthLowerDownRight",
+    }
+    # mouth-part-later: the lips apart at the middle (AU 10 + AU 16) and the nose's bottom edge lifted
+    assert unit_motion("mouth-part-later", "2.2")[2] > 0.006 and unit_motion("mouth-part-later", "2.3")[2] < -0.010
+    assert unit_motion("mouth-part-later", "9.5")[2] > 0.010
+    assert set(pairs[("mouth-part-later",)]) == set(pairing("mouth-depression-retraction"))
+
+
+def test_the_facs_checks_read_the_skin_at_the_place_along_the_rule_and_mirror_the_left_rules():
+    # two vertices: one at the left cheek bone 5.3, one at its mirror 5.4 (the FPs of the places the rules name
+    # placed on a line); mouthSmileLeft raises the first 1 mm (passes AU 12's infraorbital rule? no: that place is
+    # the mean of 3.3, 9.1 and 5.3, so put all three at the first vertex), mouthSmileRight the second 0.2 mm
+    from scripts.bench.arkit_facs import check
+
+    rest = np.array([[0.03, 0.0, 0.0], [-0.03, 0.0, 0.0], [0.0, 0.0, 0.5]])
+    fp_rest = {fp: rest[0] for fp in ("3.3", "9.1", "5.3", "8.3", "5.1")}
+    fp_rest |= {fp: rest[1] for fp in ("3.4", "9.2", "5.4", "8.4", "5.2")}
+    keys = {"mouthSmileLeft": np.zeros((3, 3)), "mouthSmileRight": np.zeros((3, 3))}
+    keys["mouthSmileLeft"][0] = (0.001, 0.0, 0.001)  # out (+x, the face's left) and up
+    keys["mouthSmileRight"][1] = (0.001, 0.0, 0.0002)  # in, for the right side (+x), and up too little
+    rows = {(r["shape"], r["place"], r["direction"]): r for r in check(keys, rest, fp_rest)}
+    assert rows[("mouthSmileLeft", "infraorbital triangle", "up")]["passes"]
+    assert rows[("mouthSmileLeft", "8.3", "out")]["passes"]
+    assert not rows[("mouthSmileRight", "infraorbital triangle", "up")]["passes"]
+    assert not rows[("mouthSmileRight", "8.3", "out")]["passes"]  # +x is in on the right
+    np.testing.assert_allclose(rows[("mouthSmileRight", "8.3", "out")]["mm"], -1.0)
+
+
+def test_the_mouth_shift_modifiers_move_the_lips_sideways_as_one_and_the_nose_base_a_share():
+    # MakeHuman's mouth-trans-out / -in (face-shape modifiers under targets/mouth): every lip point 6 mm to the face's
+    # left / right as one, the nose's bottom edge beside the nostril about half as far, the nostril and chin still:
+    # ARKit's mouthLeft / mouthRight ("movement of both lips to the left")
+    from scripts.bench.evaluate_arkit import MORE_UNITS, _unit_path
+
+    pairs = {units: names for names, units in MORE_UNITS}
+    for unit, sign, name in (("mouth/mouth-trans-out", 1.0, "mouthLeft"), ("mouth/mouth-trans-in", -1.0, "mouthRight")):
+        path = _unit_path(UNITS, unit)
+        offsets = load_target(path, BASE_VERTEX_COUNT)
+
+        def motion(fp_id, offsets=offsets):
+            return to_blender(offsets[list(FP_TABLE[fp_id][1])].mean(axis=0))
+
+        for fp_id in ("8.1", "8.2", "8.5", "8.7"):
+            assert sign * motion(fp_id)[0] > 0.005, (unit, fp_id)
+        assert 0.3 < motion("9.5")[0] / motion("8.5")[0] < 0.7
+        assert np.linalg.norm(motion("9.1")) < 0.001 and np.linalg.norm(motion("2.10")) < 0.001
+        assert pairs[(unit,)] == (name,)
