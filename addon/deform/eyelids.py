@@ -293,6 +293,10 @@ class EyelidRig:
     # (eye, lid) pairs (0 left / 1 right, 0 upper / 1 lower) whose mask was the margin row alone (`one_row_deep`) and
     # turn by the memberships made from the FPs where those are larger
     deepened: tuple = ()
+    # (K, 2) the angle (rad) from each vertex to the other lid's margin at its place along the eye as the eye's centre
+    # sees it on the skin (`seen_margins`): down to the lower margin for the upper lid's turn, up to the upper margin
+    # for the lower lid's; NaN where the skin shows no opening; None: no stop by the skin (`meet_lids`)
+    room: np.ndarray | None = None
 
 
 def bind_eyelids(
@@ -353,6 +357,7 @@ def bind_eyelids(
     rest_angles = np.full((2, 3), np.nan)
     meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
     along = np.zeros(len(keep))  # each vertex's place along its eye, 0 at the inner corner, 1 at the outer
+    seen_by_eye = [None, None]  # per eye: the margins the eye's centre sees on the skin, for `EyelidRig.room`
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
@@ -362,6 +367,9 @@ def bind_eyelids(
         elev = elevation(face[keep[on]], centres[e])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
         closure = None  # traced margins: the share of their own mid opening
+        if triangles is not None:
+            seen = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
+            seen_by_eye[e] = None if seen is None else (seen, inner_x, outer_x)
         if trace_opening:
             margins = trace_margins(t, elev, up[on], low[on])
             if margins is not None and neighbours is not None:
@@ -378,7 +386,7 @@ def bind_eyelids(
                     margins = trace_margins(t, elev, up[on], low[on])
             profile = opening_profile(margins, t, mid) if margins is not None else None
         elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
-            margins = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
+            margins = seen_by_eye[e] and seen_by_eye[e][0]
             closure = rest_angles[e, 0] - rest_angles[e, 1]
             profile = meeting_curve(margins, t, mid, closure) if margins is not None and closure > 0.0 else None
             if margins is None:  # no opening on the skin: the lids meet at rest already (a scan's shut eye)
@@ -421,6 +429,14 @@ def bind_eyelids(
         moved |= (opening > 0.0).any(axis=1)
         opening = opening[moved]
     keep, eye, weights = keep[moved], eye[moved], weights[moved]
+    room = np.full((len(keep), 2), np.nan)
+    for e, seen_at in enumerate(seen_by_eye):
+        if seen_at is not None:
+            (upper_margin, lower_margin), inner_x, outer_x = [m[:2] for m in seen_at[0]], *seen_at[1:]
+            on = eye == e
+            t = (face[keep[on], 0] - inner_x) / (outer_x - inner_x)
+            elev = elevation(face[keep[on]], centres[e])
+            room[on] = np.stack([elev - np.interp(t, *lower_margin), np.interp(t, *upper_margin) - elev], axis=1)
     meeting = np.zeros(len(keep))
     for e, (opening_at, inner_x, outer_x) in enumerate(meets):
         on = eye == e
@@ -438,6 +454,7 @@ def bind_eyelids(
         opening=opening,
         meeting=meeting,
         deepened=tuple(deepened),
+        room=room if np.isfinite(room).any() else None,
     )
 
 
@@ -474,6 +491,16 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
     opening = rig.meeting * closure[rig.eye]
     inside = opening > 0.0
     stop = (opening[:, None] * (1.0 - shares[:, ::-1]).clip(0.0) - MEET_CLEARANCE).clip(0.0)  # (K, 2) upper, lower
+    if rig.room is not None:
+        # nor past the other lid's margin as the skin shows it (`EyelidRig.room`, less the way that margin has come):
+        # the opening a painted lid's weights trace runs past it where a pick is no margin (the sample's outer corner:
+        # a lower-lid vertex 7 degrees below the margin), and a margin turned through the other lid folded the corner's
+        # faces, which Unfold Skin then opened by pulling the margin back up. Only the skin of this lid alone (the
+        # other lid's weight 0): skin both lids move lies on neither side of a margin (a decimated face's blended
+        # corners opened when held by it), and the seen margin is the skin itself, so no clearance
+        alone = np.stack([rig.lower <= 0.0, rig.upper <= 0.0], axis=1)
+        seen = (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0)
+        stop = np.where(alone & (rig.room > 0.0), np.minimum(stop, seen), stop)
     up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
     low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
     return up, low
