@@ -367,6 +367,7 @@ def bind_eyelids(
         elev = elevation(face[keep[on]], centres[e])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
         closure = None  # traced margins: the share of their own mid opening
+        meets_override = None
         if triangles is not None:
             seen = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
             seen_by_eye[e] = None if seen is None else (seen, inner_x, outer_x)
@@ -385,6 +386,18 @@ def bind_eyelids(
                 if deepened and deepened[-1][0] == e:
                     margins = trace_margins(t, elev, up[on], low[on])
             profile = opening_profile(margins, t, mid) if margins is not None else None
+            if profile is not None and seen_by_eye[e] is not None:
+                # and at least by the opening the skin shows: the traced one falls short where a bin's pick is no
+                # margin or a margin vertex is not picked (the decimated head: 4 bins, its margin stopped 3 degrees
+                # above the lower lid a fifth of the way out); the skin's stop keeps them from passing it (`room`)
+                closure_e = rest_angles[e, 0] - rest_angles[e, 1]
+                seen = seen_by_eye[e][0]
+                profile = np.maximum(profile, meeting_curve(seen, t, mid, closure_e).clip(0.0, 1.0))
+                meets_override = functools.partial(
+                    _larger_of,
+                    functools.partial(meeting_curve, margins, t_mid=mid),
+                    functools.partial(meeting_curve, seen, t_mid=mid, closure=closure_e),
+                )
         elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
             margins = seen_by_eye[e] and seen_by_eye[e][0]
             closure = rest_angles[e, 0] - rest_angles[e, 1]
@@ -399,7 +412,8 @@ def bind_eyelids(
             if trace_opening:
                 up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
-            meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid, closure=closure), inner_x, outer_x)
+            meeting_at = meets_override or functools.partial(meeting_curve, margins, t_mid=mid, closure=closure)
+            meets[e] = (meeting_at, inner_x, outer_x)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
@@ -468,6 +482,11 @@ def meeting_curve(margins: list, t: np.ndarray, t_mid: float, closure: float | N
     if not mid > 0.0:
         return np.zeros_like(opening)
     return np.where((t > 0.0) & (t < 1.0), opening.clip(0.0) / mid, 0.0)
+
+
+def _larger_of(first: Callable, second: Callable, t: np.ndarray) -> np.ndarray:
+    """The larger of two `meeting_curve`s at positions `t` along the eye."""
+    return np.maximum(first(t), second(t))
 
 
 def arch_meeting(t: np.ndarray, t_mids: tuple[float, float]) -> np.ndarray:

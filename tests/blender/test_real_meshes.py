@@ -351,18 +351,19 @@ def test_a_decimated_faces_one_row_lids_close_without_crumpling():
     # the margin row alone, the next row 12-14 degrees up at no weight. A full blink (`scripts.bench.variant_blink`)
     # turned the margin onto the lower lid and left that row: the closed lid one crumpled strip of faces, its edge
     # 9.3 / 7.3 mm off a smooth curve (2.05 / 2.42 at rest) and 8 crossing pairs at the right inner corner. Now those
-    # lids also turn the skin the masks made from the FPs reach (`eyelids.one_row_deep`), and set-up says so.
-    # Straight on, 0.07 mm show on the left eye since the lids stop at the other lid's margin as the skin shows it
-    # (session 15; most likely the edge between margin vertices 4-5 mm apart, sagging above the lower lid's bowl:
-    # the traced opening had turned the vertex at a third of the way out 1.3 degrees through the lower lid)
+    # lids also turn the skin the masks made from the FPs reach (`eyelids.one_row_deep`), and set-up says so. From 30
+    # degrees below the left eye showed 1.01 mm: the opening traced through 4 bins of the blended masks fell short a
+    # fifth of the way out (the margin 3 degrees above the lower lid). Painted lids now turn at least by the opening
+    # the skin shows, and no further than the other lid's margin there (session 15): 0.57 / 0.44 mm
     from scripts.bench.variant_blink import measure
 
     head = unset_sample()
     variants.decimate(head)
     notes = face_setup.set_up(head)
     for row in measure(head):
-        straight, _below = row["seen"]
-        assert straight < 0.1  # mm
+        straight, below = row["seen"]
+        assert straight < 0.05  # mm
+        assert below < 0.75
         assert row["edge"] < row["rest_edge"] + 0.1
         assert row["folds"] == 0
         assert row["crossings"] == 0
