@@ -14,7 +14,8 @@ the centre: the lid stays on the eye.
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
 real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle, under the
-mid-lid FPs), and all along the eye: no vertex turns past the other lid's margin at its place (`meet_lids`).
+mid-lid FPs), and all along the eye: no vertex turns past the other lid's margin at its place (`meet_lids`; a lid's
+own skin also not past that margin as the skin shows it, `EyelidRig.room`).
 
 No face turns over (not in the paper, which has no lids' turn): given the mesh's faces, `bind_eyelids` makes the
 weights such that each lid alone, turning anywhere within its range (`_turn_range`), keeps every face's normal
@@ -318,7 +319,8 @@ def bind_eyelids(
     right eyeballs, all in mesh coordinates. With the mesh's `triangles` (T, 3), the weights are made so that
     no face turns over (`fold_free_weights`) and the turns are kept within the range that holds for
     (`_turn_range`). The share of the turn along the eye follows the opening traced on the mesh through the lid
-    weights (`opening_profile`), or with `trace_opening` False (lid weights made from the FPs, which know no
+    weights (`opening_profile`; where the skin of `triangles` shows a larger opening, that one: a traced opening falls
+    short where a bin's pick is no margin), or with `trace_opening` False (lid weights made from the FPs, which know no
     more of the margins than the FPs do: margins traced through them bend where the weights do) the opening the
     eye's centre sees on the skin of `triangles` (`seen_margins`) over the mid-lid FPs' own opening, and no turn
     toward closure where it sees none (the skin shut across the eye at rest, as a scan of closed eyes: the sine
@@ -503,7 +505,8 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
     opening is o c (`EyelidRig.meeting`: o its share of the mid one) it has come s_other o c toward this one, so
     no vertex of this lid turns toward closure by more than (1 - s_other) o c less `MEET_CLEARANCE`, whatever its
     weight (the margin's weight is o: it stops at the other margin; rows behind it near the inner corner had more,
-    and went through the lower lid at a full blink).
+    and went through the lower lid at a full blink). With `EyelidRig.room` (r, the angle from the vertex to the other
+    lid's margin on the skin), a vertex of this lid alone also turns by no more than r - s_other o c.
     """
     closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
     shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
