@@ -435,6 +435,11 @@ def bind_eyelids(
         # demo's blink on the sample with its groups deleted: a pair at each outer corner). Freeing every member of
         # weight 0 (the opening's shut stretches inside the corners too) roughened the 2 mm remesh's inner corner
         member = (np.stack([up, low], axis=1) >= MEMBER) & ((along > 0.0) & (along < 1.0))[:, None]
+        if not trace_opening:
+            # masks set-up made say which lid a vertex is: one lid's members are not the other's to turn (the
+            # fold-free weights turned the lower lid's margin with the upper lid's blink at the decimated head's
+            # inner corner, 3.6 mm down, and the eye stayed 1.3 mm open)
+            member = member | member[:, ::-1]
         member = np.concatenate([member, np.zeros((len(extra), 2), bool)])
         keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
         weights = np.concatenate([weights, np.zeros((len(extra), 2))])

@@ -370,6 +370,25 @@ def test_a_decimated_faces_one_row_lids_close_without_crumpling():
     assert any("one row of vertices deep (left upper, right upper)" in str(note) for note in notes)
 
 
+def test_a_decimated_face_with_its_groups_deleted_shuts_both_eyes():
+    # the decimated sample with its groups deleted (masks set-up made): the upper lid's blink turned the lower lid's
+    # margin near the right eye's inner corner with it (the fold-free weights gave those lower-lid members 0.3-0.6 of
+    # the upper lid's turn: 3.6 mm down), and the right eye stayed 1.33 mm open straight on, 2.72 mm from below. One
+    # lid's members (of masks set-up made) are now not the other lid's to turn
+    from scripts.bench.variant_blink import measure
+
+    head = unset_sample()
+    variants.decimate(head)
+    variants.delete_vertex_groups(head)
+    face_setup.set_up(head)
+    for row in measure(head):
+        straight, below = row["seen"]
+        assert straight < 0.05  # mm
+        assert below < 0.5
+        assert row["folds"] == 0
+        assert row["crossings"] == 0
+
+
 def test_a_subdivided_face_with_its_new_vertices_moved_opens_the_lips_folds():
     # one cut per edge, the new vertices jittered along the surface (`variants.subdivide`): demo frames 116-125 fold
     # the skin inside the mouth corners (25 faces, the sample's 6 cut in 4), which Unfold Skin must open within a
