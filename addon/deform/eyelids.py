@@ -401,7 +401,7 @@ def bind_eyelids(
                     functools.partial(meeting_curve, seen, t_mid=mid, closure=closure_e),
                 )
         elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
-            margins = seen_by_eye[e] and seen_by_eye[e][0]
+            margins = None if seen_by_eye[e] is None else seen_by_eye[e][0]
             closure = rest_angles[e, 0] - rest_angles[e, 1]
             profile = meeting_curve(margins, t, mid, closure) if margins is not None and closure > 0.0 else None
             if margins is None:  # no opening on the skin: the lids meet at rest already (a scan's shut eye)
