@@ -66,6 +66,8 @@ def _make_rig(face, binding: Binding) -> EyelidRig | None:
     if parts is not None:  # an eyeball inside the face object is no lid (its masks are 0 there: "the other lid")
         upper[parts.all_vertices] = lower[parts.all_vertices] = 0.0
     triangles = face_data.mesh_fans(face.data)[0]  # the weights are made so that no face turns over
+    if parts is not None:  # an eyeball inside the face object is no skin: the lids see their opening past it
+        triangles = triangles[~np.isin(triangles, parts.all_vertices).any(axis=1)]
     # lid masks set-up made from the FPs say no more of the margins than the FPs: the lids' opening from their FPs
     trace = not {"upper_eyelid", "lower_eyelid"} & set(settings.made_masks.split(","))
     inputs = (binding.rest_vertices, upper, lower, neutral, centres, radii, axes, triangles, trace)

@@ -14,7 +14,8 @@ the centre: the lid stays on the eye.
 
 The lids also follow the eyeball's pitch in part (`UPPER_FOLLOWS_PITCH`, `LOWER_FOLLOWS_PITCH`), as
 real lids do, and the two lids of an eye stop where they meet (`decode.meet_at_closure`, in angle, under the
-mid-lid FPs), and all along the eye: no vertex turns past the other lid's margin at its place (`meet_lids`).
+mid-lid FPs), and all along the eye: no vertex turns past the other lid's margin at its place (`meet_lids`; a lid's
+own skin also not past that margin as the skin shows it, `EyelidRig.room`).
 
 No face turns over (not in the paper, which has no lids' turn): given the mesh's faces, `bind_eyelids` makes the
 weights such that each lid alone, turning anywhere within its range (`_turn_range`), keeps every face's normal
@@ -293,6 +294,10 @@ class EyelidRig:
     # (eye, lid) pairs (0 left / 1 right, 0 upper / 1 lower) whose mask was the margin row alone (`one_row_deep`) and
     # turn by the memberships made from the FPs where those are larger
     deepened: tuple = ()
+    # (K, 2) the angle (rad) from each vertex to the other lid's margin at its place along the eye as the eye's centre
+    # sees it on the skin (`seen_margins`): down to the lower margin for the upper lid's turn, up to the upper margin
+    # for the lower lid's; NaN where the skin shows no opening; None: no stop by the skin (`meet_lids`)
+    room: np.ndarray | None = None
 
 
 def bind_eyelids(
@@ -314,7 +319,8 @@ def bind_eyelids(
     right eyeballs, all in mesh coordinates. With the mesh's `triangles` (T, 3), the weights are made so that
     no face turns over (`fold_free_weights`) and the turns are kept within the range that holds for
     (`_turn_range`). The share of the turn along the eye follows the opening traced on the mesh through the lid
-    weights (`opening_profile`), or with `trace_opening` False (lid weights made from the FPs, which know no
+    weights (`opening_profile`; where the skin of `triangles` shows a larger opening, that one: a traced opening falls
+    short where a bin's pick is no margin), or with `trace_opening` False (lid weights made from the FPs, which know no
     more of the margins than the FPs do: margins traced through them bend where the weights do) the opening the
     eye's centre sees on the skin of `triangles` (`seen_margins`) over the mid-lid FPs' own opening, and no turn
     toward closure where it sees none (the skin shut across the eye at rest, as a scan of closed eyes: the sine
@@ -353,6 +359,7 @@ def bind_eyelids(
     rest_angles = np.full((2, 3), np.nan)
     meets = [None, None]  # per eye: the lids' opening along the eye as the weights have it, for `meeting_curve`
     along = np.zeros(len(keep))  # each vertex's place along its eye, 0 at the inner corner, 1 at the outer
+    seen_by_eye = [None, None]  # per eye: the margins the eye's centre sees on the skin, for `EyelidRig.room`
     for e, (upper, lower, inner, outer, pupil) in enumerate(ids):
         on = eye == e
         x = face[keep[on], 0]
@@ -362,6 +369,10 @@ def bind_eyelids(
         elev = elevation(face[keep[on]], centres[e])
         mid = (fps[upper, 0] - inner_x) / (outer_x - inner_x)
         closure = None  # traced margins: the share of their own mid opening
+        meets_override = None
+        if triangles is not None:
+            seen = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
+            seen_by_eye[e] = None if seen is None else (seen, inner_x, outer_x)
         if trace_opening:
             margins = trace_margins(t, elev, up[on], low[on])
             if margins is not None and neighbours is not None:
@@ -377,8 +388,20 @@ def bind_eyelids(
                 if deepened and deepened[-1][0] == e:
                     margins = trace_margins(t, elev, up[on], low[on])
             profile = opening_profile(margins, t, mid) if margins is not None else None
+            if profile is not None and seen_by_eye[e] is not None:
+                # and at least by the opening the skin shows: the traced one falls short where a bin's pick is no
+                # margin or a margin vertex is not picked (the decimated head: 4 bins, its margin stopped 3 degrees
+                # above the lower lid a fifth of the way out); the skin's stop keeps them from passing it (`room`)
+                closure_e = rest_angles[e, 0] - rest_angles[e, 1]
+                seen = seen_by_eye[e][0]
+                profile = np.maximum(profile, meeting_curve(seen, t, mid, closure_e).clip(0.0, 1.0))
+                meets_override = functools.partial(
+                    _larger_of,
+                    functools.partial(meeting_curve, margins, t_mid=mid),
+                    functools.partial(meeting_curve, seen, t_mid=mid, closure=closure_e),
+                )
         elif triangles is not None:  # seen margins: the turn that closes them when the mid-lid FPs meet
-            margins = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
+            margins = None if seen_by_eye[e] is None else seen_by_eye[e][0]
             closure = rest_angles[e, 0] - rest_angles[e, 1]
             profile = meeting_curve(margins, t, mid, closure) if margins is not None and closure > 0.0 else None
             if margins is None:  # no opening on the skin: the lids meet at rest already (a scan's shut eye)
@@ -391,7 +414,8 @@ def bind_eyelids(
             if trace_opening:
                 up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
-            meets[e] = (functools.partial(meeting_curve, margins, t_mid=mid, closure=closure), inner_x, outer_x)
+            meeting_at = meets_override or functools.partial(meeting_curve, margins, t_mid=mid, closure=closure)
+            meets[e] = (meeting_at, inner_x, outer_x)
         else:  # no opening traced on the mesh (or not asked to trace one): a sine arch along the eye
             up_weight[on] = up[on] * lid_profile(x, inner_x, fps[upper, 0], outer_x)
             low_weight[on] = low[on] * lid_profile(x, inner_x, fps[lower, 0], outer_x)
@@ -411,6 +435,11 @@ def bind_eyelids(
         # demo's blink on the sample with its groups deleted: a pair at each outer corner). Freeing every member of
         # weight 0 (the opening's shut stretches inside the corners too) roughened the 2 mm remesh's inner corner
         member = (np.stack([up, low], axis=1) >= MEMBER) & ((along > 0.0) & (along < 1.0))[:, None]
+        if not trace_opening:
+            # masks set-up made say which lid a vertex is: one lid's members are not the other's to turn (the
+            # fold-free weights turned the lower lid's margin with the upper lid's blink at the decimated head's
+            # inner corner, 3.6 mm down, and the eye stayed 1.3 mm open)
+            member = member | member[:, ::-1]
         member = np.concatenate([member, np.zeros((len(extra), 2), bool)])
         keep, eye = np.concatenate([keep, extra]), np.concatenate([eye, np.argmin(distance[extra], axis=1)])
         weights = np.concatenate([weights, np.zeros((len(extra), 2))])
@@ -421,6 +450,14 @@ def bind_eyelids(
         moved |= (opening > 0.0).any(axis=1)
         opening = opening[moved]
     keep, eye, weights = keep[moved], eye[moved], weights[moved]
+    room = np.full((len(keep), 2), np.nan)
+    for e, seen_at in enumerate(seen_by_eye):
+        if seen_at is not None:
+            (upper_margin, lower_margin), inner_x, outer_x = [m[:2] for m in seen_at[0]], *seen_at[1:]
+            on = eye == e
+            t = (face[keep[on], 0] - inner_x) / (outer_x - inner_x)
+            elev = elevation(face[keep[on]], centres[e])
+            room[on] = np.stack([elev - np.interp(t, *lower_margin), np.interp(t, *upper_margin) - elev], axis=1)
     meeting = np.zeros(len(keep))
     for e, (opening_at, inner_x, outer_x) in enumerate(meets):
         on = eye == e
@@ -438,6 +475,7 @@ def bind_eyelids(
         opening=opening,
         meeting=meeting,
         deepened=tuple(deepened),
+        room=room if np.isfinite(room).any() else None,
     )
 
 
@@ -451,6 +489,11 @@ def meeting_curve(margins: list, t: np.ndarray, t_mid: float, closure: float | N
     if not mid > 0.0:
         return np.zeros_like(opening)
     return np.where((t > 0.0) & (t < 1.0), opening.clip(0.0) / mid, 0.0)
+
+
+def _larger_of(first: Callable, second: Callable, t: np.ndarray) -> np.ndarray:
+    """The larger of two `meeting_curve`s at positions `t` along the eye."""
+    return np.maximum(first(t), second(t))
 
 
 def arch_meeting(t: np.ndarray, t_mids: tuple[float, float]) -> np.ndarray:
@@ -467,13 +510,24 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
     opening is o c (`EyelidRig.meeting`: o its share of the mid one) it has come s_other o c toward this one, so
     no vertex of this lid turns toward closure by more than (1 - s_other) o c less `MEET_CLEARANCE`, whatever its
     weight (the margin's weight is o: it stops at the other margin; rows behind it near the inner corner had more,
-    and went through the lower lid at a full blink).
+    and went through the lower lid at a full blink). With `EyelidRig.room` (r, the angle from the vertex to the other
+    lid's margin on the skin), a vertex of this lid alone also turns by no more than r - s_other o c.
     """
     closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
     shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
     opening = rig.meeting * closure[rig.eye]
     inside = opening > 0.0
     stop = (opening[:, None] * (1.0 - shares[:, ::-1]).clip(0.0) - MEET_CLEARANCE).clip(0.0)  # (K, 2) upper, lower
+    if rig.room is not None:
+        # nor past the other lid's margin as the skin shows it (`EyelidRig.room`, less the way that margin has come):
+        # the opening a painted lid's weights trace runs past it where a pick is no margin (the sample's outer corner:
+        # a lower-lid vertex 7 degrees below the margin), and a margin turned through the other lid folded the corner's
+        # faces, which Unfold Skin then opened by pulling the margin back up. Only the skin of this lid alone (the
+        # other lid's weight 0): skin both lids move lies on neither side of a margin (a decimated face's blended
+        # corners opened when held by it), and the seen margin is the skin itself, so no clearance
+        alone = np.stack([rig.lower <= 0.0, rig.upper <= 0.0], axis=1)
+        seen = (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0)
+        stop = np.where(alone & (rig.room > 0.0), np.minimum(stop, seen), stop)
     up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
     low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
     return up, low

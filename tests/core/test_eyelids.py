@@ -293,6 +293,36 @@ def test_meet_lids_stops_every_row_where_the_other_lid_is_by_hand():
     np.testing.assert_allclose(up, rig.upper * 0.1, atol=0)
 
 
+def test_meet_lids_stops_a_lid_where_the_skin_shows_the_other_lids_margin_by_hand():
+    """Opening c = 0.5 rad under the mid-lid FPs; four upper-lid vertices whose place's opening (`meeting`) is 0.5 of
+    it, as a painted lid's traced opening may say where the skin shows less: the other lid's margin, seen on the
+    skin, lies 0.15, 0.3, 0.15 and -0.05 rad below them (`room`). The first is the upper lid's alone: stopped at the
+    seen margin, not 0.25 rad down (before: the weights' opening, 0.25, the margin turned through the other lid); the
+    second has room for the opening's stop; the third is skin both lids move, and the fourth lies past the other
+    margin already: both keep the opening's stop."""
+    from addon.deform import eyelids as lids
+
+    rig = lids.EyelidRig(
+        vertices=np.arange(4),
+        eye=np.zeros(4, np.intp),
+        upper=np.array([1.0, 1.0, 1.0, 1.0]),
+        lower=np.array([0.0, 0.0, 0.2, 0.0]),
+        local=np.zeros((4, 3)),
+        centres=np.zeros((2, 3)),
+        rest_angles=np.array([[0.25, -0.25, 0.0], [0.25, -0.25, 0.0]]),
+        axes=np.eye(3),
+        meeting=np.full(4, 0.5),
+        room=np.array([[0.15, 0.1], [0.3, 0.1], [0.15, 0.1], [-0.05, 0.1]]),
+    )
+    d = MEET_CLEARANCE
+    full = np.array([[-0.5, 0.0], [-0.5, 0.0]])  # the upper lid all the way down, the lower lid still
+    up, _low = lids.meet_lids(rig, full, rig.upper * -0.5, np.zeros(4))
+    np.testing.assert_allclose(up, [-0.15, -(0.25 - d), -(0.25 - d), -(0.25 - d)], atol=1e-15)
+    half = np.array([[-0.25, 0.25], [-0.25, 0.25]])  # the lower margin has come 0.5 o c = 0.125 rad up toward it
+    up, _low = lids.meet_lids(rig, half, rig.upper * -0.25, np.zeros(4))
+    np.testing.assert_allclose(up, [-(0.15 - 0.125), -(0.125 - d), -(0.125 - d), -(0.125 - d)], atol=1e-15)
+
+
 def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge():
     """Lid masks blended across the margin, as decimation leaves them (the margin row 0.6 of the lid, 1 two rows
     out), at uneven spacing along the eye: a full blink brings each margin onto the other lid, along a smooth curve,
