@@ -1,13 +1,14 @@
 """A full blink on the sample head: the lids meet along the whole eye and no part of one passes through the other
 (`eyelids.meet_lids`), and a viewer sees no opening between them (`overlaps.seen_lid_gap`; docs/eyes_brows.md)."""
 
+import bpy
 import numpy as np
 
 from addon.blender import face_data
 from addon.deform.overlaps import crossing_pairs, edge_chain, lid_gap
 from scripts.bench.variant_blink import full_blink, seen_gaps
 
-from .helpers import positions, set_up_sample
+from .helpers import DEMO_FAP, positions, set_up_sample
 
 LIDS = ((("3.11", "3.1", "3.7"), ("3.11", "3.3", "3.7")), (("3.8", "3.2", "3.12"), ("3.8", "3.4", "3.12")))
 
@@ -33,3 +34,21 @@ def test_a_full_blink_closes_the_lids_without_one_passing_through_the_other():
         assert min(seen_gaps(head, rest, triangles, eye)) > 0.004  # open at rest
         straight, below = seen_gaps(head, closed, triangles, eye)
         assert straight <= 1e-9 and below <= 0.0005
+
+
+def test_the_lower_lids_inner_rims_do_not_cross_in_the_demos_frames_161_to_173():
+    """The sample's lower lids' inner rims (inside the sockets, hidden by the eyeballs) are a crease whose two sides
+    face each other 0.4-0.9 mm apart at rest (vertices 30, 33, 34, 1403, 1404, 2181, 2189 on the left). Played as a
+    user plays it, the demo's frames 161-175 crossed 3 pairs at each rim (6 in a frame; docs/real_meshes.md, "The
+    lower lids' inner rims"): Planar Bones moved one side of the crease up to 1 mm and the other not at all, the
+    lids' turn off or on. Fails at c82234c (2 pairs at frame 161)."""
+    head = set_up_sample()
+    rest = positions(head.data).astype(np.float64)
+    triangles = face_data.mesh_fans(head.data)[0]
+    assert bpy.ops.mpeg4.import_fap(filepath=str(DEMO_FAP), start_frame=1) == {"FINISHED"}
+    for frame in range(150, 176):
+        bpy.context.scene.frame_set(frame)
+        if frame < 159:
+            continue
+        now = positions(head.data).astype(np.float64)
+        assert len(crossing_pairs(now, triangles, np.any(now != rest, axis=1))) == 0, frame
