@@ -94,10 +94,10 @@ def main(argv: list[str] | None = None) -> int:
     caught: dict = {}
     keep = live._keep_lips_apart
 
-    def spy(state, driving, off_rest, contact=True):  # the skin as Planar Bones left it, before the guard
-        if contact:
+    def spy(state, driving, off_rest):  # the skin as Planar Bones left it, before the guard
+        if "planar" not in caught:  # the frame's first call; Unfold Skin's rounds call it again
             caught["planar"], caught["driving"], caught["state"] = state.out.copy(), driving.copy(), state
-        return keep(state, driving, off_rest, contact)
+        return keep(state, driving, off_rest)
 
     live._keep_lips_apart = spy
     last = int(np.ceil(scene.frame_end))
