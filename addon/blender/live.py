@@ -407,7 +407,7 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
             moved = unfold.open_folds_guarded(
                 skin,
                 state.out,
-                lambda: _keep_lips_apart(state, driving, None, contact=False),  # the seam again after the membrane
+                lambda: _keep_lips_apart(state, driving, None),  # the seam and the contact again after the membrane
                 look,
                 max_steps=unfold.frame_steps(skin.n_vertices),
                 guarded=None if state.lip_guard is None else state.lip_guard.skin,
@@ -426,18 +426,21 @@ def apply_face(face, force: bool = False, present: frozenset | None = None) -> b
     return True
 
 
-def _keep_lips_apart(state: _State, driving: np.ndarray, off_rest: np.ndarray | None, contact: bool = True) -> bool:
+def _keep_lips_apart(state: _State, driving: np.ndarray, off_rest: np.ndarray | None) -> bool:
     """The lip guard on `state.out` (the lips press on each other, never pass) where the lips' points moved;
-    whether it moved any skin. `contact`: also where the seam does not part the lips (`lips.press_apart`), once a
-    frame, before Unfold Skin: in the rounds after the membrane as well, the two took turns by ever smaller amounts
-    (90 to 9 um) to the last round (the subdivided variant's frames 6x its median)."""
+    whether it moved any skin. Also where the seam does not part the lips (`lips.press_apart`), before Unfold Skin and
+    in its rounds after the membrane. In numpy (session 11) the two took turns in those rounds by ever
+    smaller amounts (90 to 9 um) to the last round, the subdivided variant's frames 6x its median, so the contact ran
+    once a frame; compiled (ABI 14) and in the rounds again (session 15), no frame of the three shared heads, the
+    subdivided variant or the sample's variants played is over 2.0x its moving median in CPU time, and the scan's slit
+    no longer crosses where the membrane opened the triangles bridging its walls (demo 11 pairs in a frame -> 3)."""
     lips = state.lip_points
     if state.lip_guard is None or np.array_equal(driving[lips], state.binding.control_rest[lips]):
         return False
     moved = fused.guard_lips_into(state.lip_arrays, state.out, driving) if _NATIVE_GUARD else None
     if moved is None:
         moved = guard_lips(state.lip_guard, state.out, driving)
-    moved = (contact and press_apart(state.lip_guard, state.out)) or moved
+    moved = press_apart(state.lip_guard, state.out) or moved
     if moved and state.playback is not None:
         state.playback.changed(state.lip_skin_groups)  # the next frame writes them afresh
         if off_rest is not None:

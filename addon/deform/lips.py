@@ -22,6 +22,8 @@ import heapq
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..geometry.normals import vertex_normals
@@ -59,13 +61,17 @@ def mouth_sides(
     order (mesh coordinates).
 
     With the mesh's `triangles` (K, 3), the box also takes the crease behind the corners, where the lips' meeting line
-    runs on into the mouth: BOX_MARGIN deep, and within BOX_MARGIN in height of that line (straight between the
-    SEAM_PAIRS' midpoints, as at rest). Where the lips meet behind the corner FPs their masks say both (ICT's inner
-    corners: 1/2 each), so there each vertex of the lips (the masks' sum above 1/2) goes by the way its skin faces at
-    rest: facing down, the upper lip's underside; facing up, the lower lip's top. Left out, that crease was only
-    carried with the lips beside it, and in the smile the pushes of both lips sheared it through itself (ICT, demo
-    frame 121: 10 of its 12 crossing pairs). Without the band in height, the scan's inner lips behind its corners' depth
-    (its lip line rises 5 mm over the corners 10 mm in) were taken as well, and crossed the skin carried beside them.
+    runs on into the mouth: within BOX_MARGIN in height of that line (straight between the SEAM_PAIRS' midpoints, as at
+    rest), as far back as it runs on from the lips in front of the corners (joined to them along the mesh's edges
+    through such vertices; session 14 stopped it BOX_MARGIN deep, and the scan's slit, 5-7 mm deeper, was then only
+    carried: sheared by its walls' pushes, 9-12 crossing pairs at its left end in most demo frames; with no bound in
+    depth, skin at the back of the head whose made masks say lips joined in, 80-220 mm behind). Where the lips meet
+    behind the corner FPs their masks say both (ICT's inner corners: 1/2 each), so there each vertex of the lips (the
+    masks' sum above 1/2) goes by the way its skin faces at rest: facing down, the upper lip's underside; facing up, the
+    lower lip's top. Left out, that crease was only carried with the lips beside it, and in the smile the pushes of both
+    lips sheared it through itself (ICT, demo frame 121: 10 of its 12 crossing pairs). Without the band in height, the
+    scan's inner lips behind its corners' depth (its lip line rises 5 mm over the corners 10 mm in) were taken as well,
+    and crossed the skin carried beside them.
     """
     face = np.asarray(rest, dtype=np.float64) @ np.asarray(axes).T
     fps = np.asarray(neutral, dtype=np.float64) @ np.asarray(axes).T
@@ -82,12 +88,24 @@ def mouth_sides(
         line = np.array([0.5 * (fps[fp_index(u)] + fps[fp_index(b)]) for u, b in SEAM_PAIRS])
         line = line[np.argsort(line[:, 0])]
         near = np.abs(face[:, 1] - np.interp(face[:, 0], line[:, 0], line[:, 1])) <= margin
-        crease = box & ~front & (face[:, 2] >= back - margin) & near
-        crease &= np.asarray(upper_mask) + np.asarray(lower_mask) > 0.5
+        crease = box & ~front & near & (np.asarray(upper_mask) + np.asarray(lower_mask) > 0.5)
+        crease &= _joined(np.asarray(triangles, np.intp), crease, upper | lower)
         facing = vertex_normals(face, np.asarray(triangles, np.intp))[:, 1]
         upper |= crease & (facing < 0.0)
         lower |= crease & (facing > 0.0)
     return upper, lower
+
+
+def _joined(triangles: np.ndarray, candidates: np.ndarray, lips: np.ndarray) -> np.ndarray:
+    """(N,) bool: those of the (N,) `candidates` joined to a vertex of `lips` along the edges of `triangles` (K, 3),
+    through candidates."""
+    through = candidates | lips
+    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    edges = edges[through[edges].all(axis=1)]
+    n = len(candidates)
+    graph = coo_matrix((np.ones(len(edges), np.int8), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    part = connected_components(graph, directed=False)[1]
+    return candidates & np.isin(part, part[lips])
 
 
 def lip_penetration(
@@ -180,6 +198,13 @@ SLIVER = 0.25
 TOUCH_GAP = 5e-4  # m: lips this close at rest touch (`Contact.keep`); the mesh's own gaps there are kept
 EDGE_ON = 1e-9  # a triangle whose normal is this near square to the way a vertex looks is seen edge-on
 CONTACT_REACH = 2e-3  # m: how far into the other lip a vertex of the contact is looked for (`press_apart`)
+# m: lips pressed onto each other are kept this far apart, half of it on each side of the seam (`guard_lips`) and all of
+# it from the other lip's skin in the contact (`press_apart`). Pressed exactly onto the one seam (or onto the other
+# lip's skin at its samples), the two faceted sheets lay on each other and crossed wherever rounding or a facet between
+# samples put them: ICT's demo frame 84, 19 pairs in the middle of the mouth, where its lips are parted at rest (with
+# 1e-7 m on each side of the seam, none); and at the contact between its samples, 2 with 1e-7 m, 1 with 1e-6, none with
+# 3e-6. A hundredth of a millimetre is nothing any render shows.
+MEET_GAP = 1e-5
 
 
 @dataclass(frozen=True)
@@ -218,7 +243,9 @@ class LipGuard:
     vertices: np.ndarray  # (V,) mesh vertices of both lips, the upper lip's first
     n_upper: int  # how many of `vertices` are on the upper lip
     side: np.ndarray  # (V,) 1 on the upper lip, -1 on the lower
-    slack: np.ndarray  # (V,) <= 0: how far a vertex lies past the seam at rest (at the corners), kept
+    # (V,) how far a vertex must stay on its side of the seam: MEET_GAP / 2, or less where it lies closer at rest, and
+    # negative where it lies past the seam at rest (where the lips touch, at the corners): that much past it is kept
+    slack: np.ndarray
     spread: np.ndarray  # (N_KNOTS, M) the seam's knots as weights of the control points (before adapting)
     knots: np.ndarray  # (J,) the seam knots with vertices of both lips near them at rest
     order: np.ndarray  # rows into `vertices`: the upper-lip ones near each of `knots`, knot after knot, then
@@ -269,10 +296,11 @@ def bind_lip_guard(
     (N, 3) with `triangles` (K, 3), over the control points `control_rest` (M, 3) named `fp_ids`, which
     must include the inner-lip FPs 2.2-2.9.
 
-    A vertex is near the seam knot nearest to it across the mouth, at rest. A vertex still past the seam
-    at rest (where the lips touch, at the corners) keeps that much as slack. A lip vertex with its own lip's
-    skin straight past it toward the other lip, or behind it (`_shadowed`: a fold, as at the mouth's corners) is
-    carried with the skin beside the lips, not guarded."""
+    A vertex is near the seam knot nearest to it across the mouth, at rest. A vertex still past the seam at rest (where
+    the lips touch, at the corners) keeps that much as slack; the others stay half of MEET_GAP on their side of it (or
+    as close as they lie at rest), so that lips pressed onto it are that far apart, not on each other. A lip vertex with
+    its own lip's skin straight past it toward the other lip, or behind it (`_shadowed`: a fold, as at the mouth's
+    corners) is carried with the skin beside the lips, not guarded."""
     rows = {fp_id: k for k, fp_id in enumerate(fp_ids)}
     upper_all, lower_all = upper, lower
     upper, lower = np.asarray(upper, bool), np.asarray(lower, bool) & ~np.asarray(upper, bool)
@@ -326,7 +354,7 @@ def bind_lip_guard(
     )
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
-    slack = np.minimum(clearance, 0.0)
+    slack = np.minimum(clearance, 0.5 * MEET_GAP * unit)
     lips = (np.asarray(upper_all, bool), np.asarray(lower_all, bool) & ~np.asarray(upper_all, bool))
     contact = _contact(face_rest, tris, vertices, n_upper, np.isin(nearest, nearest[slack < 0.0]), lips, unit)
     return LipGuard(**{**guard.__dict__, "slack": slack, "contact": contact})
@@ -350,7 +378,7 @@ def _contact(
     other = tuple(triangles[lip[triangles].sum(axis=1) >= 2] for lip in (lips[1], lips[0]))
     # the clearance kept is a touch: closer than TOUCH_GAP at rest (ICT's corners 0.1-0.4 mm); farther (the sample's
     # lower lip 3.8 mm under the upper at a corner), the lips may come closer as they press, as the seam lets them
-    touch = TOUCH_GAP * unit
+    touch, gap = TOUCH_GAP * unit, MEET_GAP * unit  # farther apart they may come as close as MEET_GAP
     normals = vertex_normals(face, triangles)
     look = np.repeat([1.0, -1.0], [len(rows[0]), len(rows[1])])
     chosen = vertices[np.concatenate(rows)]
@@ -371,12 +399,12 @@ def _contact(
     for up, t in zip((1.0, -1.0), other, strict=True):
         mine = sample_look == up
         ahead, behind = _along(at[mine], towards[mine], face[t], CONTACT_REACH * unit, behind=True)
-        keep[mine] = np.where(np.isfinite(ahead), ahead, np.where(behind < touch, -behind, 0.0))
+        keep[mine] = np.where(np.isfinite(ahead), ahead, np.where(behind < touch, -behind, -gap))
     # lips that pass into each other at rest by less than a touch (the Rocketbox's corners, 0.1 mm) touch there: they
-    # are parted to touching once the lips move, as an overlap kept slid along with them and crossed anew (the
-    # Rocketbox's demo: 19 pairs kept as deep as at rest, 5 parted); deeper, the lips are one there (the scan's sealed
-    # crease: pushed apart, they tore it)
-    keep[(keep > 0.0) & (keep < touch)] = 0.0
+    # are parted to touching (MEET_GAP apart) once the lips move, as an overlap kept slid along with them and crossed
+    # anew (the Rocketbox's demo: 19 pairs kept as deep as at rest, 5 parted); deeper, the lips are one there (the
+    # scan's sealed crease: pushed apart, they tore it)
+    keep[(keep > 0.0) & (keep < touch)] = -gap
     return Contact(
         rows=np.concatenate(rows),
         vertices=chosen,
@@ -515,12 +543,12 @@ def guard_lips(guard: LipGuard, out: np.ndarray, points: np.ndarray) -> bool:
     """Keep each lip's vertices on their side of the seam, in place on the deformed (N, 3) `out`; True when
     it moved any (`guard.skin`, the vertices it may move).
 
-    `points` are the control points as deformed (the FP positions the deformer was given). A vertex that
-    has passed the seam (more than it did at rest) moves straight up or down onto it: the lips press on
-    each other there instead of passing through. The skin beside it follows with a share of that push
-    that fades along the skin (`_carry`), so the faces between do not turn over. Continuous (clamps,
-    minima, maxima and fixed weights), and mirror-symmetric for a mirror-symmetric face and mesh, as the
-    seam's knots come in mirror pairs and tied distances along the skin share alike.
+    `points` are the control points as deformed (the FP positions the deformer was given). A vertex that has passed the
+    seam (more than it did at rest) moves straight up or down onto it (half of MEET_GAP on its own side): the lips press
+    on each other there instead of passing through. The skin beside it follows with a share of that push that fades
+    along the skin (`_carry`), so the faces between do not turn over. Continuous (clamps, minima, maxima and fixed
+    weights), and mirror-symmetric for a mirror-symmetric face and mesh, as the seam's knots come in mirror pairs and
+    tied distances along the skin share alike.
     """
     x, y = guard.axes[:2].astype(out.dtype) @ out.take(guard.vertices, axis=0).T  # take: 3x faster than out[...]
     signed_y = guard.side * y
