@@ -22,8 +22,6 @@ import heapq
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..geometry.normals import vertex_normals
@@ -98,14 +96,18 @@ def mouth_sides(
 
 def _joined(triangles: np.ndarray, candidates: np.ndarray, lips: np.ndarray) -> np.ndarray:
     """(N,) bool: those of the (N,) `candidates` joined to a vertex of `lips` along the edges of `triangles` (K, 3),
-    through candidates."""
+    through candidates. numpy alone (set-up runs where the extension has no scipy wheel: windows-arm64): reached
+    from the lips a ring of edges at a time, as many rounds as the crease is edges deep."""
     through = candidates | lips
     edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
     edges = edges[through[edges].all(axis=1)]
-    n = len(candidates)
-    graph = coo_matrix((np.ones(len(edges), np.int8), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    part = connected_components(graph, directed=False)[1]
-    return candidates & np.isin(part, part[lips])
+    edges = np.concatenate([edges, edges[:, ::-1]])  # both ways
+    reached = lips.copy()
+    while True:
+        ring = edges[reached[edges[:, 0]] & ~reached[edges[:, 1]], 1]
+        if not len(ring):
+            return candidates & reached
+        reached[ring] = True
 
 
 def lip_penetration(

@@ -396,3 +396,16 @@ def test_the_crease_is_guarded_as_deep_as_it_runs_on_from_the_lips():
     guard_lips(guard, out, fps)
     assert crossings(out, triangles) == 0
     assert count_inverted(rest, out, triangles) == 0
+
+
+def test_the_crease_joined_to_the_lips_is_found_along_edges_through_the_crease_alone():
+    """A strip of triangles 0-1-2-3-4-5 (each joined to the next): from the lip vertex 0, the candidates 1 and 2 are
+    reached; 4 and 5 only through 3, which is no candidate, so not; and that with numpy alone (no scipy)."""
+    from addon.deform.lips import _joined
+
+    triangles = np.array([[0, 1, 2], [1, 2, 3], [2, 3, 4], [3, 4, 5]])
+    lips = np.array([True, False, False, False, False, False])
+    candidates = np.array([False, True, False, False, True, True])
+    assert _joined(triangles, candidates, lips).tolist() == [False, True, False, False, False, False]
+    candidates[2] = True  # 2 joins 1 to 4 (triangle 2-3-4), and 4 to 5 (3-4-5 has the edge 4-5)
+    assert _joined(triangles, candidates, lips).tolist() == [False, True, True, False, True, True]
