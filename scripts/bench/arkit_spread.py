@@ -224,9 +224,20 @@ def main(argv=None) -> int:
     which.add_argument("--rig-jaw", action="store_true")
     parser.add_argument("--json", type=Path)
     parser.add_argument("--check-jaw", type=Path, help="with --rig-jaw: a check set's folder, its jawOpen scored too")
+    parser.add_argument(
+        "--jaw-angle-rides",
+        type=float,
+        metavar="SHARE",
+        help="make the keys with the jaw's angles 2.13 / 2.14 riding open_jaw by SHARE (decode.JAW_RIDERS, which "
+        "every stream shares: a measurement for the lead, not a setting)",
+    )
     parser.add_argument("--profile-only", action="store_true", help="the keys' fall-off alone, no candidates")
     args = parser.parse_args(argv)
     convert.addon_package()
+    if args.jaw_angle_rides is not None:
+        for name, module in list(sys.modules.items()):
+            if name.endswith("mpeg4.decode"):  # the add-on's own copy and any other
+                module.JAW_RIDERS["2.13"] = module.JAW_RIDERS["2.14"] = args.jaw_angle_rides
     face = evaluate.load_face(evaluate.DEFAULT_FACE)
     keys = evaluate_arkit.made_keys(face, "planar")
     report: dict = {}
