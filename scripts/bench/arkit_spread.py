@@ -231,6 +231,7 @@ def main(argv=None) -> int:
         help="make the keys with the jaw's angles 2.13 / 2.14 riding open_jaw by SHARE (decode.JAW_RIDERS, which "
         "every stream shares: a measurement for the lead, not a setting)",
     )
+    parser.add_argument("--fp-split", action="store_true", help="the bare engine driven by mixes of the FP motions")
     parser.add_argument("--profile-only", action="store_true", help="the keys' fall-off alone, no candidates")
     args = parser.parse_args(argv)
     convert.addon_package()
@@ -250,6 +251,8 @@ def main(argv=None) -> int:
             else evaluate_arkit.pairs_from_units(args.makehuman_units)
         )
         sculpts = [(names, sum(evaluate.target_motion(p, face)[0] for p in paths)) for names, paths in pairs]
+        if args.fp_split:
+            report["fp_split"] = fp_split(face, keys, pairs)
         kept = [i for i, (_names, s) in enumerate(sculpts) if np.any(s)]
         sculpts, pairs = [sculpts[i] for i in kept], [pairs[i] for i in kept]
         laplacian = cotangent_laplacian(face.rest, face.fans[0])
@@ -403,6 +406,48 @@ def jaw_hinge_spread(deformations, laplacian: sparse.csr_matrix, free_skin: np.n
         return moved + deformations.rotate_about(rest, origin, axis, extra * angle) - rest
 
     return spread
+
+
+HELD_MM = 0.5  # a control FP the key moves less than this is held (the engine keeps the skin there still)
+
+
+def mixed_motion(ours: np.ndarray, sculpt: np.ndarray, take_sculpt_where: str) -> np.ndarray:
+    """(M, 3) control-FP offsets: the sculpt's on the FPs the key moves ("moved"), on those it holds ("held"),
+    on all ("all") or none ("none"), ours on the rest."""
+    moved = np.linalg.norm(ours, axis=1) >= 1e-3 * HELD_MM
+    take = {"moved": moved, "held": ~moved, "all": np.ones_like(moved), "none": np.zeros_like(moved)}[take_sculpt_where]
+    return np.where(take[:, None], sculpt, ours)
+
+
+def fp_split(face, keys: dict[str, np.ndarray], pairs) -> dict:
+    """Where the keys' error lies between the FPs' motion and the engine's spread: the add-on's engine as
+    played (`evaluate.AddOnMethod`: Planar Bones with lids, lips and Unfold Skin) driven by the keys' own FP
+    motion, by it with the sculpt's motion on the FPs the key holds, on the FPs it moves, and on all (the
+    engine's ceiling); pooled E over `pairs`."""
+    from scripts.bench import evaluate
+    from scripts.sample.makehuman.fp_table import FP_TABLE
+
+    face = evaluate.load_face(evaluate.DEFAULT_FACE)  # afresh: the engine plays the face without the ARKit keys
+    deformer = evaluate.bind_method(
+        "add_on", face, argparse.Namespace(radius_fraction=1.0, falloff_exponent=2.0, cover="face")
+    )
+    head_vertex = {int(b): i for i, b in enumerate(face.mh_index)}
+    fp_vertices = [[head_vertex[int(b)] for b in FP_TABLE[fp_id][1]] for fp_id in face.fp_ids]
+    rows: dict[str, list] = {where: [] for where in ("none", "held", "moved", "all")}
+    for names, paths in pairs:
+        motions = [evaluate.target_motion(p, face) for p in paths]
+        sculpt, sculpt_fps = sum(m[0] for m in motions), sum(m[1] for m in motions)
+        if not np.any(sculpt):
+            continue
+        key = sum(keys[n] for n in names)
+        ours = np.array([key[v].mean(axis=0) for v in fp_vertices])
+        for where, row in rows.items():
+            deformed = deformer.evaluate(face.control_rest + mixed_motion(ours, sculpt_fps, where))
+            row.append((deformed - face.rest, sculpt))
+    out = {f"sculpt's motion on {where} FPs": pooled(row)[0] for where, row in rows.items()}
+    for name, value in out.items():
+        print(f"{name}: pooled E {value:.4f}")
+    return out
 
 
 def _base_obj() -> np.ndarray:

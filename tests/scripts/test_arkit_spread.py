@@ -9,6 +9,7 @@ from scripts.bench.arkit_spread import (
     cotangent_laplacian,
     extend_share,
     membrane,
+    mixed_motion,
     reach_profile,
     rig_weight,
     spread_key,
@@ -117,3 +118,12 @@ def test_rig_weights_sum_over_the_bones_a_turn_carries():
 def test_the_mandible_s_feature_points_are_the_jaw_riders_on_the_skin_and_the_jaw_s_angles():
     assert {"2.1", "2.13", "2.14", "2.10", "8.2", "2.4", "5.1"} <= set(MANDIBLE_FPS)
     assert not {"9.11", "6.1", "8.1", "2.2", "5.3"} & set(MANDIBLE_FPS)  # teeth, tongue, upper lip, cheek bone
+
+
+def test_mixed_motion_takes_the_sculpt_s_motion_where_asked():
+    ours = np.array([[0.0, 0.0, 0.002], [0.0, 0.0, 0.0001], [0.0, 0.0, 0.0]])  # one moved FP, two held (< 0.5 mm)
+    sculpt = np.array([[0.0, 0.0, 0.003], [0.0, 0.001, 0.0], [0.0, 0.0, -0.001]])
+    assert np.array_equal(mixed_motion(ours, sculpt, "none"), ours)
+    assert np.array_equal(mixed_motion(ours, sculpt, "all"), sculpt)
+    assert np.array_equal(mixed_motion(ours, sculpt, "held"), [ours[0], sculpt[1], sculpt[2]])
+    assert np.array_equal(mixed_motion(ours, sculpt, "moved"), [sculpt[0], ours[1], ours[2]])
