@@ -235,7 +235,9 @@ def main(argv=None) -> int:
         help="make the keys with the jaw's angles 2.13 / 2.14 riding open_jaw by SHARE (decode.JAW_RIDERS, which "
         "every stream shares: a measurement for the lead, not a setting)",
     )
-    parser.add_argument("--fp-split", action="store_true", help="the bare engine driven by mixes of the FP motions")
+    parser.add_argument(
+        "--fp-split", action="store_true", help="the engine as played driven by mixes of the FP motions"
+    )
     parser.add_argument("--profile-only", action="store_true", help="the keys' fall-off alone, no candidates")
     args = parser.parse_args(argv)
     convert.addon_package()
