@@ -292,7 +292,9 @@ def main(argv=None) -> int:
 
 def rig_jaw(face, keys: dict[str, np.ndarray], check: Path | None = None) -> dict:
     """The rig's jaw pose (the jaw bone's weights times a turn about its head) against the mouth-open unit, and our
-    jawOpen key against both, at the turns of a wide opening."""
+    jawOpen key against both, at the turns of a wide opening; the jaw's slides (jawForward, jawLeft / Right) as the
+    rig carries our keys' chin motion; and the jaw's share spread (`jaw_free_skins`) against the unit and the rig
+    (and a check set's jawOpen, measured)."""
     from scripts.bench import evaluate, evaluate_arkit
     from scripts.sample.makehuman.head import to_blender
 
@@ -315,6 +317,13 @@ def rig_jaw(face, keys: dict[str, np.ndarray], check: Path | None = None) -> dic
         pose = weight[:, None] * turn_about_x(face.rest, pivot, degrees)
         out[f"rig {degrees} deg against the unit"] = pooled([(pose, unit)])[0]
         out[f"key against rig {degrees} deg"] = pooled([(key, pose)])[0]
+    # AU 29 jaw thrust and AU 30 jaw sideways: the mandible slides; the rig's weights carry the slide, as far as our
+    # key takes the chin (so only the spread differs)
+    chin = int(
+        np.argmin(np.linalg.norm(face.rest - dict(zip(face.fp_ids, face.control_rest, strict=True))["2.1"], axis=1))
+    )
+    for name in ("jawForward", "jawLeft", "jawRight"):
+        out[f"{name} key against the rig's slide"] = pooled([(keys[name], weight[:, None] * keys[name][chin])])[0]
     pose = weight[:, None] * turn_about_x(face.rest, pivot, RIG_JAW_DEGREES)
     targets = [unit, pose]
     if check is not None:  # a check set's jawOpen: measured, not decided on
