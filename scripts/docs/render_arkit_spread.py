@@ -29,12 +29,12 @@ def offsets() -> list[tuple[str, np.ndarray]]:
     """(caption, (N, 3) offsets of the head's vertices) for the four views."""
     face = evaluate.load_face(evaluate.DEFAULT_FACE)
     free = arkit_spread.jaw_free_skins(face)["the skin nearest the mandible's FPs"]
-    spread = arkit_spread._jaw_with(face, free, wholly=True)
+    spread = arkit_spread.jaw_key_with(face, free, wholly=True)
     face = evaluate.load_face(evaluate.DEFAULT_FACE)
     key = evaluate_arkit.made_keys(face, "planar")["jawOpen"]
     rig = json.loads((arkit_spread.RIG / "rig.default.json").read_text())
     weights = json.loads((arkit_spread.RIG / "weights.default.json").read_text())["weights"]
-    shift = (face.rest - to_blender(arkit_spread._base_obj())[face.mh_index]).mean(axis=0)
+    shift = (face.rest - to_blender(arkit_spread.base_mesh_vertices())[face.mh_index]).mean(axis=0)
     pivot = np.array(rig["jaw"]["head"]["default_position"]) + shift
     carried = arkit_spread.rig_weight(weights, arkit_spread.carried_by(rig, "jaw"), face.mh_index)
     pose = carried[:, None] * arkit_spread.turn_about_x(face.rest, pivot, arkit_spread.RIG_JAW_DEGREES)
