@@ -247,7 +247,7 @@ def welded(rest: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     downloaded character's face sewn to its scalp by coincident vertices, UV seams split). What is measured along the
     skin is then measured across such a seam as across any edge, and a vertex's copies take its stand-in's value
     (`values[same]`): measured on each piece alone, the Rocketbox male's copies at the seam by its ear (FP 10.5) were
-    smoothed to 0.35 and 0.50 of the motion, moved apart, and their faces crossed in every frame of both streams. A
+    smoothed to 0.35 and 0.50 of the motion, moved apart, and their faces crossed (every frame of joy.fap). A
     mesh with no coincident vertices keeps its edges as they are."""
     edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
     _, first, inverse = np.unique(np.asarray(rest), axis=0, return_index=True, return_inverse=True)
