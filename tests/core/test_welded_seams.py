@@ -47,7 +47,7 @@ def test_the_stand_ins_are_the_first_copies_and_a_whole_mesh_keeps_its_edges():
 def test_a_seam_of_coincident_copies_smooths_the_share_of_the_motion_as_the_whole_skin():
     """Still Skin's smoothing across a seam: each copy takes the share the uncut sheet gives that vertex. Smoothed on
     each piece alone (before), the copies took 0.35 and 0.50 of the motion by the Rocketbox male's ear, moved apart
-    and their faces crossed in every frame; here they differ by 0.2."""
+    and their faces crossed in every frame of joy.fap; on this grid by up to 0.056."""
     rest, edges, cut, cut_edges, seam, copies = _grid(31, 0.001, True)
     control = np.array([[0.008, 0.008, 0.0], [0.022, 0.008, 0.0], [0.022, 0.022, 0.0], [0.008, 0.022, 0.0]])
     triangles = np.array([[0, 1, 2], [0, 2, 3]])
