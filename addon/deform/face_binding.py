@@ -156,7 +156,7 @@ def smooth_follow(
     mesh smooths over the same skin."""
     rest = binding.rest_vertices
     share = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(rest))
-    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    same, edges = welded(rest, edges)
     if domain is not None:
         edges = edges[(np.asarray(domain) | (share > 0.0))[edges].all(axis=1)]
     moves = share if counted is None else np.bincount(counted.pair_vertex, counted.pair_weight, minlength=len(rest))
@@ -164,7 +164,7 @@ def smooth_follow(
     if len(moving) == 0:
         return binding
     length = float(np.linalg.norm(rest[moving[:, 0]] - rest[moving[:, 1]], axis=1).mean())
-    smoothed = smooth_over_edges(share, edges, smoothing_steps(width, length))
+    smoothed = smooth_over_edges(share, edges, smoothing_steps(width, length))[same]
     lowered = np.minimum(share, np.maximum(smoothed, pinned))
     scale = np.divide(lowered, share, out=np.zeros_like(share), where=share > 0.0)
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale[binding.pair_vertex])
@@ -191,8 +191,9 @@ def fall_from_mouth(
     if edges is None:
         distance = _nearest(rest, control[mouth_rows])
     else:
-        sources = [int(np.argmin(np.linalg.norm(rest - point, axis=1))) for point in control[mouth_rows]]
-        distance = geodesic_distance(rest, _two_ring(edges), sources, reach)
+        same, edges = welded(rest, edges)
+        sources = [same[np.argmin(np.linalg.norm(rest - point, axis=1))] for point in control[mouth_rows]]
+        distance = geodesic_distance(rest, _two_ring(edges), sources, reach)[same]
     cap = np.clip(1.0 - (distance / reach) ** 2, 0.0, 1.0)
     # the triangles' other FPs (the cheeks', 5.x, which FAPs 39-42 move): skin at them still follows them fully, as
     # at every control FP (`bind_face`'s pin, same width); only the lips' motion carried across the cheek falls
@@ -238,6 +239,23 @@ def stop_at_held_outline(binding: Binding, mouth_triangles: np.ndarray, mouth_ro
     keep = ~drop
     pairs = [f.name for f in dataclasses.fields(Binding) if f.name.startswith("pair_")]
     return dataclasses.replace(binding, **{name: getattr(binding, name)[keep] for name in pairs})
+
+
+def welded(rest: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) each vertex's stand-in, the first vertex at its rest position, and the (E, 2) `edges` between stand-ins
+    (each once): the skin as one surface where the mesh is cut into pieces whose copies of a vertex coincide (a
+    downloaded character's face sewn to its scalp by coincident vertices, UV seams split). What is measured along the
+    skin is then measured across such a seam as across any edge, and a vertex's copies take its stand-in's value
+    (`values[same]`): measured on each piece alone, the Rocketbox male's copies at the seam by its ear (FP 10.5) were
+    smoothed to 0.35 and 0.50 of the motion, moved apart, and their faces crossed (every frame of joy.fap). A
+    mesh with no coincident vertices keeps its edges as they are."""
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    _, first, inverse = np.unique(np.asarray(rest), axis=0, return_index=True, return_inverse=True)
+    same = first[inverse.ravel()].astype(np.intp)
+    if len(first) == len(same):
+        return same, edges
+    joined = np.sort(same[edges], axis=1)
+    return same, np.unique(joined[joined[:, 0] != joined[:, 1]], axis=0)
 
 
 def _nearest(points: np.ndarray, sources: np.ndarray) -> np.ndarray:
