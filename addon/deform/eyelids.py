@@ -296,7 +296,9 @@ class EyelidRig:
     deepened: tuple = ()
     # (K, 2) the angle (rad) from each vertex to the other lid's margin at its place along the eye as the eye's centre
     # sees it on the skin (`seen_margins`): down to the lower margin for the upper lid's turn, up to the upper margin
-    # for the lower lid's; NaN where the skin shows no opening; None: no stop by the skin (`meet_lids`)
+    # for the lower lid's; NaN where that stop does not apply (`skin_stop_room`: the skin shows no opening there, the
+    # other lid moves the vertex too, or it lies past the other margin already); None: no stop by the skin
+    # (`meet_lids`). Made once by `bind_eyelids`, so the frames do not work out which rows it applies to
     room: np.ndarray | None = None
 
 
@@ -458,6 +460,7 @@ def bind_eyelids(
             t = (face[keep[on], 0] - inner_x) / (outer_x - inner_x)
             elev = elevation(face[keep[on]], centres[e])
             room[on] = np.stack([elev - np.interp(t, *lower_margin), np.interp(t, *upper_margin) - elev], axis=1)
+    room = skin_stop_room(room, weights[:, 0], weights[:, 1])
     meeting = np.zeros(len(keep))
     for e, (opening_at, inner_x, outer_x) in enumerate(meets):
         on = eye == e
@@ -477,6 +480,17 @@ def bind_eyelids(
         deepened=tuple(deepened),
         room=room if np.isfinite(room).any() else None,
     )
+
+
+def skin_stop_room(room: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """`room` (K, 2) (the angle from each vertex down to the lower margin and up to the upper margin as the skin shows
+    them) kept where `meet_lids` stops a lid's turn by it, NaN elsewhere: a vertex of this lid alone (the other lid's
+    weight, `lower` for the upper lid's turn and `upper` for the lower's, 0 or less) with room before that margin
+    (more than 0). Skin both lids move lies on neither side of a margin (a decimated face's blended corners opened
+    when held by it), and skin already past the other margin keeps the opening's stop."""
+    alone = np.stack([np.asarray(lower) <= 0.0, np.asarray(upper) <= 0.0], axis=1)
+    with np.errstate(invalid="ignore"):
+        return np.where(alone & (room > 0.0), room, np.nan)
 
 
 def meeting_curve(margins: list, t: np.ndarray, t_mid: float, closure: float | None = None) -> np.ndarray:
@@ -511,7 +525,8 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
     no vertex of this lid turns toward closure by more than (1 - s_other) o c less `MEET_CLEARANCE`, whatever its
     weight (the margin's weight is o: it stops at the other margin; rows behind it near the inner corner had more,
     and went through the lower lid at a full blink). With `EyelidRig.room` (r, the angle from the vertex to the other
-    lid's margin on the skin), a vertex of this lid alone also turns by no more than r - s_other o c.
+    lid's margin on the skin; NaN where that stop does not apply, `skin_stop_room`), a vertex also turns by no more
+    than r - s_other o c.
     """
     closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
     shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
@@ -522,12 +537,10 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
         # nor past the other lid's margin as the skin shows it (`EyelidRig.room`, less the way that margin has come):
         # the opening a painted lid's weights trace runs past it where a pick is no margin (the sample's outer corner:
         # a lower-lid vertex 7 degrees below the margin), and a margin turned through the other lid folded the corner's
-        # faces, which Unfold Skin then opened by pulling the margin back up. Only the skin of this lid alone (the
-        # other lid's weight 0): skin both lids move lies on neither side of a margin (a decimated face's blended
-        # corners opened when held by it), and the seen margin is the skin itself, so no clearance
-        alone = np.stack([rig.lower <= 0.0, rig.upper <= 0.0], axis=1)
-        seen = (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0)
-        stop = np.where(alone & (rig.room > 0.0), np.minimum(stop, seen), stop)
+        # faces, which Unfold Skin then opened by pulling the margin back up. Only the skin of this lid alone, with
+        # room before that margin (the rows where `room` is not NaN, `skin_stop_room`; fmin passes NaN over), and the
+        # seen margin is the skin itself, so no clearance
+        stop = np.fmin(stop, (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0))
     up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
     low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
     return up, low
