@@ -202,6 +202,31 @@ def _seen_margin_points(local, triangles, radius, corners, columns):
     return ts, margins, points, seen
 
 
+def seen_edge_members(
+    rows: np.ndarray, member: np.ndarray, t: np.ndarray, elev: np.ndarray, edge: np.ndarray, seen: list
+) -> np.ndarray:
+    """The upper lid's memberships `member` (K,) of the vertices `rows` (K,) (at `t` along the eye, elevation `elev`)
+    with the upper lid's edge as the eye's centre sees it made full members: the vertices in `edge` (the corners of
+    the triangles the upper margin of `seen_margins` lies on, `seen_margin_points`) that the mask gives a part of the
+    lid (above 0) and that lie above the lower margin `seen[1]`.
+
+    The lowest skin of the upper lid is what closes onto the lower lid. Where the mask gives it only a part of the
+    lid (a subdivided mask's new row halfway between the margin and the inner rim, 0.5; the triangulated sample's
+    inner-corner triangle that reaches onto the rim), it turned by that part and hung behind the closed lid: the
+    seen margin 1.90 / 2.09 mm off a smooth curve at the blink on the subdivided head (0.63 / 0.76 at rest), 2.68 /
+    2.76 on the triangulated one (0.58). Skin the mask leaves out (0: a painted lid's inner rim and lining) stays the
+    fold-free weights' to move: made full, the corners' pockets turned with the lid and crossed. Made after the
+    margins are traced (`margin_members`): made before, the traced margins, and with them the opening the rows behind
+    the edge turn by, changed too, and the triangulated head's closed edge had a dark wedge under its outer third.
+    The upper lid's only: the upper lid closes the eye (the blink), and the same for the lower lid's edge gave the
+    upper lid's edge at the sample's outer corner a share of the lower lid's turn (the fold-free weights), which took
+    the skin's stop (`skin_stop_room`) off the row beside it (0.81 -> 1.09 mm off smooth there). Painted masks only,
+    as `margin_members`: masks set-up made end where the FPs' edge curves say, not blended across the edge, and made
+    full there the 2 mm remesh's eyes stayed 0.09 / 0.83 and 0.32 / 1.06 mm open (straight on / from below)."""
+    on_edge = np.isin(rows, edge) & (member > 0.0) & (elev > np.interp(t, *seen[1][:2]))
+    return np.where(on_edge, 1.0, member)
+
+
 def margin_members(
     margins: list, t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -415,6 +440,11 @@ def bind_eyelids(
         if profile is not None:
             if trace_opening:
                 up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
+            if trace_opening and seen_by_eye[e] is not None:  # the upper lid's lowest skin, seen, is its edge
+                corners, bary = seen_margin_points(
+                    face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e]
+                )
+                up[on] = seen_edge_members(keep[on], up[on], t, elev, corners[0][bary[0] > 0.0], seen_by_eye[e][0])
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
             meeting_at = meets_override or functools.partial(meeting_curve, margins, t_mid=mid, closure=closure)
             meets[e] = (meeting_at, inner_x, outer_x)

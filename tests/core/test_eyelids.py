@@ -392,6 +392,21 @@ def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge()
     _closes_on_a_smooth_edge(xs, rest, upper, lower, neutral, margins, trace_opening=True)
 
 
+def test_seen_edge_members_by_hand():
+    """Five vertices along the eye: on the seen upper edge and part of the lid (made full), not on it, on it but no
+    part of the lid (the mask's 0: left to the fold-free weights), on it but below the lower lid's seen margin, and
+    on it and full already."""
+    from addon.deform.eyelids import seen_edge_members
+
+    rows = np.array([10, 11, 12, 13, 14])
+    member = np.array([0.4, 0.4, 0.0, 0.5, 1.0])
+    t = np.array([0.2, 0.4, 0.5, 0.6, 0.8])
+    elev = np.array([0.1, 0.1, 0.1, -0.3, 0.1])
+    seen = [(np.array([0.0, 1.0]), np.array([0.0, 0.0])), (np.array([0.0, 1.0]), np.array([-0.2, -0.2]))]
+    out = seen_edge_members(rows, member, t, elev, np.array([10, 12, 13, 14, 99]), seen)
+    np.testing.assert_array_equal(out, [1.0, 0.4, 0.0, 0.5, 1.0])
+
+
 def _shell_triangles(count: int, columns: int) -> np.ndarray:
     """The triangles of `_eye`'s `count` vertices: each lid's 8 rows of `columns`, two triangles per quad."""
     quads = [
