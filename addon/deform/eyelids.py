@@ -202,6 +202,31 @@ def _seen_margin_points(local, triangles, radius, corners, columns):
     return ts, margins, points, seen
 
 
+def seen_edge_members(
+    rows: np.ndarray, member: np.ndarray, t: np.ndarray, elev: np.ndarray, edge: np.ndarray, seen: list
+) -> np.ndarray:
+    """The upper lid's memberships `member` (K,) of the vertices `rows` (K,) (at `t` along the eye, elevation `elev`)
+    with the upper lid's edge as the eye's centre sees it made full members: the vertices in `edge` (the corners of
+    the triangles the upper margin of `seen_margins` lies on, `seen_margin_points`) that the mask gives a part of the
+    lid (above 0) and that lie above the lower margin `seen[1]`.
+
+    The lowest skin of the upper lid is what closes onto the lower lid. Where the mask gives it only a part of the
+    lid (a subdivided mask's new row halfway between the margin and the inner rim, 0.5; the triangulated sample's
+    inner-corner triangle that reaches onto the rim), it turned by that part and hung behind the closed lid: the
+    seen margin 1.90 / 2.09 mm off a smooth curve at the blink on the subdivided head (0.63 / 0.76 at rest), 2.68 /
+    2.76 on the triangulated one (0.58). Skin the mask leaves out (0: a painted lid's inner rim and lining) stays the
+    fold-free weights' to move: made full, the corners' pockets turned with the lid and crossed. Made after the
+    margins are traced (`margin_members`): made before, the traced margins, and with them the opening the rows behind
+    the edge turn by, changed too, and the triangulated head's closed edge had a dark wedge under its outer third.
+    The upper lid's only: the upper lid closes the eye (the blink), and the same for the lower lid's edge gave the
+    upper lid's edge at the sample's outer corner a share of the lower lid's turn (the fold-free weights), which took
+    the skin's stop (`skin_stop_room`) off the row beside it (0.81 -> 1.09 mm off smooth there). Painted masks only,
+    as `margin_members`: masks set-up made end where the FPs' edge curves say, not blended across the edge, and made
+    full there the 2 mm remesh's eyes stayed 0.09 / 0.83 and 0.32 / 1.06 mm open (straight on / from below)."""
+    on_edge = np.isin(rows, edge) & (member > 0.0) & (elev > np.interp(t, *seen[1][:2]))
+    return np.where(on_edge, 1.0, member)
+
+
 def margin_members(
     margins: list, t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -296,7 +321,9 @@ class EyelidRig:
     deepened: tuple = ()
     # (K, 2) the angle (rad) from each vertex to the other lid's margin at its place along the eye as the eye's centre
     # sees it on the skin (`seen_margins`): down to the lower margin for the upper lid's turn, up to the upper margin
-    # for the lower lid's; NaN where the skin shows no opening; None: no stop by the skin (`meet_lids`)
+    # for the lower lid's; NaN where that stop does not apply (`skin_stop_room`: the skin shows no opening there, the
+    # other lid moves the vertex too, or it lies past the other margin already); None: no stop by the skin
+    # (`meet_lids`). Made once by `bind_eyelids`, so the frames do not work out which rows it applies to
     room: np.ndarray | None = None
 
 
@@ -413,6 +440,11 @@ def bind_eyelids(
         if profile is not None:
             if trace_opening:
                 up[on], low[on] = margin_members(margins, t, elev, up[on], low[on])
+            if trace_opening and seen_by_eye[e] is not None:  # the upper lid's lowest skin, seen, is its edge
+                corners, bary = seen_margin_points(
+                    face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e]
+                )
+                up[on] = seen_edge_members(keep[on], up[on], t, elev, corners[0][bary[0] > 0.0], seen_by_eye[e][0])
             up_weight[on], low_weight[on] = up[on] * profile, low[on] * profile
             meeting_at = meets_override or functools.partial(meeting_curve, margins, t_mid=mid, closure=closure)
             meets[e] = (meeting_at, inner_x, outer_x)
@@ -458,6 +490,7 @@ def bind_eyelids(
             t = (face[keep[on], 0] - inner_x) / (outer_x - inner_x)
             elev = elevation(face[keep[on]], centres[e])
             room[on] = np.stack([elev - np.interp(t, *lower_margin), np.interp(t, *upper_margin) - elev], axis=1)
+    room = skin_stop_room(room, weights[:, 0], weights[:, 1])
     meeting = np.zeros(len(keep))
     for e, (opening_at, inner_x, outer_x) in enumerate(meets):
         on = eye == e
@@ -477,6 +510,17 @@ def bind_eyelids(
         deepened=tuple(deepened),
         room=room if np.isfinite(room).any() else None,
     )
+
+
+def skin_stop_room(room: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> np.ndarray:
+    """`room` (K, 2) (the angle from each vertex down to the lower margin and up to the upper margin as the skin shows
+    them) kept where `meet_lids` stops a lid's turn by it, NaN elsewhere: a vertex of this lid alone (the other lid's
+    weight, `lower` for the upper lid's turn and `upper` for the lower's, 0 or less) with room before that margin
+    (more than 0). Skin both lids move lies on neither side of a margin (a decimated face's blended corners opened
+    when held by it), and skin already past the other margin keeps the opening's stop."""
+    alone = np.stack([np.asarray(lower) <= 0.0, np.asarray(upper) <= 0.0], axis=1)
+    with np.errstate(invalid="ignore"):
+        return np.where(alone & (room > 0.0), room, np.nan)
 
 
 def meeting_curve(margins: list, t: np.ndarray, t_mid: float, closure: float | None = None) -> np.ndarray:
@@ -511,7 +555,8 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
     no vertex of this lid turns toward closure by more than (1 - s_other) o c less `MEET_CLEARANCE`, whatever its
     weight (the margin's weight is o: it stops at the other margin; rows behind it near the inner corner had more,
     and went through the lower lid at a full blink). With `EyelidRig.room` (r, the angle from the vertex to the other
-    lid's margin on the skin), a vertex of this lid alone also turns by no more than r - s_other o c.
+    lid's margin on the skin; NaN where that stop does not apply, `skin_stop_room`), a vertex also turns by no more
+    than r - s_other o c.
     """
     closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
     shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]  # (K, 2): how far each lid has closed
@@ -522,12 +567,10 @@ def meet_lids(rig: EyelidRig, turns: np.ndarray, up: np.ndarray, low: np.ndarray
         # nor past the other lid's margin as the skin shows it (`EyelidRig.room`, less the way that margin has come):
         # the opening a painted lid's weights trace runs past it where a pick is no margin (the sample's outer corner:
         # a lower-lid vertex 7 degrees below the margin), and a margin turned through the other lid folded the corner's
-        # faces, which Unfold Skin then opened by pulling the margin back up. Only the skin of this lid alone (the
-        # other lid's weight 0): skin both lids move lies on neither side of a margin (a decimated face's blended
-        # corners opened when held by it), and the seen margin is the skin itself, so no clearance
-        alone = np.stack([rig.lower <= 0.0, rig.upper <= 0.0], axis=1)
-        seen = (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0)
-        stop = np.where(alone & (rig.room > 0.0), np.minimum(stop, seen), stop)
+        # faces, which Unfold Skin then opened by pulling the margin back up. Only the skin of this lid alone, with
+        # room before that margin (the rows where `room` is not NaN, `skin_stop_room`; fmin passes NaN over), and the
+        # seen margin is the skin itself, so no clearance
+        stop = np.fmin(stop, (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0))
     up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
     low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
     return up, low

@@ -52,3 +52,25 @@ def test_the_lower_lids_inner_rims_do_not_cross_in_the_demos_frames_161_to_173()
             continue
         now = positions(head.data).astype(np.float64)
         assert len(crossing_pairs(now, triangles, np.any(now != rest, axis=1))) == 0, frame
+
+
+def test_the_lids_rig_is_made_again_on_opening_a_saved_face_with_the_skins_stop_chosen_at_the_bind(tmp_path):
+    """The lids' rig is not saved with the face (the binding is: `binding_store`); it is made from the binding when
+    the face first plays in a session (`eyelid_rig`), so a face set up by an older version gets the rig this version
+    makes. After saving and opening again: the rig's `room` is NaN wherever the other lid moves the vertex too or it
+    has no room (`eyelids.skin_stop_room`), and the full blink is the one before saving, to the bit."""
+    from addon.blender import eyelid_rig
+
+    head = set_up_sample()
+    closed = full_blink(head)
+    path = tmp_path / "saved.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    head = bpy.data.objects["Head"]
+    assert eyelid_rig.current(head) is None  # nothing of the rig came with the file
+    np.testing.assert_array_equal(full_blink(head), closed)
+    rig = eyelid_rig.current(head)
+    applies = np.isfinite(rig.room)
+    assert applies.any(axis=0).all()
+    others = np.stack([rig.lower, rig.upper], axis=1)
+    assert not (applies & (others > 0.0)).any() and (rig.room[applies] > 0.0).all()

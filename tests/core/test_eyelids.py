@@ -312,7 +312,9 @@ def test_meet_lids_stops_a_lid_where_the_skin_shows_the_other_lids_margin_by_han
         rest_angles=np.array([[0.25, -0.25, 0.0], [0.25, -0.25, 0.0]]),
         axes=np.eye(3),
         meeting=np.full(4, 0.5),
-        room=np.array([[0.15, 0.1], [0.3, 0.1], [0.15, 0.1], [-0.05, 0.1]]),
+        room=lids.skin_stop_room(
+            np.array([[0.15, 0.1], [0.3, 0.1], [0.15, 0.1], [-0.05, 0.1]]), np.ones(4), np.array([0.0, 0.0, 0.2, 0.0])
+        ),
     )
     d = MEET_CLEARANCE
     full = np.array([[-0.5, 0.0], [-0.5, 0.0]])  # the upper lid all the way down, the lower lid still
@@ -323,6 +325,64 @@ def test_meet_lids_stops_a_lid_where_the_skin_shows_the_other_lids_margin_by_han
     np.testing.assert_allclose(up, [-(0.15 - 0.125), -(0.125 - d), -(0.125 - d), -(0.125 - d)], atol=1e-15)
 
 
+def test_skin_stop_room_keeps_the_rows_the_stop_applies_to_by_hand():
+    """The rows `meet_lids` stops by the skin are worked out once, at the bind: the room to the other lid's margin
+    stays where the vertex is this lid's alone (the other lid's weight 0) and has room (above 0), NaN elsewhere (both
+    lids' skin, skin past the other margin, no opening seen)."""
+    from addon.deform import eyelids as lids
+
+    room = np.array([[0.15, 0.1], [0.3, -0.2], [0.15, 0.1], [-0.05, 0.0], [np.nan, 0.2]])
+    upper = np.array([1.0, 1.0, 1.0, 1.0, 0.0])
+    lower = np.array([0.0, 0.0, 0.2, 0.0, 0.5])
+    nan = np.nan
+    expected = np.array([[0.15, nan], [0.3, nan], [nan, nan], [nan, nan], [nan, 0.2]])
+    np.testing.assert_array_equal(lids.skin_stop_room(room, upper, lower), expected)
+
+
+def _meet_lids_choosing_the_rows_each_frame(rig, turns, up, low):
+    """`meet_lids` as it was before the rows of the skin's stop were chosen at the bind (each frame: the other lid's
+    weight 0 and room above 0), for the equality below."""
+    closure = np.maximum(rig.rest_angles[:, 0] - rig.rest_angles[:, 1], 1e-9)
+    shares = (turns * np.array([-1.0, 1.0]) / closure[:, None])[rig.eye]
+    opening = rig.meeting * closure[rig.eye]
+    inside = opening > 0.0
+    stop = (opening[:, None] * (1.0 - shares[:, ::-1]).clip(0.0) - MEET_CLEARANCE).clip(0.0)
+    alone = np.stack([rig.lower <= 0.0, rig.upper <= 0.0], axis=1)
+    seen = (rig.room - opening[:, None] * shares[:, ::-1].clip(0.0)).clip(0.0)
+    with np.errstate(invalid="ignore"):
+        stop = np.where(alone & (rig.room > 0.0), np.minimum(stop, seen), stop)
+    up = np.where(inside & (up < 0.0), np.maximum(up, -stop[:, 0]), up)
+    low = np.where(inside & (low > 0.0), np.minimum(low, stop[:, 1]), low)
+    return up, low
+
+
+@pytest.mark.parametrize("trace_opening", [True, False])
+def test_meet_lids_with_the_rows_chosen_at_the_bind_is_bit_for_bit_as_before(trace_opening, monkeypatch):
+    """The same stops, to the bit, as choosing the rows every frame from the whole room (bound again with
+    `skin_stop_room` passing the room as it is, as the bind did before), on a bound rig (both lids, painted or made
+    masks) over turns toward closure, away from it and past it."""
+    from addon.deform import eyelids as lids
+
+    triangles = _shell_triangles(len(REST), len(XS))
+    radii = np.array([R_EYE, R_EYE])
+    arguments = (REST, UPPER, LOWER, NEUTRAL, CENTRES, radii, AXES, triangles)
+    rig = bind_eyelids(*arguments, trace_opening=trace_opening)
+    with monkeypatch.context() as patch:
+        patch.setattr(lids, "skin_stop_room", lambda room, _upper, _lower: room)
+        whole = bind_eyelids(*arguments, trace_opening=trace_opening)
+    assert np.isfinite(rig.room).any(axis=0).all() and np.isnan(rig.room).sum() > np.isnan(whole.room).sum()
+    closure = UP0 - LOW0
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        turns = np.stack([-rng.uniform(-0.2, 1.3, 2), rng.uniform(-0.2, 1.3, 2)], axis=1) * closure
+        turn = turns[rig.eye]
+        up, low = rig.upper * turn[:, 0], rig.lower * turn[:, 1]
+        now = lids.meet_lids(rig, turns, up, low)
+        before = _meet_lids_choosing_the_rows_each_frame(whole, turns, up, low)
+        for a, b in zip(now, before, strict=True):
+            np.testing.assert_array_equal(a, b)
+
+
 def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge():
     """Lid masks blended across the margin, as decimation leaves them (the margin row 0.6 of the lid, 1 two rows
     out), at uneven spacing along the eye: a full blink brings each margin onto the other lid, along a smooth curve,
@@ -330,6 +390,21 @@ def test_a_lid_whose_mask_is_blended_across_its_margin_closes_on_a_smooth_edge()
     xs = np.sort(np.concatenate([np.linspace(-0.0125, 0.0125, 26), np.random.default_rng(3).uniform(-0.012, 0.012, 9)]))
     rest, upper, lower, neutral, margins = _eye(xs, np.array([0.6, 0.85, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0]))
     _closes_on_a_smooth_edge(xs, rest, upper, lower, neutral, margins, trace_opening=True)
+
+
+def test_seen_edge_members_by_hand():
+    """Five vertices along the eye: on the seen upper edge and part of the lid (made full), not on it, on it but no
+    part of the lid (the mask's 0: left to the fold-free weights), on it but below the lower lid's seen margin, and
+    on it and full already."""
+    from addon.deform.eyelids import seen_edge_members
+
+    rows = np.array([10, 11, 12, 13, 14])
+    member = np.array([0.4, 0.4, 0.0, 0.5, 1.0])
+    t = np.array([0.2, 0.4, 0.5, 0.6, 0.8])
+    elev = np.array([0.1, 0.1, 0.1, -0.3, 0.1])
+    seen = [(np.array([0.0, 1.0]), np.array([0.0, 0.0])), (np.array([0.0, 1.0]), np.array([-0.2, -0.2]))]
+    out = seen_edge_members(rows, member, t, elev, np.array([10, 12, 13, 14, 99]), seen)
+    np.testing.assert_array_equal(out, [1.0, 0.4, 0.0, 0.5, 1.0])
 
 
 def _shell_triangles(count: int, columns: int) -> np.ndarray:
