@@ -45,7 +45,6 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..geometry.seams import welded
 from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from .auto_masks import geodesic_distance
@@ -240,6 +239,23 @@ def stop_at_held_outline(binding: Binding, mouth_triangles: np.ndarray, mouth_ro
     keep = ~drop
     pairs = [f.name for f in dataclasses.fields(Binding) if f.name.startswith("pair_")]
     return dataclasses.replace(binding, **{name: getattr(binding, name)[keep] for name in pairs})
+
+
+def welded(rest: np.ndarray, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(N,) each vertex's stand-in, the first vertex at its rest position, and the (E, 2) `edges` between stand-ins
+    (each once): the skin as one surface where the mesh is cut into pieces whose copies of a vertex coincide (a
+    downloaded character's face sewn to its scalp by coincident vertices, UV seams split). What is measured along the
+    skin is then measured across such a seam as across any edge, and a vertex's copies take its stand-in's value
+    (`values[same]`): measured on each piece alone, the Rocketbox male's copies at the seam by its ear (FP 10.5) were
+    smoothed to 0.35 and 0.50 of the motion, moved apart, and their faces crossed (every frame of joy.fap). A
+    mesh with no coincident vertices keeps its edges as they are."""
+    edges = np.asarray(edges, dtype=np.intp).reshape(-1, 2)
+    _, first, inverse = np.unique(np.asarray(rest), axis=0, return_index=True, return_inverse=True)
+    same = first[inverse.ravel()].astype(np.intp)
+    if len(first) == len(same):
+        return same, edges
+    joined = np.sort(same[edges], axis=1)
+    return same, np.unique(joined[joined[:, 0] != joined[:, 1]], axis=0)
 
 
 def _nearest(points: np.ndarray, sources: np.ndarray) -> np.ndarray:

@@ -1,10 +1,9 @@
 """Face parts inside the face's own mesh (eyeballs, teeth, tongue joined in, as downloaded characters come),
 found at set-up and moved rigidly, as the separate part objects are (followers.py), never as skin (no bpy).
 
-Finding them (`find_parts`): the mesh's loose parts (connected by no edge to the rest, and sewn to it by no
-vertex at the same position as one of its own) other than the largest (the skin), and other than a part that
-carries the face's own skin FPs (SKIN_FPS: the chin, brows, cheeks and nose tip; the mesh vertex nearest one is
-on that part), are taken for
+Finding them (`find_parts`): the mesh's loose parts (connected by no edge to the rest) other than the largest
+(the skin), and other than a part that carries the face's own skin FPs (SKIN_FPS: the chin, brows, cheeks and
+nose tip; the mesh vertex nearest one is on that part), are taken for
 - an eyeball: a part close to a sphere (no vertex farther than SPHERE_TOLERANCE x its radius off the fitted
   sphere) whose centre lies within EYE_REACH radii of a pupil FP (3.5 left, 3.6 right);
 - the tongue: of the parts in the mouth (centre within MOUTH_REACH x the mouth's width of the inner lips'
@@ -15,8 +14,7 @@ on that part), are taken for
   deformer moves it (listed, not moved rigidly);
 anything else stays skin. (A downloaded character's head mesh may hold its face as a loose part of its own, sewn
 to the scalp and neck by coincident vertices: the Rocketbox male's 5,567-vertex face, in front of its mouth, was
-taken for the upper teeth and held rigid, so it never moved; the lining of its mouth, two pieces sewn to its lips
-by coincident vertices, was taken for the tongue and the upper teeth and held still while the lips moved off it.)
+taken for the upper teeth and held rigid, so it never moved.)
 
 Moving them (`move_parts`) as followers.py moves the separate objects: an eyeball turns about its fitted
 centre by the yaw and pitch of its pupil FP seen from there (MPEG-4 yaw + toward the face's left, about its
@@ -30,7 +28,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..geometry.seams import welded
 from ..geometry.sphere_fit import SphereFitError, fit_sphere
 from ..mpeg4.feature_points import fp_index
 
@@ -58,14 +55,6 @@ def loose_parts(n_vertices: int, edges: np.ndarray) -> np.ndarray:
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     return rank[labels]
-
-
-def sewn_parts(rest: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """(N,) as `loose_parts`, with pieces sewn together by coincident vertices counted as one part: a piece sewn to
-    the skin moves with it (held rigid, its seam would tear)."""
-    same, _ = welded(rest, edges)
-    sewn = np.column_stack([np.arange(len(same)), same])
-    return loose_parts(len(same), np.concatenate([np.asarray(edges, dtype=np.intp).reshape(-1, 2), sewn]))
 
 
 def _components(n_vertices: int, edges: np.ndarray) -> np.ndarray:
@@ -108,7 +97,7 @@ def find_parts(rest: np.ndarray, edges: np.ndarray, neutral: np.ndarray, axes: n
     part are left out. `rest` (N, 3), `edges` (E, 2), `neutral` (84, 3) FP rows (NaN where missing) and the
     face frame `axes` (rows x left, y up, z forward), all in mesh coordinates."""
     rest = np.asarray(rest, dtype=np.float64)
-    labels = sewn_parts(rest, edges)
+    labels = loose_parts(len(rest), edges)
     found: dict[str, list[np.ndarray]] = {}
     lips = _rows(neutral, ("2.2", "2.3"))
     corners = _rows(neutral, ("2.4", "2.5"))

@@ -51,16 +51,3 @@ def test_a_face_sewn_to_its_head_as_a_loose_part_stays_skin():
     found = find_parts(rest, edges, neutral, AXES)
     assert set(found) == {"upper_teeth"}
     assert np.array_equal(found["upper_teeth"], np.arange(face_start + 400, face_start + 425))
-
-
-def test_a_piece_sewn_to_the_skin_by_coincident_vertices_stays_skin():
-    """The part behind the lips is taken for the upper teeth while it is loose; once one of its vertices lies
-    exactly on a vertex of the face's skin (the Rocketbox male's mouth lining, sewn to its lips), it is part of the
-    skin's surface and is left to the deformer, as a part near the skin but not on it is not."""
-    rest, edges, neutral, face_start = _head(face_fps=True)
-    teeth = np.arange(face_start + 400, face_start + 425)
-    rest[teeth] += rest[face_start + 210] - rest[teeth[0]]  # its first vertex sewn onto a vertex of the face
-    assert find_parts(rest, edges, neutral, AXES) == {}
-    rest[teeth] += (0.0, 0.0, -1e-4)  # a tenth of a millimetre off: loose again
-    found = find_parts(rest, edges, neutral, AXES)
-    assert set(found) == {"upper_teeth"} and np.array_equal(found["upper_teeth"], teeth)
