@@ -88,6 +88,7 @@ def register(
     deformed = local.copy()
     for level, alpha in enumerate(stiffness):
         last = level == len(stiffness) - 1
+        kept = None  # the weights the factorisation `solve` was made with, at this stiffness
         for inner in range(MOST_STEPS if last else INNER_STEPS):
             world = deformed * size + centre
             if features is not None and level < len(stiffness) - 1:
@@ -100,8 +101,9 @@ def register(
             distance = np.linalg.norm(target - deformed, axis=1)
             weights = ((agree > NORMAL_AGREEMENT) & (distance < FAR) & ~border).astype(np.float64)
             wd = diags(weights) @ d_matrix
-            lhs = (alpha * alpha * smooth_normal + (wd.T @ wd)).tocsc()
-            solve = factorized(lhs)
+            if kept is None or not np.array_equal(weights, kept):  # the same weights and stiffness: the same matrix
+                solve = factorized((alpha * alpha * smooth_normal + (wd.T @ wd)).tocsc())
+                kept = weights
             rhs = wd.T @ (weights[:, None] * target)
             transforms = np.stack([solve(rhs[:, j]) for j in range(3)], axis=1)
             moved = d_matrix @ transforms
