@@ -25,6 +25,7 @@ import numpy as np
 
 from ..geometry.face_axes import BLENDER_FACE_AXES
 from ..geometry.normals import vertex_normals
+from ..geometry.pieces import connected_pieces
 from ..mpeg4.feature_points import fp_index
 from . import fused
 
@@ -96,18 +97,11 @@ def mouth_sides(
 
 def _joined(triangles: np.ndarray, candidates: np.ndarray, lips: np.ndarray) -> np.ndarray:
     """(N,) bool: those of the (N,) `candidates` joined to a vertex of `lips` along the edges of `triangles` (K, 3),
-    through candidates. numpy alone (set-up runs where the extension has no scipy wheel: windows-arm64): reached
-    from the lips a ring of edges at a time, as many rounds as the crease is edges deep."""
+    through candidates (`connected_pieces`: set-up runs where the extension has no scipy wheel, windows-arm64)."""
     through = candidates | lips
     edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    edges = edges[through[edges].all(axis=1)]
-    edges = np.concatenate([edges, edges[:, ::-1]])  # both ways
-    reached = lips.copy()
-    while True:
-        ring = edges[reached[edges[:, 0]] & ~reached[edges[:, 1]], 1]
-        if not len(ring):
-            return candidates & reached
-        reached[ring] = True
+    piece = connected_pieces(len(candidates), edges[through[edges].all(axis=1)])
+    return candidates & np.isin(piece, piece[lips])
 
 
 def lip_penetration(

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..geometry.pieces import connected_pieces
 from ..geometry.sphere_fit import SphereFitError, fit_sphere
 from ..mpeg4.feature_points import fp_index
 
@@ -50,32 +51,11 @@ def _rows(neutral: np.ndarray, ids) -> np.ndarray:
 def loose_parts(n_vertices: int, edges: np.ndarray) -> np.ndarray:
     """(N,) each vertex's loose part, numbered from the largest (0, the skin) down."""
     edges = np.asarray(edges, dtype=np.int64).reshape(-1, 2)
-    labels = _components(n_vertices, edges)
+    labels = connected_pieces(n_vertices, edges)
     order = np.argsort(-np.bincount(labels), kind="stable")
     rank = np.empty_like(order)
     rank[order] = np.arange(len(order))
     return rank[labels]
-
-
-def _components(n_vertices: int, edges: np.ndarray) -> np.ndarray:
-    """(N,) a label per connected piece: scipy's, or where a platform has no scipy wheel, each vertex's least
-    reachable index by min-label hooking and pointer jumping (the same pieces, other numbers)."""
-    try:
-        from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components
-    except ImportError:
-        labels = np.arange(n_vertices)
-        while True:
-            hooked = labels.copy()
-            np.minimum.at(hooked, labels[edges[:, 0]], labels[edges[:, 1]])
-            np.minimum.at(hooked, labels[edges[:, 1]], labels[edges[:, 0]])
-            while not np.array_equal(hooked, hooked[hooked]):
-                hooked = hooked[hooked]
-            if np.array_equal(hooked, labels):
-                return labels
-            labels = hooked
-    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n_vertices, n_vertices))
-    return connected_components(graph, directed=False)[1]
 
 
 def _eye_side(points: np.ndarray, neutral: np.ndarray) -> str | None:
