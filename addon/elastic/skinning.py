@@ -57,6 +57,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from ..geometry.pieces import connected_pieces
 from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from .errors import ScipyMissingError, SkinWeightError
 from .skeleton import JAW, LIP_LINES, Skeleton
@@ -147,7 +148,7 @@ def mouth_lining(vertices: np.ndarray, edges: np.ndarray, skeleton: Skeleton) ->
     meeting = edge_of_lips(vertices, skeleton)
     joined = edges[~meeting[edges[:, 0]] & ~meeting[edges[:, 1]]]
     outer = np.argmin(np.linalg.norm(vertices[:, None] - skeleton.tails[rows][None], axis=2), axis=0)
-    component = connected_parts(len(vertices), joined)
+    component = connected_pieces(len(vertices), joined)
     lining = np.where(np.isin(component, component[outer[~meeting[outer]]]), 0.0, 1.0)
     lining[meeting] = 0.5
     return lining
@@ -201,21 +202,14 @@ def _scipy_graph():
     scipy; the extension's scipy wheel may be missing, and the add-on must still load), or ScipyMissingError."""
     try:
         from scipy.sparse import coo_matrix
-        from scipy.sparse.csgraph import connected_components, dijkstra
+        from scipy.sparse.csgraph import dijkstra
     except ImportError as error:
         raise ScipyMissingError(
             f"Elastic Bones' skin weights need scipy (sparse graphs), which Blender does not ship and which is not "
             f"installed ({error}); install the MPEG-4 Face extension from its zip, which brings scipy's wheel for "
             "Windows x64, macOS and Linux x64, or install scipy into Blender's Python"
         ) from None
-    return coo_matrix, dijkstra, connected_components
-
-
-def connected_parts(n: int, edges: np.ndarray) -> np.ndarray:
-    """(n,) a label per vertex, equal for vertices joined by a path of `edges`."""
-    coo_matrix, _dijkstra, connected_components = _scipy_graph()
-    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
-    return connected_components(graph, directed=False)[1]
+    return coo_matrix, dijkstra
 
 
 def geodesic_distances(
@@ -223,7 +217,7 @@ def geodesic_distances(
 ) -> np.ndarray:
     """(N, S) shortest edge-path distance from each seed set (a virtual source joined to its seed
     vertices by edges of the given costs) to every vertex; inf where unreachable."""
-    coo_matrix, dijkstra, _connected_components = _scipy_graph()
+    coo_matrix, dijkstra = _scipy_graph()
     n = len(vertices)
     length = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
     rows = [edges[:, 0], edges[:, 1]]
