@@ -24,12 +24,17 @@ table's dedicated deformations kept):
 - (c) only the FAPs whose FPs (and riders) the table's key holds (moves under `HELD_MM`; `arkit_spread`'s
   reading) read, the FAPs on the FPs it moves kept: the recipe counterpart of `arkit_spread --fp-split`'s "the
   sculpt's motion on the FPs the keys hold".
+- (d) every FAP read as (b), but about the keys' own FP motion (`about_keys`): what the table's keys move their
+  FPs beyond their FAPs' own motion (the dedicated deformations, the soft limits) taken off the unit's motion
+  first, so it is not read again as FAP values (read plainly, the mouth-open unit's lip swinging back with the
+  turning jaw becomes push_b_lip, which `jaw_hinge` then turns again).
 
 On the development set E of (b) and (c) is in-sample (each unit scores recipes read from itself); the fairer
 estimate reads the recipes again with each pair held out (`held_out_tables`) and scores the pair with those: a
 Left unit's shape is then read from its Right twin mirrored, a shape some other pair shows from that pair, and a
 shape only its own unit shows falls back to the table's values (listed: those units have no estimate of their
-own). `--check DIR` then measures (a), (b) and (c) on a check set once, per shape and per region.
+own). `--check DIR` then measures (a)-(d) on a check set once, per shape and per region (docs/arkit.md, the
+fifteenth pass: none kept).
 """
 
 from __future__ import annotations
