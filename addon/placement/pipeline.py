@@ -18,7 +18,6 @@ import numpy as np
 from ..mpeg4.feature_points import FEATURE_POINTS, fp_index
 from ..progress import scaled
 from .body import head_region
-from .commissures import mouth_height
 from .errors import PlacementError
 from .features import FeatureMatcher, local_height
 from .landmarks import ear_tops, refine
@@ -274,8 +273,6 @@ def _symmetric(template, placed, surface):
         outer = [row for row in outer if template.fp_vertices[row] >= 0]
         if outer:
             placed[outer], _normals = surface.closest(placed[outer])
-        else:  # lips welded shut: the mouth's height from its corners' pits
-            placed, _shift = mouth_height(placed, surface, TEMPLATE_AXES[1])
     reference = (template.fp_positions, TEMPLATE_AXES)
     placed = subnasale(surface.vertices, surface.triangles, placed, plane.normal)
     axes = head_frame(placed, plane.normal, TEMPLATE_AXES[1], *reference)
