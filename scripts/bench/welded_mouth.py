@@ -16,9 +16,7 @@ its height; the spread of "pit - truth" along up over the heads says whether it 
 
 from __future__ import annotations
 
-import argparse
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -27,6 +25,7 @@ from addon.placement.features import local_height
 from addon.placement.pipeline import SKIN_SHARE
 from addon.placement.slit import read_slit
 from addon.placement.surface import Surface, area_samples, loose_parts, triangle_areas
+from scripts.bench.placement_readings import dumped_heads
 
 REACH = 0.006  # m of the head as made: the pit is looked for this near the placed corner
 RADIUS = 0.006  # m: the local height's ball, about a lip's height
@@ -52,12 +51,8 @@ def pit(surface: Surface, guess: np.ndarray, size: float) -> np.ndarray:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("dump", type=Path, help="the .npz files of evaluate_placement --dump")
-    args = parser.parse_args(argv)
-    paths = sorted(args.dump.glob("*.npz"))
+    paths = dumped_heads(argv, __doc__.splitlines()[0], "welded_mouth")
     if not paths:
-        print(f"welded_mouth: no .npz files in {args.dump}", file=sys.stderr)
         return 1
     ups = []
     for path in paths:
