@@ -80,13 +80,20 @@ def sulcus_and_throat(chain: np.ndarray, axes: np.ndarray) -> tuple[int, int, in
     return sulcus, chin, throat
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def dumped_heads(argv: list[str] | None, description: str, name: str) -> list[Path]:
+    """The .npz files of `evaluate_placement --dump` in the folder the command line names (none: said on stderr)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("dump", type=Path, help="the .npz files of evaluate_placement --dump")
     args = parser.parse_args(argv)
     paths = sorted(args.dump.glob("*.npz"))
     if not paths:
-        print(f"placement_readings: no .npz files in {args.dump}", file=sys.stderr)
+        print(f"{name}: no .npz files in {args.dump}", file=sys.stderr)
+    return paths
+
+
+def main(argv: list[str] | None = None) -> int:
+    paths = dumped_heads(argv, __doc__.splitlines()[0], "placement_readings")
+    if not paths:
         return 1
     model = template.load_template()
     offsets = {}
