@@ -212,8 +212,14 @@ def _seen_lines(local, triangles, radius, corners, ts):
 
 
 def seen_picks(
-    margins: list, t: np.ndarray, elev: np.ndarray, local: np.ndarray, triangles: np.ndarray, radius: float,
-    corners: np.ndarray, member: np.ndarray,
+    margins: list,
+    t: np.ndarray,
+    elev: np.ndarray,
+    local: np.ndarray,
+    triangles: np.ndarray,
+    radius: float,
+    corners: np.ndarray,
+    member: np.ndarray,
 ) -> np.ndarray:
     """(2, K) the vertices (at `t` along the eye, elevation `elev`) that `trace_margins` picked for the upper and for
     the lower margin (`margins`) and that are not the lid's margin: on the lines through them (`seen_margins`' lines,
@@ -222,14 +228,15 @@ def seen_picks(
     a member of their lid (`member` (2, N), the upper and the lower lid's at the mesh's vertices, at least 0.5 at
     that point, as `trace_margins` counts members), so they are behind the lid's edge, not on it. Skin of neither
     lid at the opening's edge (a painted lid's inner rim hanging below its front at the inner corner, the
-    triangulated head) leaves the picks alone: the lid's margin is its lowest member. A bin that holds no vertex of the margin (the margin's vertices
-    farther apart than the bins, 1.3 mm on the subdivided head where the bins are 1.0 mm) picked the lowest
-    member behind it: on the subdivided head's right eye, a vertex of the row halfway between the margin and the
-    lid's inner rim (a member of 0.5), 1.9 degrees above the margin at its place; `margin_members` then made the
-    lid's back around it full members beside the rim's 0, and the lids' turn folded those faces (Unfold Skin,
-    opening them, pulled the edge 3 mm up: a notch at the closed lid's outer corner). A line that sees no opening
-    tells nothing: its picks stay. The elevations are compared to 1e-9 rad (rounding: a pick on the margin is a
-    corner of the skin the line crosses there)."""
+    triangulated head) leaves the picks alone: the lid's margin is its lowest member.
+
+    A bin that holds no vertex of the margin (the margin's vertices farther apart than the bins: 1.3 mm on the
+    subdivided head, the bins 1.0 mm) picked the lowest member behind it: on the subdivided head, vertices of the
+    row halfway between the margin and the lid's inner rim (members of 0.5), 0.5-2.5 degrees above the margin at
+    their place; `margin_members` then made the lid's back around them full members beside the rim's 0, and the
+    lids' turn folded those faces (Unfold Skin, opening them, pulled the back 2-3 mm and creased the closed lid
+    down its middle). A line that sees no opening tells nothing: its picks stay. The elevations are compared to
+    1e-9 rad (rounding: a pick on the margin is a corner of the skin the line crosses there)."""
     out = np.zeros((2, len(t)), bool)
     for k, (side, (_ts, _angles, picked)) in enumerate(zip((1.0, -1.0), margins, strict=True)):
         picks = picked[picked >= 0]
@@ -444,7 +451,9 @@ def bind_eyelids(
             seen_by_eye[e] = None if seen is None else (seen, inner_x, outer_x)
         if trace_opening:
             trace = functools.partial(_seen_trace, t, elev, face - centres[e], triangles, radii[e])
-            trace = functools.partial(trace, fps[[inner, outer]] - centres[e], keep[on]) if seen_by_eye[e] is not None else None
+            trace = (
+                None if seen_by_eye[e] is None else functools.partial(trace, fps[[inner, outer]] - centres[e], keep[on])
+            )
             margins = trace_margins(t, elev, up[on], low[on]) if trace is None else trace(up[on], low[on])
             if margins is not None and neighbours is not None:
                 elev_all = elevation(face, centres[e])
