@@ -90,22 +90,26 @@ def lid_profile(x: np.ndarray, inner: float, mid: float, outer: float) -> np.nda
     return np.where((tau > 0.0) & (tau < 1.0), np.sin(np.pi * np.clip(tau, 0.0, 1.0)), 0.0)
 
 
-def trace_margins(t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> list | None:
+def trace_margins(
+    t: np.ndarray, elev: np.ndarray, upper: np.ndarray, lower: np.ndarray, hidden: np.ndarray | None = None
+) -> list | None:
     """The lid margins along the eye, traced on the mesh: [(t, elevation, vertex) of the upper margin, of the lower].
 
     `t` (K,) position of the vertices from the inner (0) to the outer (1) corner, `elev` their elevation,
     `upper`/`lower` their lid membership. Each margin is traced by its lid's lowest (upper lid) or highest
     (lower lid) vertex in each bin of `t` (members at least half; up to `PROFILE_BINS` bins, about one per
     three members on a coarse mesh; `vertex` its index into `t`, -1 at the corners), and the margins meet at the
-    corners; None when a margin has fewer than 3 points.
+    corners; None when a margin has fewer than 3 points. `hidden` (2, K): vertices no bin picks for the upper and for
+    the lower margin (`seen_picks`: not the margin the eye's centre sees); the bins are counted as without it.
     """
     members = min(int(np.sum(upper >= 0.5)), int(np.sum(lower >= 0.5)))
+    hidden = np.zeros((2, len(t)), bool) if hidden is None else np.asarray(hidden, bool)
     edges = np.linspace(0.0, 1.0, max(4, min(PROFILE_BINS, members // 3)) + 1)
     margins = []
-    for member, pick in ((upper, np.argmin), (lower, np.argmax)):
+    for member, pick, out in ((upper, np.argmin, hidden[0]), (lower, np.argmax, hidden[1])):
         ts, angles, picked = [0.0], [np.nan], [-1]
         for b in range(len(edges) - 1):
-            inside = np.flatnonzero((t >= edges[b]) & (t < edges[b + 1]) & (member >= 0.5))
+            inside = np.flatnonzero((t >= edges[b]) & (t < edges[b + 1]) & (member >= 0.5) & ~out)
             if len(inside):
                 k = inside[pick(elev[inside])]
                 ts.append(float(t[k]))
@@ -175,6 +179,12 @@ def seen_margin_points(
 def _seen_margin_points(local, triangles, radius, corners, columns):
     """`seen_margins`' lines (P,), margins (2, P) and the points of the skin at them (2, P, 1 + 3 + 3: elevation,
     barycentric weights, the triangle's corners), with which lines see an opening (P,)."""
+    return _seen_lines(local, triangles, radius, corners, np.linspace(0.0, 1.0, columns + 2))
+
+
+def _seen_lines(local, triangles, radius, corners, ts):
+    """`_seen_margin_points` on the lines at `ts` (P,) along the eye, the first and the last the corners (not
+    looked at)."""
     local = np.asarray(local, dtype=np.float64)
     triangles = np.asarray(triangles, dtype=np.intp).reshape(-1, 3)
     near = np.linalg.norm(local, axis=1) / radius
@@ -187,7 +197,6 @@ def _seen_margin_points(local, triangles, radius, corners, columns):
     chart = np.concatenate([chart, carried], axis=2)
     ends = np.asarray(corners, dtype=np.float64)
     ends = np.stack([ends[:, 0], elevation(ends, np.zeros(3))], axis=1)  # (2, 2) x and elevation, inner and outer
-    ts = np.linspace(0.0, 1.0, columns + 2)
     margins = np.repeat((ends[0, 1] + ts * (ends[1, 1] - ends[0, 1]))[None], 2, axis=0)  # (2, P) upper, lower
     points = np.zeros((2, len(ts), 7))
     seen = np.zeros(len(ts), bool)
@@ -200,6 +209,46 @@ def _seen_margin_points(local, triangles, radius, corners, columns):
             margins[:, k] = points[:, k, 0]
             seen[k] = True
     return ts, margins, points, seen
+
+
+def seen_picks(
+    margins: list,
+    t: np.ndarray,
+    elev: np.ndarray,
+    local: np.ndarray,
+    triangles: np.ndarray,
+    radius: float,
+    corners: np.ndarray,
+    member: np.ndarray,
+) -> np.ndarray:
+    """(2, K) the vertices (at `t` along the eye, elevation `elev`) that `trace_margins` picked for the upper and for
+    the lower margin (`margins`) and that are not the lid's margin: on the lines through them (`seen_margins`' lines,
+    on the skin `local`, `triangles`, `radius`, `corners` as there) the skin the eye's centre sees at the edge of
+    the opening lies nearer the other lid than they do (they stand above the upper margin, below the lower) and is
+    a member of their lid (`member` (2, N), the upper and the lower lid's at the mesh's vertices, at least 0.5 at
+    that point, as `trace_margins` counts members), so they are behind the lid's edge, not on it. Skin of neither
+    lid at the opening's edge (a painted lid's inner rim hanging below its front at the inner corner, the
+    triangulated head) leaves the picks alone: the lid's margin is its lowest member.
+
+    A bin that holds no vertex of the margin (the margin's vertices farther apart than the bins: 1.3 mm on the
+    subdivided head, the bins 1.0 mm) picked the lowest member behind it: on the subdivided head, vertices of the
+    row halfway between the margin and the lid's inner rim (members of 0.5), 0.5-2.5 degrees above the margin at
+    their place; `margin_members` then made the lid's back around them full members beside the rim's 0, and the
+    lids' turn folded those faces (Unfold Skin, opening them, pulled the back 2-3 mm and creased the closed lid
+    down its middle). A line that sees no opening tells nothing: its picks stay. The elevations are compared to
+    1e-9 rad (rounding: a pick on the margin is a corner of the skin the line crosses there)."""
+    out = np.zeros((2, len(t)), bool)
+    for k, (side, (_ts, _angles, picked)) in enumerate(zip((1.0, -1.0), margins, strict=True)):
+        picks = picked[picked >= 0]
+        if not len(picks):
+            continue
+        lines = np.concatenate([[0.0], t[picks], [1.0]])
+        _lines, seen_at, points, seen = _seen_lines(local, triangles, radius, corners, lines)
+        at = points[k, 1:-1]
+        ours = np.einsum("pc,pc->p", at[:, 1:4], member[k][at[:, 4:].astype(np.intp)]) >= 0.5
+        behind = seen[1:-1] & ours & (side * (elev[picks] - seen_at[k, 1:-1]) > 1e-9)
+        out[k, picks[behind]] = True
+    return out
 
 
 def seen_edge_members(
@@ -401,7 +450,11 @@ def bind_eyelids(
             seen = seen_margins(face - centres[e], triangles, radii[e], fps[[inner, outer]] - centres[e])
             seen_by_eye[e] = None if seen is None else (seen, inner_x, outer_x)
         if trace_opening:
-            margins = trace_margins(t, elev, up[on], low[on])
+            trace = functools.partial(_seen_trace, t, elev, face - centres[e], triangles, radii[e])
+            trace = (
+                None if seen_by_eye[e] is None else functools.partial(trace, fps[[inner, outer]] - centres[e], keep[on])
+            )
+            margins = trace_margins(t, elev, up[on], low[on]) if trace is None else trace(up[on], low[on])
             if margins is not None and neighbours is not None:
                 elev_all = elevation(face, centres[e])
                 for k, (lid, side) in enumerate(zip((up, low), (1.0, -1.0), strict=True)):
@@ -413,7 +466,7 @@ def bind_eyelids(
                         lid[on] = np.maximum(lid[on], np.clip(np.asarray(made[k], dtype=np.float64)[keep[on]], 0, 1))
                         deepened.append((e, k))
                 if deepened and deepened[-1][0] == e:
-                    margins = trace_margins(t, elev, up[on], low[on])
+                    margins = trace_margins(t, elev, up[on], low[on]) if trace is None else trace(up[on], low[on])
             profile = opening_profile(margins, t, mid) if margins is not None else None
             if profile is not None and seen_by_eye[e] is not None:
                 # and at least by the opening the skin shows: the traced one falls short where a bin's pick is no
@@ -510,6 +563,28 @@ def bind_eyelids(
         deepened=tuple(deepened),
         room=room if np.isfinite(room).any() else None,
     )
+
+
+def _seen_trace(t, elev, local, triangles, radius, corners, rows, upper, lower) -> list | None:
+    """`trace_margins` whose bins pick no vertex `seen_picks` finds behind the upper margin (traced again until none);
+    `rows` (K,) the vertices at `t`, `upper`/`lower` (K,) their memberships.
+
+    The upper lid's only: it closes the eye (the blink), and the lower lid's picks on a coarse mesh are not its
+    margin's vertices at their place either (the decimated head's 4 bins: a pick 14 degrees below the lower margin
+    the skin shows there, which a member of 0.64 makes): left out, its lower margin kept 3 picks and no opening was
+    traced (a sine arch instead: both eyes 1.3 mm open at the blink)."""
+    hidden = np.zeros((2, len(t)), bool)
+    member = np.zeros((2, len(local)))
+    member[:, rows] = upper, lower
+    while True:
+        margins = trace_margins(t, elev, upper, lower, hidden)
+        if margins is None:
+            return None
+        behind = seen_picks(margins, t, elev, local, triangles, radius, corners, member)
+        behind[1] = False
+        if not (behind & ~hidden).any():
+            return margins
+        hidden |= behind
 
 
 def skin_stop_room(room: np.ndarray, upper: np.ndarray, lower: np.ndarray) -> np.ndarray:

@@ -397,6 +397,31 @@ def test_the_upper_lids_edge_as_the_eye_sees_it_closes_smooth_on_a_triangulated_
         assert row["margin"][1] < edge_mm
 
 
+def test_a_subdivided_faces_upper_lid_turns_its_back_row_by_its_own_part_of_the_lid():
+    # the sample's painted lids subdivided once with the new vertices jittered (`variants`): the margin's vertices lie
+    # 1.3 mm apart where the trace's bins are 1.0 mm wide, and a bin without one picked the lowest member behind it,
+    # a vertex of the row halfway between the margin and the inner rim (a member of 0.5), 1.9 degrees above the
+    # margin; `margin_members` then made the lid's back there a full member beside the rim's 0. With the lids' turn
+    # alone the FP line's vertices stood 2.24 / 3.81 mm off a smooth curve at the full blink (0.89 / 0.92 at rest),
+    # and Unfold Skin pulled the right eye's outer part (the outer 30 %) up to 2.96 mm, the left's 1.58. Now the trace
+    # picks no vertex behind the lid's edge (`eyelids.seen_picks`): 2.23 / 2.19 mm, 1.59 and 0.72 mm pulled
+    from addon.blender import eyelid_rig
+    from addon.mpeg4.feature_points import fp_index
+    from scripts.bench.variant_blink import full_blink, lids_alone
+
+    head = unset_sample()
+    variants.subdivide(head)
+    for row in _shut_at_a_full_blink(head, below_mm=0.4):
+        assert row["edge_alone"] < 2.5
+    rig = eyelid_rig.current(head)
+    pulled = np.linalg.norm(full_blink(head) - lids_alone(head), axis=1)[rig.vertices]
+    neutral = face_data.neutral_positions(face_data.fp_empties(head)) @ rig.axes.T
+    for eye, (inner, outer) in enumerate((("3.11", "3.7"), ("3.8", "3.12"))):
+        x = neutral[[fp_index(inner), fp_index(outer)], 0]
+        along = (rig.local[:, 0] + rig.centres[rig.eye, 0] - x[0]) / (x[1] - x[0])
+        assert pulled[(rig.eye == eye) & (along > 0.7)].max() < 2e-3
+
+
 def test_a_subdivided_face_with_its_new_vertices_moved_opens_the_lips_folds():
     # one cut per edge, the new vertices jittered along the surface (`variants.subdivide`): demo frames 116-125 fold
     # the skin inside the mouth corners (25 faces, the sample's 6 cut in 4), which Unfold Skin must open within a

@@ -407,6 +407,63 @@ def test_seen_edge_members_by_hand():
     np.testing.assert_array_equal(out, [1.0, 0.4, 0.0, 0.5, 1.0])
 
 
+def test_trace_margins_leaves_the_hidden_vertices_to_the_next_lowest_member():
+    """Two upper-lid members in a bin: the lower one picked, and with it hidden, the other; a bin whose only member is
+    hidden picks none (the margin runs straight past it)."""
+    from addon.deform.eyelids import trace_margins
+
+    t = np.array([0.1, 0.12, 0.3, 0.5, 0.7, 0.9, 0.1, 0.3, 0.5, 0.7, 0.9])
+    elev = np.array([0.2, 0.3, 0.25, 0.3, 0.25, 0.2, -0.2, -0.25, -0.3, -0.25, -0.2])
+    upper = np.r_[np.ones(6), np.zeros(5)]
+    lower = 1.0 - upper
+    hidden = np.zeros((2, len(t)), bool)
+    assert trace_margins(t, elev, upper, lower)[0][2][1] == 0  # t = 0.1: the lower of 0 and 1
+    hidden[0, 0] = True
+    assert trace_margins(t, elev, upper, lower, hidden)[0][2][1] == 1
+    hidden[0, 3] = True
+    picked = trace_margins(t, elev, upper, lower, hidden)[0][2]
+    assert 3 not in picked and list(picked[picked >= 0]) == [1, 2, 4, 5]
+
+
+def test_seen_picks_by_hand():
+    """An upper lid whose front margin runs at 0.2 rad (vertices at x -10, -5, 0, 10 mm), a vertex of its back (a
+    member of 0.5, nearer the eye's centre) at x 5 mm, 0.3 rad, where the margin's edge from 0 to 10 mm is the
+    lowest skin; and a rim of neither lid hanging below the front from x -10 to -3 mm (0.1 rad at -3 mm). Picked for
+    the upper margin: the back vertex is behind the lid's edge; the front vertex above the rim and the front vertex on
+    the edge are not; made a member, the rim hides the front vertex above it."""
+    from addon.deform.eyelids import seen_picks
+
+    def at(x, angle, rho=0.015):
+        return [x, rho * np.sin(angle), rho * np.cos(angle)]
+
+    local = np.array(
+        [at(-0.01, 0.2), at(-0.005, 0.2), at(0.0, 0.2), at(0.01, 0.2)]  # 0-3: the upper lid's front margin
+        + [at(-0.01, 0.5), at(0.0, 0.5), at(0.01, 0.5)]  # 4-6: above it
+        + [at(0.005, 0.3, 0.0135)]  # 7: the lid's back, nearer the centre
+        + [at(-0.003, 0.1)]  # 8: a rim of neither lid below the front
+        + [at(-0.01, -0.2), at(0.0, -0.2), at(0.01, -0.2), at(-0.01, -0.5), at(0.0, -0.5), at(0.01, -0.5)]  # lower
+    )
+    triangles = np.array(
+        [[0, 1, 4], [1, 2, 5], [1, 5, 4], [2, 3, 6], [2, 6, 5], [2, 3, 7]]
+        + [[0, 1, 8], [9, 10, 12], [10, 13, 12], [10, 11, 13], [11, 14, 13]]
+    )
+    corners = np.array([at(-0.012, 0.0), at(0.012, 0.0)])
+    t = (local[:, 0] + 0.012) / 0.024
+    elev = elevation(local, np.zeros(3))
+    member = np.zeros((2, len(local)))
+    member[0, :7], member[0, 7], member[1, 9:] = 1.0, 0.5, 1.0
+    margins = [
+        (np.r_[0.0, t[[1, 7, 3]], 1.0], np.zeros(5), np.array([-1, 1, 7, 3, -1])),
+        (np.r_[0.0, t[[10]], 1.0], np.zeros(3), np.array([-1, 10, -1])),
+    ]
+    hidden = seen_picks(margins, t, elev, local, triangles, 0.012, corners, member)
+    np.testing.assert_array_equal(np.flatnonzero(hidden[0]), [7])
+    assert not hidden[1].any()
+    member[0, 7] = member[0, 8] = 1.0  # the back a full member: behind the edge all the same; the rim a member
+    hidden = seen_picks(margins, t, elev, local, triangles, 0.012, corners, member)
+    np.testing.assert_array_equal(np.flatnonzero(hidden[0]), [1, 7])
+
+
 def _shell_triangles(count: int, columns: int) -> np.ndarray:
     """The triangles of `_eye`'s `count` vertices: each lid's 8 rows of `columns`, two triangles per quad."""
     quads = [
