@@ -28,7 +28,9 @@ the control FPs (within half that width of one, at d from it, the share may fall
 an FP the user drags still follows it, and the share is flat at the FP, so the skin right around it moves with it;
 falling linearly, 1-3 % less of a 10 mm motion on the lips' corners' 0.5 mm triangles passed them through each
 other at the demo's widest mouth); it is smoothed among the skin within SMOOTHED_REACH widths of a control FP, so
-that a body joined under the head leaves the face as it is on the head alone.
+that a body joined under the head leaves the face as it is on the head alone. No vertex keeps more of it than the
+skin joining it to the skin at the control FPs takes (`joined_share`): an island of skin the eyes' short reach
+left moving among still skin stays still.
 
 The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
 triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
