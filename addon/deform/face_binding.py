@@ -28,7 +28,9 @@ the control FPs (within half that width of one, at d from it, the share may fall
 an FP the user drags still follows it, and the share is flat at the FP, so the skin right around it moves with it;
 falling linearly, 1-3 % less of a 10 mm motion on the lips' corners' 0.5 mm triangles passed them through each
 other at the demo's widest mouth); it is smoothed among the skin within SMOOTHED_REACH widths of a control FP, so
-that a body joined under the head leaves the face as it is on the head alone.
+that a body joined under the head leaves the face as it is on the head alone. No vertex keeps more of it than the
+skin joining it to the skin at the control FPs takes (`joined_share`): an island of skin the eyes' short reach
+left moving among still skin stays still.
 
 The mouth's falloff over the cheek (``mouth_rows``, `fall_from_mouth`, docs/eyes_brows.md): the mouth and jaw's
 triangles span the cheek up to the cheek FPs and move it linearly, while sculpted expressions move the cheek less
@@ -45,6 +47,7 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from ..geometry.pieces import connected_pieces
 from ..geometry.surface_smoothing import smooth_over_edges, smoothing_steps
 from ..mpeg4.control_mesh import BROWS, EYES, MOUTH_AND_JAW, OTHER_UPPER
 from .auto_masks import geodesic_distance
@@ -132,10 +135,13 @@ def bind_face(
     if triangle_parts is None or edges is None:
         return binding
     width = FOLLOW_SMOOTHING_PER_ES0 * es0 if es0 > 0 else face_depth(es0, control_rest)
-    # the skin at a control FP follows it fully, and less so up to half the width away (flat at the FP)
-    near = _nearest(rest, np.asarray(control_rest)[np.unique(triangles)])
+    # the skin at a control FP follows it fully, and less so up to half the width away (flat at the FP); skin moves
+    # no more than the skin joining it to the skin at the FPs (`joined_share`)
+    points = np.asarray(control_rest)[np.unique(triangles)]
+    near = _nearest(rest, points)
     pinned = np.clip(1.0 - (near / (0.5 * width)) ** 2, 0.0, 1.0)
-    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width, counted=covered)
+    at_points = [int(np.argmin(np.linalg.norm(rest - point, axis=1))) for point in points]
+    return smooth_follow(binding, edges, width, pinned, near <= SMOOTHED_REACH * width, covered, at_points)
 
 
 def smooth_follow(
@@ -145,6 +151,7 @@ def smooth_follow(
     pinned: np.ndarray,
     domain: np.ndarray | None = None,
     counted: Binding | None = None,
+    sources: Sequence[int] | None = None,
 ) -> Binding:
     """`binding` with each vertex's share of the control mesh's motion (the sum of its eq. 8 weights) lowered to
     the share smoothed over about `width` of skin along the (E, 2) mesh `edges`, or to (N,) `pinned`, whichever is
@@ -153,10 +160,12 @@ def smooth_follow(
     head does not change the face's result). The steps are counted on the mean length of the edges between
     vertices that move (in `counted` when given: the add-on passes its binding before the mouth's falloff, so that
     the falloff, which stills some skin, does not change how far the share is smoothed elsewhere), so a denser
-    mesh smooths over the same skin."""
+    mesh smooths over the same skin. With `sources` (the vertices at the control FPs), no vertex keeps more than
+    the skin joining it to them takes (`joined_share`)."""
     rest = binding.rest_vertices
     share = np.bincount(binding.pair_vertex, binding.pair_weight, minlength=len(rest))
     same, edges = welded(rest, edges)
+    pieces = None if sources is None else connected_pieces(len(rest), edges)
     if domain is not None:
         edges = edges[(np.asarray(domain) | (share > 0.0))[edges].all(axis=1)]
     moves = share if counted is None else np.bincount(counted.pair_vertex, counted.pair_weight, minlength=len(rest))
@@ -166,8 +175,44 @@ def smooth_follow(
     length = float(np.linalg.norm(rest[moving[:, 0]] - rest[moving[:, 1]], axis=1).mean())
     smoothed = smooth_over_edges(share, edges, smoothing_steps(width, length))[same]
     lowered = np.minimum(share, np.maximum(smoothed, pinned))
+    if sources is not None:
+        lowered = np.minimum(lowered, joined_share(share, edges, same, sources, pieces))
     scale = np.divide(lowered, share, out=np.zeros_like(share), where=share > 0.0)
     return dataclasses.replace(binding, pair_weight=binding.pair_weight * scale[binding.pair_vertex])
+
+
+def joined_share(
+    share: np.ndarray, edges: np.ndarray, same: np.ndarray, sources: Sequence[int], pieces: np.ndarray
+) -> np.ndarray:
+    """(N,) the most of the motion that the skin joining each vertex to a vertex of `sources` (the skin at the
+    control FPs) takes, of the (N,) `share`: the largest s such that a path over the (E, 2) `edges` (between the
+    stand-ins `same` of `welded`) joins the two through vertices whose share is s or more. 1 at a source, and on a
+    piece of the mesh (N,) `pieces` that has none: such a piece is not held by this.
+
+    Skin moves no more than the skin between it and an FP: a vertex, or a few, cut off from the FPs by skin that
+    stays still is not skin the FPs move but an island of the ragged share that the eyes' control triangles give
+    (their reach is short, `LOCAL_RADIUS_FRACTIONS`, and skin off their planes is out of it). The smoothing spreads
+    such an island but, never raising a vertex, leaves it a smaller island, and the pin at an FP (by the straight
+    distance) can keep it whole. On the scan, single vertices and pairs 4-8 mm from the eyes' outer corners took
+    0.65-1.0 of a lower-lid control triangle's motion (3.9, 5.3, 3.7) with no neighbour moving, rose with the
+    cheeks' lift (FAPs 41-42) past the still skin beside them, and crossed it (demo frames 156-184); cut to a
+    fourteenth by the smoothing, a pair still crossed the fold at the corner, 0.01 mm deep at rest."""
+    share = np.asarray(share, dtype=np.float64)
+    moving = np.zeros(len(share))  # each stand-in's share: the most of its copies'
+    np.maximum.at(moving, same, share)
+    held = np.zeros(len(share))
+    held[same[np.asarray(sources, dtype=np.intp)]] = 1.0
+    held[~np.isin(pieces, pieces[held > 0.0])] = 1.0
+    edges = edges[((moving > 0.0) | (held > 0.0))[edges].all(axis=1)]  # still skin carries nothing
+    while len(edges):  # each round carries it one edge further; it only rises, so this ends
+        reached = np.zeros(len(share))
+        np.maximum.at(reached, edges[:, 0], held[edges[:, 1]])
+        np.maximum.at(reached, edges[:, 1], held[edges[:, 0]])
+        wider = np.maximum(held, np.minimum(moving, reached))
+        if np.array_equal(wider, held):
+            break
+        held = wider
+    return held[same]
 
 
 def fall_from_mouth(
