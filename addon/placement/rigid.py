@@ -71,12 +71,27 @@ def candidate_frames() -> list[np.ndarray]:
     return frames
 
 
-def _width_profile_start(points: np.ndarray, rotation: np.ndarray, template: np.ndarray) -> Similarity:
+@dataclass(frozen=True)
+class _TemplateProfile:
+    """What the width-profile starts read off the template, the same for every candidate frame."""
+
+    height: float  # its extent along its up
+    width: float  # its widest slab (`_widest`)
+    centre: np.ndarray  # (3,) the point of it put on the head's top: its top, mid-way left-right and front-back
+
+    @classmethod
+    def of(cls, template: np.ndarray) -> _TemplateProfile:
+        t_face = template @ TEMPLATE_AXES.T
+        height = t_face[:, 1].max() - t_face[:, 1].min()
+        width = _widest(t_face[:, 0], t_face[:, 1], height)
+        centre = np.array([np.median(t_face[:, 0]), t_face[:, 1].max(), np.median(t_face[:, 2])]) @ TEMPLATE_AXES
+        return cls(height, width, centre)
+
+
+def _width_profile_start(points: np.ndarray, rotation: np.ndarray, profile: _TemplateProfile) -> Similarity:
     """Scale and position from the head's widest slab near the top, seen along the candidate's up."""
     left, up, forward = (rotation @ TEMPLATE_AXES[i] for i in range(3))
-    t_face = template @ TEMPLATE_AXES.T
-    t_height = t_face[:, 1].max() - t_face[:, 1].min()
-    t_width = _widest(t_face[:, 0], t_face[:, 1], t_height)
+    t_height, t_width = profile.height, profile.width
     h = points @ up
     top = h.max()
     extent = np.ptp(points @ left), np.ptp(points @ forward)
@@ -85,21 +100,24 @@ def _width_profile_start(points: np.ndarray, rotation: np.ndarray, template: np.
     head = points[h > top - scale * t_height]
     centre = np.median(head, axis=0)
     centre = centre - up * (centre @ up) + up * top
-    t_top = t_face[:, 1].max()
-    t_centre = np.array([np.median(t_face[:, 0]), t_top, np.median(t_face[:, 2])]) @ TEMPLATE_AXES
-    return Similarity(rotation, scale, centre - scale * rotation @ t_centre)
+    return Similarity(rotation, scale, centre - scale * rotation @ profile.centre)
 
 
 def _widest(across: np.ndarray, height: np.ndarray, head_height: float) -> float:
     """The head's width: the widest slab from the top down to where the profile narrows to a neck."""
     top = height.max()
     step = head_height / SLABS
+    order = np.argsort(height, kind="stable")
+    rising, across = height[order], across[order]  # a slab is then one run of them
     widest = 0.0
     for k in range(2 * SLABS):
-        inside = (height <= top - k * step) & (height > top - (k + 1) * step)
-        if inside.sum() < 3:
+        # the slab top - (k + 1) step < height <= top - k step
+        first = np.searchsorted(rising, top - (k + 1) * step, side="right")
+        end = np.searchsorted(rising, top - k * step, side="right")
+        if end - first < 3:
             continue
-        width = float(np.percentile(across[inside], 98) - np.percentile(across[inside], 2))
+        high, low = np.percentile(across[first:end], [98, 2])
+        width = float(high - low)
         if widest and width < 0.7 * widest and k > SLABS // 3:
             break
         widest = max(widest, width)
@@ -157,8 +175,9 @@ def align(
     coarse_template, coarse_template_normals = template[::t_step], template_normals[::t_step]
     tried = []
     frames = candidate_frames()
+    profile = _TemplateProfile.of(template)
     for i, rotation in enumerate(frames):
-        start = _width_profile_start(coarse_points, rotation, template)
+        start = _width_profile_start(coarse_points, rotation, profile)
         tried.append(
             icp(
                 coarse_template,
