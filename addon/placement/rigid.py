@@ -116,26 +116,30 @@ def _widest(across: np.ndarray, height: np.ndarray, head_height: float) -> float
         end = np.searchsorted(rising, top - k * step, side="right")
         if end - first < 3:
             continue
-        high, low = np.percentile(across[first:end], [98, 2])
-        width = float(high - low)
+        slab = across[first:end]
+        width = float(linear_quantile(slab, 0.98) - linear_quantile(slab, 0.02))
         if widest and width < 0.7 * widest and k > SLABS // 3:
             break
         widest = max(widest, width)
     return widest
 
 
-def trimmed(values: np.ndarray, share: float) -> np.ndarray:
-    """`values <= np.quantile(values, share)` (non-empty `values`, `share` in [0, 1]): the same quantile, its two
-    order statistics found by one partition and interpolated as numpy's default ('linear') method does, without
-    numpy's general path, which costs several times more on the few hundred values of a coarse ICP step."""
+def linear_quantile(values: np.ndarray, share: float) -> float:
+    """`np.quantile(values, share)` (non-empty `values`, `share` in [0, 1]) to the last bit: its two order
+    statistics found by one partition and interpolated as numpy's default ('linear') method does, without numpy's
+    general path, which costs several times more on the few hundred values of a coarse ICP step or a slab."""
     position = (len(values) - 1) * share
     below = int(np.floor(position))
     above = min(below + 1, len(values) - 1)
     low, high = np.partition(values, [below, above])[[below, above]]
     gamma = position - below
     span = high - low
-    threshold = high - span * (1.0 - gamma) if gamma >= 0.5 else low + span * gamma
-    return values <= threshold
+    return high - span * (1.0 - gamma) if gamma >= 0.5 else low + span * gamma
+
+
+def trimmed(values: np.ndarray, share: float) -> np.ndarray:
+    """`values <= np.quantile(values, share)`: the share of the values kept by a trimmed fit."""
+    return values <= linear_quantile(values, share)
 
 
 def icp(

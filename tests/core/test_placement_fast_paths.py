@@ -8,7 +8,7 @@ import pytest
 pytest.importorskip("scipy")
 
 from addon.placement.nicp import border_vertices, edges_of
-from addon.placement.rigid import SLABS, _widest, trimmed
+from addon.placement.rigid import SLABS, _widest, linear_quantile, trimmed
 from addon.placement.surface import Surface, _repeated, closest_on_triangles
 
 
@@ -16,7 +16,8 @@ def test_trimmed_keeps_what_numpys_quantile_keeps_with_ties_and_any_length():
     rng = np.random.default_rng(0)
     for n in [*range(1, 40), 299, 1295, 4000]:
         for values in (rng.normal(size=n), np.round(rng.normal(size=n), 1), np.full(n, 0.25)):
-            for share in (0.0, 0.25, 0.5, 0.8, 0.95, 1.0):
+            for share in (0.0, 0.02, 0.25, 0.5, 0.8, 0.95, 0.98, 1.0):
+                assert linear_quantile(values, share) == np.quantile(values, share)
                 assert np.array_equal(trimmed(values, share), values <= np.quantile(values, share))
 
 
