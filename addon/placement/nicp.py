@@ -7,7 +7,7 @@ Each template vertex v_i gets its own affine transform X_i (4 x 3). For a stiffn
 is quadratic: D is the sparse (n x 4n) matrix of the vertices [v_i^T 1], U the closest surface points of
 the current deformed template, W their reliability weights, M the template's edge-vertex incidence and
 G = diag(1, 1, 1, gamma). For each alpha of a decreasing schedule, the closest points and X are
-re-found until X settles (section 3.2); E's normal equations are solved by sparse LU.
+re-found until X settles (section 3.2); E's normal equations are solved by sparse LU (`_factorised`).
 
 Read here for "until X settles": the stiffnesses whose correspondences pair local heights (`features`) take
 INNER_STEPS steps each (their correspondences are samples of the skin, which reach a fixed point or swap between
@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.normals import vertex_normals
-from .scipy_modules import coo_matrix, csr_matrix, diags, factorized, kron
+from .scipy_modules import coo_matrix, csr_matrix, diags, kron, splu
 from .surface import Surface
 
 STIFFNESS = (10.0, 5.0, 2.0, 1.0, 0.5)
@@ -40,16 +40,32 @@ NORMAL_AGREEMENT = 0.5  # cos 60 deg
 FAR = 0.1  # of the template's size
 
 
+def _sorted_pairs(triangles: np.ndarray) -> np.ndarray:
+    """(3T, 2) the triangles' edges, each as (smaller vertex, larger vertex), in int64."""
+    t = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    return np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+
+
+def _unique_pairs(pairs: np.ndarray, return_counts: bool = False):
+    """`np.unique(pairs, axis=0)` (the rows sorted, each once) for pairs of non-negative integers, by one
+    integer key per row (first * n + second, which sorts as the rows do): a row-wise unique sorts a view of
+    the rows as records, several times slower."""
+    n = int(pairs.max()) + 1 if len(pairs) else 1
+    keys = np.unique(pairs[:, 0] * n + pairs[:, 1], return_counts=return_counts)
+    if return_counts:
+        keys, counts = keys
+    rows = np.stack([keys // n, keys % n], axis=1)
+    return (rows, counts) if return_counts else rows
+
+
 def edges_of(triangles: np.ndarray) -> np.ndarray:
-    """(E, 2) unique undirected edges of the triangles."""
-    pairs = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    return np.unique(np.sort(pairs, axis=1), axis=0)
+    """(E, 2) unique undirected edges of the triangles, (smaller, larger) vertex, in sorted order."""
+    return _unique_pairs(_sorted_pairs(triangles))
 
 
 def border_vertices(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
     """(n,) True for vertices on an open border (an edge used by one triangle only)."""
-    pairs = np.sort(np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-    unique, counts = np.unique(pairs, axis=0, return_counts=True)
+    unique, counts = _unique_pairs(_sorted_pairs(triangles), return_counts=True)
     border = np.zeros(n_vertices, dtype=bool)
     border[unique[counts == 1].ravel()] = True
     return border
@@ -102,10 +118,10 @@ def register(
             weights = ((agree > NORMAL_AGREEMENT) & (distance < FAR) & ~border).astype(np.float64)
             wd = diags(weights) @ d_matrix
             if kept is None or not np.array_equal(weights, kept):  # the same weights and stiffness: the same matrix
-                solve = factorized((alpha * alpha * smooth_normal + (wd.T @ wd)).tocsc())
+                solve = _factorised((alpha * alpha * smooth_normal + (wd.T @ wd)).tocsc())
                 kept = weights
             rhs = wd.T @ (weights[:, None] * target)
-            transforms = np.stack([solve(rhs[:, j]) for j in range(3)], axis=1)
+            transforms = solve(np.asarray(rhs))  # the three columns x, y, z at once
             moved = d_matrix @ transforms
             motion = float(np.sqrt(((moved - deformed) ** 2).sum(axis=1).mean()))
             deformed = moved
@@ -114,6 +130,15 @@ def register(
                 break
     affine = transforms.reshape(n, 4, 3)
     return deformed * size + centre, _to_frame(affine, centre, size)
+
+
+def _factorised(matrix):
+    """The solve of the normal equations' `matrix` by sparse LU in SuperLU's symmetric mode: the matrix is
+    symmetric positive definite (a weighted sum of squares), so its diagonal serves as pivots (no pivoting,
+    as Cholesky) and a minimum-degree ordering of its symmetric pattern keeps the factors small (0.54M non-zeros
+    against 0.75M by the default column ordering on the 1,295-vertex template, and the solves faster with them;
+    the registered vertices agree with the default's to 1e-14 of a metre)."""
+    return splu(matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True}).solve
 
 
 def _to_frame(affine: np.ndarray, centre: np.ndarray, size: float) -> np.ndarray:

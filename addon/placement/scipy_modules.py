@@ -6,7 +6,7 @@ from .errors import PlacementError
 try:
     from scipy.sparse import coo_matrix, csr_matrix, diags, kron
     from scipy.sparse.csgraph import dijkstra
-    from scipy.sparse.linalg import factorized
+    from scipy.sparse.linalg import splu
     from scipy.spatial import cKDTree
 except ImportError as error:  # pragma: no cover - depends on the platform's wheels
     raise PlacementError(
@@ -14,4 +14,4 @@ except ImportError as error:  # pragma: no cover - depends on the platform's whe
         "from its zip, which brings scipy's wheel for this platform"
     ) from error
 
-__all__ = ["cKDTree", "coo_matrix", "csr_matrix", "diags", "dijkstra", "factorized", "kron"]
+__all__ = ["cKDTree", "coo_matrix", "csr_matrix", "diags", "dijkstra", "kron", "splu"]

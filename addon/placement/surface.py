@@ -48,22 +48,20 @@ def closest_on_triangles(points: np.ndarray, a: np.ndarray, b: np.ndarray, c: np
     w = vc / denominator
     result = a + ab * v[:, None] + ac * w[:, None]
 
-    def take(mask, value):
-        result[mask] = value[mask]
-
+    # each region's point computed on its own rows only (the same numbers, fewer of them); later regions
+    # overwrite earlier ones, as Ericson's tests return in this order reversed
     # an edge's region needs the edge to have length (its squared length is the fraction's denominator):
     # a triangle with two corners in one place (a UV sphere's pole) is its other two edges
     with np.errstate(divide="ignore", invalid="ignore"):
         length = (d4 - d3) + (d5 - d6)
-        bc_edge = (va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0) & (length > 0)
-        take(bc_edge, b + (c - b) * ((d4 - d3) / length)[:, None])
-        ac_edge = (vb <= 0) & (d2 >= 0) & (d6 <= 0) & (d2 - d6 > 0)
-        take(ac_edge, a + ac * (d2 / (d2 - d6))[:, None])
-        ab_edge = (vc <= 0) & (d1 >= 0) & (d3 <= 0) & (d1 - d3 > 0)
-        take(ab_edge, a + ab * (d1 / (d1 - d3))[:, None])
-    take((d6 >= 0) & (d5 <= d6), c)
-    take((d3 >= 0) & (d4 <= d3), b)
-    take((d1 <= 0) & (d2 <= 0), a)
+        rows = np.flatnonzero((va <= 0) & (d4 - d3 >= 0) & (d5 - d6 >= 0) & (length > 0))  # edge bc
+        result[rows] = b[rows] + (c[rows] - b[rows]) * ((d4[rows] - d3[rows]) / length[rows])[:, None]
+        rows = np.flatnonzero((vb <= 0) & (d2 >= 0) & (d6 <= 0) & (d2 - d6 > 0))  # edge ac
+        result[rows] = a[rows] + ac[rows] * (d2[rows] / (d2[rows] - d6[rows]))[:, None]
+        rows = np.flatnonzero((vc <= 0) & (d1 >= 0) & (d3 <= 0) & (d1 - d3 > 0))  # edge ab
+        result[rows] = a[rows] + ab[rows] * (d1[rows] / (d1[rows] - d3[rows]))[:, None]
+    for corner, at in ((c, (d6 >= 0) & (d5 <= d6)), (b, (d3 >= 0) & (d4 <= d3)), (a, (d1 <= 0) & (d2 <= 0))):
+        result[at] = corner[at]
     return result
 
 
@@ -96,7 +94,7 @@ class Surface:
         k = min(near, len(self.vertices))
         _d, nearest = self.tree.query(points, k=k)
         candidates = self.vertex_triangles[nearest.reshape(len(points), k)].reshape(len(points), -1)
-        valid = candidates >= 0
+        valid = (candidates >= 0) & ~_repeated(candidates)
         query, slot = np.nonzero(valid)
         triangle = candidates[query, slot]
         t = self.triangles[triangle]
@@ -117,6 +115,19 @@ class Surface:
         normal = np.einsum("kj,kjd->kd", weights, self.normals[self.triangles[triangle]])
         length = np.linalg.norm(normal, axis=1, keepdims=True)
         return best, normal / np.where(length > 0, length, 1.0)
+
+
+def _repeated(rows: np.ndarray) -> np.ndarray:
+    """(K, C) True where a value already occurs earlier in its row: neighbouring vertices share most of their
+    triangles, and a triangle measured once per query gives the same closest point (the first of equally
+    near slots is the one kept, as before)."""
+    order = np.argsort(rows, axis=1, kind="stable")  # equal values keep their slot order
+    ranked = np.take_along_axis(rows, order, axis=1)
+    seen = np.zeros(rows.shape, dtype=bool)
+    seen[:, 1:] = ranked[:, 1:] == ranked[:, :-1]
+    repeated = np.empty_like(seen)
+    np.put_along_axis(repeated, order, seen, axis=1)
+    return repeated
 
 
 def _barycentric(p, a, b, c) -> np.ndarray:

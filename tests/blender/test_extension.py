@@ -148,7 +148,7 @@ INSTALL = textwrap.dedent("""
     from scipy.optimize import lsq_linear
     from scipy.sparse import coo_matrix, csr_matrix, diags, kron
     from scipy.sparse.csgraph import connected_components, dijkstra
-    from scipy.sparse.linalg import factorized
+    from scipy.sparse.linalg import splu
     from scipy.spatial import Delaunay, cKDTree
     points = np.random.default_rng(0).random((30, 3))
     assert len(Delaunay(points).simplices) > 0 and cKDTree(points).query(points[3])[1] == 3
@@ -156,7 +156,8 @@ INSTALL = textwrap.dedent("""
     assert list(connected_components(graph, directed=False)[1]) == [0, 0, 1, 1]
     assert list(dijkstra(graph, directed=False, indices=0)) == [0, 1, np.inf, np.inf]
     system = kron(diags([1.0, 2.0]), coo_matrix(np.eye(2))).tocsc()
-    assert np.allclose(factorized(system)(np.ones(4)), [1, 1, 0.5, 0.5])
+    lu = splu(system, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+    assert np.allclose(lu.solve(np.ones((4, 3))), [[1] * 3, [1] * 3, [0.5] * 3, [0.5] * 3])
     assert np.allclose(lsq_linear(np.eye(2), [2.0, -1.0], bounds=(0, 1)).x, [1, 0])
     # ... and a voice is aligned and recognised without the word language model the trimmed PocketSphinx lacks
     espeak = importlib.import_module(module + ".speech.espeak")

@@ -121,8 +121,8 @@ def test_the_addon_imports_no_dropped_scipy_subpackage_nor_anything_that_loads_o
     script = "\n".join(f"import {name}" for name in sorted(imported)) + (
         "\nimport numpy as np, sys"
         "\nfrom scipy.optimize import lsq_linear; lsq_linear(np.eye(2), [1.0, 2.0], bounds=(0, 1))"
-        "\nfrom scipy.sparse import csc_matrix; from scipy.sparse.linalg import factorized"
-        "\nfactorized(csc_matrix(np.eye(3)))(np.ones(3))"
+        "\nfrom scipy.sparse import csc_matrix; from scipy.sparse.linalg import splu"
+        "\nsplu(csc_matrix(np.eye(3)), permc_spec='MMD_AT_PLUS_A', options={'SymmetricMode': True}).solve(np.ones(3))"
         "\nfrom scipy.sparse.csgraph import dijkstra, connected_components"
         "\ndijkstra(csc_matrix(np.eye(3)), indices=0); connected_components(csc_matrix(np.eye(3)))"
         "\nfrom scipy.spatial import Delaunay, cKDTree; p = np.random.default_rng(0).random((20, 3))"
