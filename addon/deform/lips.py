@@ -79,7 +79,10 @@ def mouth_sides(
     margin = BOX_MARGIN * face_unit(np.asarray(neutral)[[fp_index("2.4"), fp_index("2.5")]], axes)
     top, bottom = fps[fp_index("8.1"), 1] + margin, fps[fp_index("8.2"), 1] - margin
     back = min(fps[fp_index("2.4"), 2], fps[fp_index("2.5"), 2])  # the lips, not the mouth's inside behind them
-    box = (np.abs(face[:, 0] - mid_x) <= half_width) & (face[:, 1] <= top) & (face[:, 1] >= bottom)
+    box_across = np.abs(face[:, 0] - mid_x) <= half_width
+    box_height = (face[:, 1] <= top) & (face[:, 1] >= bottom)
+    box = box_across & box_height
+    masks_sum = np.asarray(upper_mask) + np.asarray(lower_mask)
     front = box & (face[:, 2] >= back)
     lower = front & (np.asarray(lower_mask) > 0.5)
     upper = front & (np.asarray(upper_mask) > 0.5) & ~lower
@@ -87,12 +90,40 @@ def mouth_sides(
         line = np.array([0.5 * (fps[fp_index(u)] + fps[fp_index(b)]) for u, b in SEAM_PAIRS])
         line = line[np.argsort(line[:, 0])]
         near = np.abs(face[:, 1] - np.interp(face[:, 0], line[:, 0], line[:, 1])) <= margin
-        crease = box & ~front & near & (np.asarray(upper_mask) + np.asarray(lower_mask) > 0.5)
+        crease = box & ~front & near & (masks_sum > 0.5)
         crease &= _joined(np.asarray(triangles, np.intp), crease, upper | lower)
-        facing = vertex_normals(face, np.asarray(triangles, np.intp))[:, 1]
+        normals = vertex_normals(face, np.asarray(triangles, np.intp))
+        facing = normals[:, 1]
         upper |= crease & (facing < 0.0)
         lower |= crease & (facing > 0.0)
+        beside = box_height & ~box_across & (masks_sum > 0.5)
+        beside &= _joined(np.asarray(triangles, np.intp), beside, upper | lower)
+        fold = _corner_fold(face, np.asarray(triangles, np.intp), normals, beside, margin)
+        fold &= _joined(np.asarray(triangles, np.intp), fold, upper | lower)
+        upper |= fold & (facing < 0.0)
+        lower |= fold & (facing > 0.0)
     return upper, lower
+
+
+def _corner_fold(face: np.ndarray, triangles: np.ndarray, normals: np.ndarray, beside: np.ndarray, unit: float):
+    """(N,) bool: the lips' skin past the mouth corners across (`beside`: within the box's height, outside its width,
+    the masks' sum above 1/2, joined to the lips) that touches a layer of skin facing the other way at rest, nearer than
+    TOUCH_GAP along its normal (in front of it, or passed into it by less): a fold of the skin shut on itself, as where
+    the Rocketbox's lips turn into each other at its commissures, the two layers 0-0.12 mm apart on one plane. `face`
+    (N, 3) the face frame, `normals` (N, 3) its vertex normals, `unit` mesh units of BOX_MARGIN (the box's margin)."""
+    candidates = np.flatnonzero(beside & (np.linalg.norm(normals, axis=1) > 0.0))
+    if not len(candidates):
+        return np.zeros(len(face), bool)
+    reach = TOUCH_GAP / BOX_MARGIN * unit
+    tris = triangles[beside[triangles].any(axis=1)]
+    touching = np.zeros(len(candidates), bool)
+    for k, v in enumerate(candidates.tolist()):  # a vertex's own fan is no other layer
+        other = tris[(tris != v).all(axis=1)]
+        ahead, behind = _along(face[v : v + 1], -normals[v : v + 1], face[other], reach, behind=True)
+        touching[k] = ahead[0] < reach or behind[0] < reach
+    fold = np.zeros(len(face), bool)
+    fold[candidates[touching]] = True
+    return fold
 
 
 def _joined(triangles: np.ndarray, candidates: np.ndarray, lips: np.ndarray) -> np.ndarray:
@@ -327,6 +358,10 @@ def bind_lip_guard(
     side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
     face = face_rest[vertices]
     nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
+    # the seam runs from corner to corner: lip skin past a corner across (a fold there, `mouth_sides`) has no seam to
+    # keep to; the contact keeps it off the other layer, and no knot moves for it
+    beyond = (face[:, 0] < knots_x[0]) | (face[:, 0] > knots_x[-1])
+    nearest[beyond] = -1
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
     members = [np.flatnonzero((side == s) & (nearest == k)) for s in (1.0, -1.0) for k in knots]
     unit = face_unit(np.asarray(control_rest)[[rows["2.4"], rows["2.5"]]], axes)
@@ -350,9 +385,10 @@ def bind_lip_guard(
     )
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
-    slack = np.minimum(clearance, 0.5 * MEET_GAP * unit)
+    slack = np.where(beyond, -np.inf, np.minimum(clearance, 0.5 * MEET_GAP * unit))
     lips = (np.asarray(upper_all, bool), np.asarray(lower_all, bool) & ~np.asarray(upper_all, bool))
-    contact = _contact(face_rest, tris, vertices, n_upper, np.isin(nearest, nearest[slack < 0.0]), lips, unit)
+    past = np.isin(nearest, nearest[(slack < 0.0) & ~beyond]) & ~beyond | beyond
+    contact = _contact(face_rest, tris, vertices, n_upper, past, lips, unit)
     return LipGuard(**{**guard.__dict__, "slack": slack, "contact": contact})
 
 
