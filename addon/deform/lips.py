@@ -116,11 +116,8 @@ def _corner_fold(face: np.ndarray, triangles: np.ndarray, normals: np.ndarray, b
         return np.zeros(len(face), bool)
     reach = TOUCH_GAP / BOX_MARGIN * unit
     tris = triangles[beside[triangles].any(axis=1)]
-    touching = np.zeros(len(candidates), bool)
-    for k, v in enumerate(candidates.tolist()):  # a vertex's own fan is no other layer
-        other = tris[(tris != v).all(axis=1)]
-        ahead, behind = _along(face[v : v + 1], -normals[v : v + 1], face[other], reach, behind=True)
-        touching[k] = ahead[0] < reach or behind[0] < reach
+    ahead, behind = _along(face[candidates], -normals[candidates], face[tris], reach, True, (candidates, tris))
+    touching = (ahead < reach) | (behind < reach)
     fold = np.zeros(len(face), bool)
     fold[candidates[touching]] = True
     return fold
@@ -462,14 +459,20 @@ def _inward(normals: np.ndarray, up: float) -> np.ndarray:
 
 
 def _along(
-    points: np.ndarray, direction: np.ndarray, tris: np.ndarray, reach: float, behind: bool = False
+    points: np.ndarray,
+    direction: np.ndarray,
+    tris: np.ndarray,
+    reach: float,
+    behind: bool = False,
+    own: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Along each of the (P, 3) unit `direction` from the (P, 3) `points` (face frame), the first of the (T, 3, 3)
     `tris` (the other lip's skin) within `reach`: (P,) its distance where it faces along the direction (the point is in
     the other lip's flesh, as deep; +inf where none faces so or none is met), and with `behind`, (P,) the distance back
     within `reach` to the nearest one behind that faces along it (the clearance; +inf where none). Only the (point,
     triangle) pairs whose boxes meet are looked at (the stretch looked along, the triangle's), found through bins of x
-    (`_boxes_meeting`): on ICT's head about 700 of 620,000."""
+    (`_boxes_meeting`): on ICT's head about 700 of 620,000. `own`: (P,) the points' vertices and (T, 3) the triangles'
+    corners, a point not looking at the triangles it is a corner of."""
     ahead = np.full(len(points), np.inf)
     back = np.full(len(points), np.inf)
     if not len(points) or not len(tris) or not np.isfinite(reach) or not np.isfinite(points).all():
@@ -477,6 +480,9 @@ def _along(
     reach_box = (reach if behind else 0.5 * reach) * np.abs(direction)  # the stretch ahead, or with `behind` as far
     middle = points if behind else points + 0.5 * reach * direction  # back too
     point, tri = _boxes_meeting(middle - reach_box, middle + reach_box, tris.min(axis=1), tris.max(axis=1))
+    if own is not None:  # (P,) the points' vertices, (T, 3) the triangles' corners: a vertex's own fan is not looked at
+        other = (own[1][tri] != own[0][point, None]).all(axis=1)
+        point, tri = point[other], tri[other]
     if not len(point):
         return ahead, back
     ax, ay, az = tris[tri, 0].T
