@@ -75,7 +75,7 @@ def mouth_sides(
     Past the corners across (within the box's height, joined to the lips), the lips' skin folded shut on itself
     (`_corner_fold`: touching a layer that faces the other way) goes by the way it faces too: only carried, each layer
     took its own mix of both lips' pushes and passed through the other (the Rocketbox's commissures, 8.4: a pair in
-    most of the demo's frames). `bind_lip_guard` holds it to no seam (the seam ends at the corners) and keeps it off
+    21 of 60 demo frames). `bind_lip_guard` holds it to no seam (the seam ends at the corners) and keeps it off
     the other layer by the contact.
     """
     face = np.asarray(rest, dtype=np.float64) @ np.asarray(axes).T
