@@ -105,7 +105,6 @@ def mouth_sides(
         beside = box_height & ~box_across & (masks_sum > 0.5)
         beside &= _joined(np.asarray(triangles, np.intp), beside, upper | lower)
         fold = _corner_fold(face, np.asarray(triangles, np.intp), normals, beside, margin)
-        fold &= _joined(np.asarray(triangles, np.intp), fold, upper | lower)
         upper |= fold & (facing < 0.0)
         lower |= fold & (facing > 0.0)
     return upper, lower
@@ -121,7 +120,7 @@ def _corner_fold(face: np.ndarray, triangles: np.ndarray, normals: np.ndarray, b
     if not len(candidates):
         return np.zeros(len(face), bool)
     reach = TOUCH_GAP / BOX_MARGIN * unit
-    tris = triangles[beside[triangles].any(axis=1)]
+    tris = triangles[beside[triangles].all(axis=1)]
     ahead, behind = _along(face[candidates], -normals[candidates], face[tris], reach, True, (candidates, tris))
     touching = (ahead < reach) | (behind < reach)
     fold = np.zeros(len(face), bool)

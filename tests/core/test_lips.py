@@ -413,12 +413,15 @@ def test_the_crease_joined_to_the_lips_is_found_along_edges_through_the_crease_a
 
 def folded_corner_mouth(h: float = 2e-5):
     """The hand-made mouth with its lips going on past the left corner (x 25 mm) for two more columns, where each lip's
-    skin turns onto the other's: the upper sheet there (x 29, 36 mm) `h` above y = 0 facing down, the lower (x 30, 35
-    mm) `h` below it facing up, both masks 1 on their own lip (as the Rocketbox's commissures, whose two layers lie
-    0-0.12 mm apart on one plane, in front of its inner corners). Rest, triangles, masks, the eight inner-lip FPs, the
-    (84, 3) neutral FPs (8.1, 8.2 5 mm above and below) and each sheet's fold vertices."""
+    skin turns onto the other's: the upper sheet there (x 26, 29, 36 mm) `h` above y = 0 facing down, the lower (x
+    25.5, 30, 35 mm) `h` below it facing up, both masks 1 on their own lip (as the Rocketbox's commissures, whose two
+    layers lie 0-0.12 mm apart on one plane, in front of its inner corners). Rest, triangles, masks, the eight
+    inner-lip FPs, the (84, 3) neutral FPs (8.1, 8.2 5 mm above and below) and each sheet's fold vertices."""
     sheets, folds, n = [], [], 0
-    for y, faces_up, xs in ((GAP, False, np.r_[XS, 0.029, 0.036]), (-GAP, True, np.r_[XS, 0.030, 0.035])):
+    for y, faces_up, xs in (
+        (GAP, False, np.r_[XS, 0.026, 0.029, 0.036]),
+        (-GAP, True, np.r_[XS, 0.0255, 0.030, 0.035]),
+    ):
         x, z = np.meshgrid(xs, ZS, indexing="ij")
         heights = np.where(x > XS[-1], -h if faces_up else h, y)
         vertices = np.stack([x.ravel(), heights.ravel(), z.ravel()], axis=1)
@@ -450,11 +453,14 @@ def test_the_lips_skin_folded_onto_itself_past_a_corner_is_kept_apart_by_the_con
     through the upper one is put back under it."""
     rest, triangles, masks, fps, neutral, (upper_fold, lower_fold) = folded_corner_mouth()
     upper, lower = mouth_sides(rest, *masks, neutral, axes=FACE, triangles=triangles)
-    assert upper[upper_fold[:3]].all() and lower[lower_fold].all()  # the upper's last column has no layer under it
+    # the fold: each layer's vertices over the other layer's triangles past the corner (not over the ramp from the lips
+    # in the box: the upper layer's last column has nothing under it, the lower's first lies under the upper's ramp)
+    assert upper[upper_fold[:6]].all() and lower[lower_fold[3:]].all()
+    assert not upper[upper_fold[6:]].any() and not lower[lower_fold[:3]].any()
     old_upper, old_lower = (m > 0.5 for m in masks)
     old_upper[upper_fold] = old_lower[lower_fold] = False  # the box across as it was: the corners' x
     deformed = rest.copy()
-    lifted = lower_fold[rest[lower_fold, 0] < 0.032]
+    lifted = lower_fold[np.isclose(rest[lower_fold, 0], 0.030)]
     deformed[lifted, 1] += 1e-4  # 0.1 mm up, through the upper layer 0.04 mm above
     assert crossings(deformed, triangles) > 0
     for sides, crossed in (((old_upper, old_lower), True), ((upper, lower), False)):
