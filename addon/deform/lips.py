@@ -114,8 +114,11 @@ def _corner_fold(face: np.ndarray, triangles: np.ndarray, normals: np.ndarray, b
     """(N,) bool: the lips' skin past the mouth corners across (`beside`: within the box's height, outside its width,
     the masks' sum above 1/2, joined to the lips) that touches a layer of skin facing the other way at rest, nearer than
     TOUCH_GAP along its normal (in front of it, or passed into it by less): a fold of the skin shut on itself, as where
-    the Rocketbox's lips turn into each other at its commissures, the two layers 0-0.12 mm apart on one plane. `face`
-    (N, 3) the face frame, `normals` (N, 3) its vertex normals, `unit` mesh units of BOX_MARGIN (the box's margin)."""
+    the Rocketbox's lips turn into each other at its commissures, the two layers 0-0.12 mm apart on one plane. The
+    layer touched lies past the corners too (a triangle all of whose corners are `beside`): skin touching the lips in
+    the box is their own curl (the sample's lower lip at each corner, facing down onto itself), which taken as the upper
+    lip crossed in random lip-FAP frames. `face` (N, 3) the face frame, `normals` (N, 3) its vertex normals, `unit` mesh
+    units of BOX_MARGIN (the box's margin)."""
     candidates = np.flatnonzero(beside & (np.linalg.norm(normals, axis=1) > 0.0))
     if not len(candidates):
         return np.zeros(len(face), bool)
