@@ -71,6 +71,12 @@ def mouth_sides(
     lips sheared it through itself (ICT, demo frame 121: 10 of its 12 crossing pairs). Without the band in height, the
     scan's inner lips behind its corners' depth (its lip line rises 5 mm over the corners 10 mm in) were taken as well,
     and crossed the skin carried beside them.
+
+    Past the corners across (within the box's height, joined to the lips), the lips' skin folded shut on itself
+    (`_corner_fold`: touching a layer that faces the other way) goes by the way it faces too: only carried, each layer
+    took its own mix of both lips' pushes and passed through the other (the Rocketbox's commissures, 8.4: a pair in
+    21 of 60 demo frames). `bind_lip_guard` holds it to no seam (the seam ends at the corners) and keeps it off
+    the other layer by the contact.
     """
     face = np.asarray(rest, dtype=np.float64) @ np.asarray(axes).T
     fps = np.asarray(neutral, dtype=np.float64) @ np.asarray(axes).T
@@ -79,7 +85,10 @@ def mouth_sides(
     margin = BOX_MARGIN * face_unit(np.asarray(neutral)[[fp_index("2.4"), fp_index("2.5")]], axes)
     top, bottom = fps[fp_index("8.1"), 1] + margin, fps[fp_index("8.2"), 1] - margin
     back = min(fps[fp_index("2.4"), 2], fps[fp_index("2.5"), 2])  # the lips, not the mouth's inside behind them
-    box = (np.abs(face[:, 0] - mid_x) <= half_width) & (face[:, 1] <= top) & (face[:, 1] >= bottom)
+    box_across = np.abs(face[:, 0] - mid_x) <= half_width
+    box_height = (face[:, 1] <= top) & (face[:, 1] >= bottom)
+    box = box_across & box_height
+    masks_sum = np.asarray(upper_mask) + np.asarray(lower_mask)
     front = box & (face[:, 2] >= back)
     lower = front & (np.asarray(lower_mask) > 0.5)
     upper = front & (np.asarray(upper_mask) > 0.5) & ~lower
@@ -87,12 +96,39 @@ def mouth_sides(
         line = np.array([0.5 * (fps[fp_index(u)] + fps[fp_index(b)]) for u, b in SEAM_PAIRS])
         line = line[np.argsort(line[:, 0])]
         near = np.abs(face[:, 1] - np.interp(face[:, 0], line[:, 0], line[:, 1])) <= margin
-        crease = box & ~front & near & (np.asarray(upper_mask) + np.asarray(lower_mask) > 0.5)
+        crease = box & ~front & near & (masks_sum > 0.5)
         crease &= _joined(np.asarray(triangles, np.intp), crease, upper | lower)
-        facing = vertex_normals(face, np.asarray(triangles, np.intp))[:, 1]
+        normals = vertex_normals(face, np.asarray(triangles, np.intp))
+        facing = normals[:, 1]
         upper |= crease & (facing < 0.0)
         lower |= crease & (facing > 0.0)
+        beside = box_height & ~box_across & (masks_sum > 0.5)
+        beside &= _joined(np.asarray(triangles, np.intp), beside, upper | lower)
+        fold = _corner_fold(face, np.asarray(triangles, np.intp), normals, beside, margin)
+        upper |= fold & (facing < 0.0)
+        lower |= fold & (facing > 0.0)
     return upper, lower
+
+
+def _corner_fold(face: np.ndarray, triangles: np.ndarray, normals: np.ndarray, beside: np.ndarray, unit: float):
+    """(N,) bool: the lips' skin past the mouth corners across (`beside`: within the box's height, outside its width,
+    the masks' sum above 1/2, joined to the lips) that touches a layer of skin facing the other way at rest, nearer than
+    TOUCH_GAP along its normal (in front of it, or passed into it by less): a fold of the skin shut on itself, as where
+    the Rocketbox's lips turn into each other at its commissures, the two layers 0-0.12 mm apart on one plane. The
+    layer touched lies past the corners too (a triangle all of whose corners are `beside`): skin touching the lips in
+    the box is their own curl (the sample's lower lip at each corner, facing down onto itself), which taken as the upper
+    lip crossed in random lip-FAP frames. `face` (N, 3) the face frame, `normals` (N, 3) its vertex normals, `unit` mesh
+    units of BOX_MARGIN (the box's margin)."""
+    candidates = np.flatnonzero(beside & (np.linalg.norm(normals, axis=1) > 0.0))
+    if not len(candidates):
+        return np.zeros(len(face), bool)
+    reach = TOUCH_GAP / BOX_MARGIN * unit
+    tris = triangles[beside[triangles].all(axis=1)]
+    ahead, behind = _along(face[candidates], -normals[candidates], face[tris], reach, True, (candidates, tris))
+    touching = (ahead < reach) | (behind < reach)
+    fold = np.zeros(len(face), bool)
+    fold[candidates[touching]] = True
+    return fold
 
 
 def _joined(triangles: np.ndarray, candidates: np.ndarray, lips: np.ndarray) -> np.ndarray:
@@ -327,6 +363,10 @@ def bind_lip_guard(
     side = np.where(np.arange(len(vertices)) < n_upper, 1.0, -1.0)
     face = face_rest[vertices]
     nearest = np.rint(np.interp(face[:, 0], knots_x, np.arange(N_KNOTS, dtype=np.float64))).astype(np.intp)
+    # the seam runs from corner to corner: lip skin past a corner across (a fold there, `mouth_sides`) has no seam to
+    # keep to; the contact keeps it off the other layer, and no knot moves for it
+    beyond = (face[:, 0] < knots_x[0]) | (face[:, 0] > knots_x[-1])
+    nearest[beyond] = -1
     knots = [k for k in range(N_KNOTS) if np.any((nearest == k) & (side > 0)) and np.any((nearest == k) & (side < 0))]
     members = [np.flatnonzero((side == s) & (nearest == k)) for s in (1.0, -1.0) for k in knots]
     unit = face_unit(np.asarray(control_rest)[[rows["2.4"], rows["2.5"]]], axes)
@@ -350,9 +390,10 @@ def bind_lip_guard(
     )
     signed_y = side * face[:, 1]
     clearance = signed_y - _bound(guard, face[:, 0].copy(), *seam(guard, control_rest, signed_y))
-    slack = np.minimum(clearance, 0.5 * MEET_GAP * unit)
+    slack = np.where(beyond, -np.inf, np.minimum(clearance, 0.5 * MEET_GAP * unit))
     lips = (np.asarray(upper_all, bool), np.asarray(lower_all, bool) & ~np.asarray(upper_all, bool))
-    contact = _contact(face_rest, tris, vertices, n_upper, np.isin(nearest, nearest[slack < 0.0]), lips, unit)
+    past = np.isin(nearest, nearest[(slack < 0.0) & ~beyond]) & ~beyond | beyond
+    contact = _contact(face_rest, tris, vertices, n_upper, past, lips, unit)
     return LipGuard(**{**guard.__dict__, "slack": slack, "contact": contact})
 
 
@@ -426,14 +467,20 @@ def _inward(normals: np.ndarray, up: float) -> np.ndarray:
 
 
 def _along(
-    points: np.ndarray, direction: np.ndarray, tris: np.ndarray, reach: float, behind: bool = False
+    points: np.ndarray,
+    direction: np.ndarray,
+    tris: np.ndarray,
+    reach: float,
+    behind: bool = False,
+    own: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Along each of the (P, 3) unit `direction` from the (P, 3) `points` (face frame), the first of the (T, 3, 3)
     `tris` (the other lip's skin) within `reach`: (P,) its distance where it faces along the direction (the point is in
     the other lip's flesh, as deep; +inf where none faces so or none is met), and with `behind`, (P,) the distance back
     within `reach` to the nearest one behind that faces along it (the clearance; +inf where none). Only the (point,
     triangle) pairs whose boxes meet are looked at (the stretch looked along, the triangle's), found through bins of x
-    (`_boxes_meeting`): on ICT's head about 700 of 620,000."""
+    (`_boxes_meeting`): on ICT's head about 700 of 620,000. `own`: (P,) the points' vertices and (T, 3) the triangles'
+    corners, a point not looking at the triangles it is a corner of."""
     ahead = np.full(len(points), np.inf)
     back = np.full(len(points), np.inf)
     if not len(points) or not len(tris) or not np.isfinite(reach) or not np.isfinite(points).all():
@@ -441,6 +488,9 @@ def _along(
     reach_box = (reach if behind else 0.5 * reach) * np.abs(direction)  # the stretch ahead, or with `behind` as far
     middle = points if behind else points + 0.5 * reach * direction  # back too
     point, tri = _boxes_meeting(middle - reach_box, middle + reach_box, tris.min(axis=1), tris.max(axis=1))
+    if own is not None:  # (P,) the points' vertices, (T, 3) the triangles' corners: a vertex's own fan is not looked at
+        other = (own[1][tri] != own[0][point, None]).all(axis=1)
+        point, tri = point[other], tri[other]
     if not len(point):
         return ahead, back
     ax, ay, az = tris[tri, 0].T

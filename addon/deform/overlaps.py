@@ -26,9 +26,12 @@ EPS = 1e-12
 TOUCH = 1e-6
 
 
-def _edge_hits(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+def _edge_hits(
+    p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray, touch: float = TOUCH
+) -> np.ndarray:
     """(P,) True where the segment p0-p1 crosses the triangle abc (Möller-Trumbore, the segment's open interior),
-    by more than `TOUCH` inside both and with both ends off its plane by more than `TOUCH` of its length."""
+    by more than `touch` inside both and with both ends off its plane by more than `touch` of its length (a
+    negative `touch` takes in segments that only touch the triangle too)."""
     direction = p1 - p0
     e1, e2 = b - a, c - a
     h = np.cross(direction, e2)
@@ -47,9 +50,9 @@ def _edge_hits(p0: np.ndarray, p1: np.ndarray, a: np.ndarray, b: np.ndarray, c: 
     # rounded to float32, has its edges cross the other's plane 1e-8 deep in the middle)
     normal = np.cross(e1, e2)
     normal /= np.maximum(np.linalg.norm(normal, axis=1), EPS)[:, None]
-    reach = TOUCH * np.linalg.norm(direction, axis=1)
+    reach = touch * np.linalg.norm(direction, axis=1)
     apart = (np.abs(np.einsum("ij,ij->i", s, normal)) > reach) & (np.abs(np.einsum("ij,ij->i", p1 - a, normal)) > reach)
-    inside = (u > TOUCH) & (v > TOUCH) & (u + v < 1 - TOUCH) & (t > TOUCH) & (t < 1 - TOUCH)
+    inside = (u > touch) & (v > touch) & (u + v < 1 - touch) & (t > touch) & (t < 1 - touch)
     return ok & inside & apart
 
 
@@ -68,8 +71,11 @@ def crossings(
     return int(np.count_nonzero(~np.isin(pairs[:, 0] * span + pairs[:, 1], known[:, 0] * span + known[:, 1])))
 
 
-def crossing_pairs(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | None = None) -> np.ndarray:
-    """(P, 2) the pairs of `crossings` (rows of `triangles`, the smaller first)."""
+def crossing_pairs(
+    points: np.ndarray, triangles: np.ndarray, moving: np.ndarray | None = None, touch: float = TOUCH
+) -> np.ndarray:
+    """(P, 2) the pairs of `crossings` (rows of `triangles`, the smaller first); with a negative `touch`, those that
+    only touch as well (`_edge_hits`)."""
     points = np.asarray(points, dtype=np.float64)
     tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     if len(tris) < 2:
@@ -101,7 +107,7 @@ def crossing_pairs(points: np.ndarray, triangles: np.ndarray, moving: np.ndarray
     for one, other in ((0, 1), (1, 0)):
         a, b, c = (corners[pairs[:, other], k] for k in range(3))
         for i, j in ((0, 1), (1, 2), (2, 0)):
-            hit |= _edge_hits(corners[pairs[:, one], i], corners[pairs[:, one], j], a, b, c)
+            hit |= _edge_hits(corners[pairs[:, one], i], corners[pairs[:, one], j], a, b, c, touch)
     return pairs[hit]
 
 

@@ -26,7 +26,7 @@ import numpy as np
 import addon
 from addon.blender import binding_store, face_data, inner_parts, live, rest_shape
 from addon.deform.lips import face_unit, guard_lips, press_apart
-from addon.deform.overlaps import crossing_pairs
+from addon.deform.overlaps import TOUCH, crossing_pairs
 from addon.mpeg4.feature_points import FP_IDS, fp_index
 from scripts.bench.variant_playback import DEFAULT_STREAMS, _face, played_positions
 
@@ -52,18 +52,33 @@ def classes(guard, n: int) -> np.ndarray:
     return label
 
 
-def describe(pairs, triangles, points, label, fps, axes) -> list[str]:
-    """One line per pair: its two triangles' corner classes, the nearest FP and the centre (mm, face frame)."""
+def touching(pairs: np.ndarray, triangles: np.ndarray, rest: np.ndarray) -> np.ndarray:
+    """(P,) bool: the `pairs` whose triangles touch at rest (an edge on the other triangle, which `crossing_pairs`
+    leaves out at rest): any move that does not keep the touch exactly puts them through each other or apart."""
+    if not len(pairs):
+        return np.zeros(0, bool)
+    used = np.unique(pairs)
+    met = crossing_pairs(rest, triangles[used], touch=-TOUCH)
+    span = len(triangles)
+    met = used[met]
+    return np.isin(pairs[:, 0] * span + pairs[:, 1], np.sort(met, axis=1) @ [span, 1])
+
+
+def describe(pairs, triangles, points, label, fps, axes, rest=None) -> list[str]:
+    """One line per pair: its two triangles' corner classes, the nearest FP and the centre (mm, face frame), and
+    whether the two touch at rest (with the `rest` positions)."""
     lines = []
+    touch = touching(pairs, triangles, rest) if rest is not None else np.zeros(len(pairs), bool)
     origin = fps[fp_index("2.2")] @ axes.T
     finite = np.flatnonzero(np.isfinite(fps).all(axis=1))
     unit = 1000.0 / face_unit(fps[[fp_index("2.4"), fp_index("2.5")]], axes)  # mm of an adult's face
-    for a, b in pairs:
+    for (a, b), met in zip(pairs, touch, strict=True):
         centre = points[triangles[[a, b]].ravel()].mean(axis=0)
         near = finite[np.argmin(np.linalg.norm(fps[finite] - centre, axis=1))]
         where = (centre @ axes.T - origin) * unit
         kinds = "".join(label[triangles[a]]) + "/" + "".join(label[triangles[b]])
-        lines.append(f"    {kinds}  near {FP_IDS[near]:>5}  at ({where[0]:+.2f}, {where[1]:+.2f}, {where[2]:+.2f})")
+        at = f"at ({where[0]:+.2f}, {where[1]:+.2f}, {where[2]:+.2f})"
+        lines.append(f"    {kinds}  near {FP_IDS[near]:>5}  {at}" + ("  touching at rest" if met else ""))
     return lines
 
 
@@ -121,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         pairs = new_pairs(final, triangles, rest, at_rest)
         print(f"  {frame}: {counts[0]} / {counts[1]} / {len(pairs)}")
         if not args.quiet:
-            print("\n".join(describe(pairs, triangles, final, label, fps, axes)))
+            print("\n".join(describe(pairs, triangles, final, label, fps, axes, rest)))
         for key, value in (("planar", planar), ("guarded", guarded), ("final", final)):
             saved[key].append(value.astype(np.float32))
         saved["driving"].append(caught["driving"])

@@ -257,3 +257,34 @@ def test_a_guard_pickled_after_pressing_presses_alike_in_its_new_arrays():
     again = slid.copy()
     assert lips.press_apart(loaded, again)
     np.testing.assert_array_equal(again, first)
+
+
+@needs_kernel
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_the_kernel_guards_a_fold_past_the_corners_with_no_seam_as_the_numpy_does(dtype):
+    """The folded corner of test_lips (lip skin past a corner, held to no seam: slack -inf) pressed up and jittered:
+    the kernel's seam and contact move the lips and the fold as numpy's do."""
+    from addon.deform.lips import mouth_sides
+
+    from .test_lips import folded_corner_mouth
+
+    rest, triangles, masks, fps, neutral, (upper_fold, lower_fold) = folded_corner_mouth()
+    upper, lower = mouth_sides(rest, *masks, neutral, axes=FACE, triangles=triangles)
+    guard = bind_lip_guard(rest, fps, FP_IDS, triangles, upper, lower, axes=FACE)
+    assert np.isneginf(guard.slack).sum() == 12  # the fold (two columns of each layer), held to no seam
+    native = arrays(guard)
+    rng = np.random.default_rng(7)
+    moved = 0
+    for deformed, points in cases(rest, upper, fps):
+        deformed = deformed.copy()
+        deformed[lower_fold, 1] += rng.uniform(0.0, 1e-4)
+        expected, got = deformed.astype(dtype), deformed.astype(dtype)
+        said = guard_lips(guard, expected, points)
+        assert fused.guard_lips_into(native, got, points) == said
+        np.testing.assert_allclose(got, expected, rtol=0.0, atol=TOLERANCE if dtype == np.float64 else 1e-7)
+        got = expected.copy()
+        pressed_apart = lips.press_apart(guard, expected, native=False)
+        assert lips.press_apart(guard, got) is pressed_apart
+        np.testing.assert_array_equal(got, expected)
+        moved += int(pressed_apart)
+    assert moved >= 15  # the contact did part the fold in most cases

@@ -409,3 +409,70 @@ def test_the_crease_joined_to_the_lips_is_found_along_edges_through_the_crease_a
     assert _joined(triangles, candidates, lips).tolist() == [False, True, False, False, False, False]
     candidates[2] = True  # 2 joins 1 to 4 (triangle 2-3-4), and 4 to 5 (3-4-5 has the edge 4-5)
     assert _joined(triangles, candidates, lips).tolist() == [False, True, True, False, True, True]
+
+
+def folded_corner_mouth(h: float = 2e-5):
+    """The hand-made mouth with its lips going on past the left corner (x 25 mm) for two more columns, where each lip's
+    skin turns onto the other's: the upper sheet there (x 26, 29, 36 mm) `h` above y = 0 facing down, the lower (x
+    25.5, 30, 35 mm) `h` below it facing up, both masks 1 on their own lip (as the Rocketbox's commissures, whose two
+    layers lie 0-0.12 mm apart on one plane, in front of its inner corners). Rest, triangles, masks, the eight
+    inner-lip FPs, the (84, 3) neutral FPs (8.1, 8.2 5 mm above and below) and each sheet's fold vertices."""
+    sheets, folds, n = [], [], 0
+    for y, faces_up, xs in (
+        (GAP, False, np.r_[XS, 0.026, 0.029, 0.036]),
+        (-GAP, True, np.r_[XS, 0.0255, 0.030, 0.035]),
+    ):
+        x, z = np.meshgrid(xs, ZS, indexing="ij")
+        heights = np.where(x > XS[-1], -h if faces_up else h, y)
+        vertices = np.stack([x.ravel(), heights.ravel(), z.ravel()], axis=1)
+        tris = []
+        for i in range(len(xs) - 1):
+            for j in range(len(ZS) - 1):
+                a, b, c, d = i * len(ZS) + j, i * len(ZS) + j + 1, (i + 1) * len(ZS) + j, (i + 1) * len(ZS) + j + 1
+                tris += [(a, b, c), (c, b, d)] if faces_up else [(a, c, b), (c, d, b)]
+        sheets.append((vertices, np.array(tris) + n))
+        folds.append(n + np.flatnonzero(vertices[:, 0] > XS[-1]))
+        n += len(vertices)
+    rest = np.concatenate([v for v, _ in sheets])
+    triangles = np.concatenate([t for _, t in sheets])
+    top = np.arange(len(rest)) < len(sheets[0][0])
+    _, _, _, _, fps = mouth()
+    neutral = np.zeros((len(ALL_FP_IDS), 3))
+    for fp_id, point in zip(FP_IDS, fps, strict=True):
+        neutral[fp_index(fp_id)] = point
+    neutral[fp_index("8.1")], neutral[fp_index("8.2")] = [0.0, 0.005, 0.004], [0.0, -0.005, 0.004]
+    return rest, triangles, (top.astype(float), (~top).astype(float)), fps, neutral, folds
+
+
+def test_the_lips_skin_folded_onto_itself_past_a_corner_is_kept_apart_by_the_contact():
+    """Past the mouth's corners across the box ended (`mouth_sides`): where the lips' skin there lies in two layers on
+    each other (the Rocketbox's commissures), both were only carried, each with its own mix of the two lips' pushes,
+    and nothing kept one layer out of the other (its carried corner skin at 8.3 / 8.4: 1-5 crossing pairs a frame).
+    Now that skin, touching a layer that faces the other way, is taken into the lips by the way it faces, held to no
+    seam (the seam runs from corner to corner) and kept out of the other layer by the contact: the lower layer put up
+    through the upper one is put back under it."""
+    rest, triangles, masks, fps, neutral, (upper_fold, lower_fold) = folded_corner_mouth()
+    upper, lower = mouth_sides(rest, *masks, neutral, axes=FACE, triangles=triangles)
+    # the fold: each layer's vertices over the other layer's triangles past the corner (not over the ramp from the lips
+    # in the box: the upper layer's last column has nothing under it, the lower's first lies under the upper's ramp)
+    assert upper[upper_fold[:6]].all() and lower[lower_fold[3:]].all()
+    assert not upper[upper_fold[6:]].any() and not lower[lower_fold[:3]].any()
+    old_upper, old_lower = (m > 0.5 for m in masks)
+    old_upper[upper_fold] = old_lower[lower_fold] = False  # the box across as it was: the corners' x
+    deformed = rest.copy()
+    lifted = lower_fold[np.isclose(rest[lower_fold, 0], 0.030)]
+    deformed[lifted, 1] += 1e-4  # 0.1 mm up, through the upper layer 0.04 mm above
+    assert crossings(deformed, triangles) > 0
+    for sides, crossed in (((old_upper, old_lower), True), ((upper, lower), False)):
+        guard = bind_lip_guard(rest, fps, FP_IDS, triangles, *sides, axes=FACE)
+        out = deformed.copy()
+        guard_lips(guard, out, fps)
+        press_apart(guard, out, native=False)
+        assert (crossings(out, triangles) > 0) == crossed
+    assert count_inverted(rest, out, triangles) == 0
+    np.testing.assert_array_less(out[lifted, 1], 2e-5)  # under the upper layer again
+    np.testing.assert_array_less(np.abs(out[upper_fold, 1] - rest[upper_fold, 1]), 1e-4)  # which is not flung away
+    rested = rest.copy()
+    guard_lips(guard, rested, fps)
+    press_apart(guard, rested, native=False)
+    np.testing.assert_allclose(rested, rest, rtol=0.0, atol=1e-15)  # at rest nothing moves (but by rounding)

@@ -80,6 +80,21 @@ def test_pairs_that_cross_at_rest_are_not_charged_to_the_motion():
     assert crossings(moved, tris, at_rest=at_rest) == crossings(moved, tris) - len(rest_pairs) >= 1
 
 
+def test_triangles_that_only_touch_are_found_with_a_negative_touch():
+    """Two triangles folded toward each other whose edges cross in one plane (z = 0) meet at a point (the Rocketbox's
+    commissure at rest): no crossing by default (surfaces touching at rest are left out), a pair with touch < 0; the
+    upper one lifted clear of the plane, neither."""
+    points = np.array([
+        [0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, -1.0, -0.5],  # edge along x, its triangle below the plane
+        [0.25, -0.5, 0.0], [0.25, 0.5, 0.0], [-0.5, 0.0, 0.5],  # edge along y through (0.25, 0), its triangle above
+    ])  # fmt: skip
+    tris = np.array([[0, 1, 2], [3, 4, 5]])
+    assert len(crossing_pairs(points, tris)) == 0
+    assert crossing_pairs(points, tris, touch=-1e-6).tolist() == [[0, 1]]
+    points[3:, 2] += 0.01
+    assert len(crossing_pairs(points, tris, touch=-1e-6)) == 0
+
+
 def test_a_smooth_lid_edge_is_on_its_curve_and_a_zig_zag_is_not():
     angle = np.linspace(0, 2 * np.pi, 40, endpoint=False)
     circle = np.column_stack([np.cos(angle), np.sin(angle), np.zeros(40)]) * 0.015
