@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import Mpeg4Error
+from ..geometry.pieces import connected_pieces
 from . import face_checks
 
 LIP_PAIRS = (("2.6", "2.8"), ("2.2", "2.3"), ("2.7", "2.9"))  # (upper, lower) inner-lip FPs across the mouth
@@ -255,9 +256,6 @@ def _sides(
     """The polygons around the path's inner vertices, upper and lower: pieces joined across edges at those vertices
     that are not cut, each on the side of the path its centroid lies on (mean height above the nearest inner
     vertex, along `up`)."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     inner = np.zeros(len(vertices), bool)
     inner[path[1:-1]] = True
     pairs, polygon = _polygon_edges(sizes, corners)
@@ -274,9 +272,9 @@ def _sides(
     index = {int(f): k for k, f in enumerate(touching)}
     rows = [index[int(f)] for f in owners[same]]
     cols = [index[int(f)] for f in owners[same + 1]]
-    n = len(touching)
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    count, label = connected_components(graph, directed=False)
+    pieces = connected_pieces(len(touching), np.array([rows, cols], dtype=np.int64).reshape(2, -1).T)
+    first, label = np.unique(pieces, return_inverse=True)
+    count = len(first)
     _normals, centroids = _polygon_normals(vertices, sizes, corners)
     points = vertices[path[1:-1]]
     nearest = np.argmin(np.linalg.norm(centroids[touching][:, None] - points[None], axis=2), axis=1)
