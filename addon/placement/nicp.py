@@ -63,11 +63,16 @@ def edges_of(triangles: np.ndarray) -> np.ndarray:
     return _unique_pairs(_sorted_pairs(triangles))
 
 
+def border_edges(triangles: np.ndarray) -> np.ndarray:
+    """(B, 2) the open border's edges (each used by one triangle only), (smaller, larger) vertex, in sorted order."""
+    unique, counts = _unique_pairs(_sorted_pairs(triangles), return_counts=True)
+    return unique[counts == 1]
+
+
 def border_vertices(triangles: np.ndarray, n_vertices: int) -> np.ndarray:
     """(n,) True for vertices on an open border (an edge used by one triangle only)."""
-    unique, counts = _unique_pairs(_sorted_pairs(triangles), return_counts=True)
     border = np.zeros(n_vertices, dtype=bool)
-    border[unique[counts == 1].ravel()] = True
+    border[border_edges(triangles).ravel()] = True
     return border
 
 

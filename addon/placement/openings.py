@@ -16,7 +16,7 @@ import numpy as np
 
 from ..deform.face_checks import joined_over_skin
 from ..mpeg4.feature_points import fp_index
-from .nicp import edges_of
+from .nicp import border_edges, edges_of
 from .scipy_modules import cKDTree, csr_matrix, dijkstra
 from .section import front, section
 from .surface import loose_parts
@@ -41,9 +41,7 @@ OPENINGS = (
 def boundary_loops(n_vertices: int, triangles: np.ndarray) -> list[np.ndarray]:
     """The mesh's boundary edges grouped into connected loops (a list of (k, 2) vertex pairs); an edge is
     labelled as a triangle with a repeated corner."""
-    edges = np.sort(np.vstack([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]]), axis=1)
-    unique, counts = np.unique(edges, axis=0, return_counts=True)
-    boundary = unique[counts == 1]
+    boundary = border_edges(triangles)
     if not len(boundary):
         return []
     labels = loose_parts(n_vertices, np.column_stack([boundary, boundary[:, 1]]))[boundary[:, 0]]
